@@ -1,0 +1,59 @@
+// In-memory tetrahedral meshes: struct-of-arrays, tets as flat VTK-ordered quadruples.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace tetrascope::storage {
+
+// One per-vertex field. Scalars have 1 component, vectors 3.
+struct AttributeInfo {
+  std::string name;
+  uint32_t components = 1;
+};
+
+struct Attribute {
+  AttributeInfo info;
+  std::vector<float> values;  // vertex_count * components, vertex-major
+};
+
+// What a reader saw while turning cells into tetrahedra.
+struct ReadStats {
+  uint64_t cells = 0;               // volume cells in the file (before splitting)
+  uint64_t tetrahedra = 0;          // tets produced
+  uint64_t hexahedra = 0;           // hexes and voxels split into tets
+  uint64_t wedges = 0;
+  uint64_t pyramids = 0;
+  uint64_t quadratic_cells = 0;     // higher-order cells reduced to their corner vertices
+  uint64_t skipped_cells = 0;       // vertices, lines and surface cells (not part of a volume)
+  uint64_t inverted = 0;            // tets re-oriented to positive volume
+  uint64_t degenerate = 0;          // tets of (numerically) zero volume, kept and counted
+  uint64_t nonfinite_attribute_values = 0;
+  std::vector<std::string> warnings;  // e.g. "cell data 'Label' ignored"
+};
+
+struct Bounds {
+  std::array<double, 3> min{0, 0, 0};
+  std::array<double, 3> max{0, 0, 0};
+};
+
+// A whole mesh in memory; for small meshes, tests and tools. Large meshes go through MeshStream.
+struct TetMesh {
+  std::vector<float> x, y, z;
+  std::vector<Attribute> attributes;
+  std::vector<uint32_t> tets;  // 4 * tet_count vertex indices, positively oriented
+
+  size_t vertex_count() const { return x.size(); }
+  size_t tet_count() const { return tets.size() / 4; }
+  // The attribute called `name`, or nullptr.
+  const Attribute* find_attribute(const std::string& name) const;
+};
+
+// Signed volume of the tet (a, b, c, d): positive when (b-a)x(c-a).(d-a) > 0.
+double signed_volume(const TetMesh& mesh, uint32_t a, uint32_t b, uint32_t c, uint32_t d);
+
+Bounds compute_bounds(const TetMesh& mesh);
+
+}  // namespace tetrascope::storage

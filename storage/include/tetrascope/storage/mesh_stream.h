@@ -1,0 +1,106 @@
+// Streaming mesh ingest: vertices first, then tetrahedra, in chunks.
+//
+// Memory stays proportional to the vertex count (the stream keeps the coordinates, 12 bytes
+// a vertex, to orient tets) plus one chunk, whatever the number of cells. Input is untrusted:
+// every count, offset and index is checked before use, and problems raise MeshError naming
+// the file and the line or byte offset.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "tetrascope/storage/mesh.h"
+
+namespace tetrascope::storage {
+
+enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff };
+
+// "vtk", "vtu", "msh", "tetgen", "off".
+const char* format_name(MeshFormat format);
+
+// The format from the file name (.vtk .vtu .msh .node .ele .off); throws MeshError otherwise.
+MeshFormat format_from_path(const std::filesystem::path& path);
+
+struct MeshHeader {
+  MeshFormat format = MeshFormat::kVtkLegacy;
+  std::string description;  // e.g. "VTK legacy 3.0 BINARY", "Gmsh 4.1 ascii"
+  uint64_t vertex_count = 0;
+  uint64_t cell_count = 0;  // all cells in the file, before splitting or skipping
+  std::vector<AttributeInfo> attributes;
+};
+
+// A run of consecutive vertices; spans are valid until the next call on the stream.
+struct VertexChunk {
+  uint64_t first = 0;
+  size_t count = 0;
+  std::span<const float> x, y, z;
+  std::vector<std::span<const float>> attributes;  // count * components each
+};
+
+// A run of tetrahedra: 4 * count global vertex indices, positively oriented.
+struct TetChunk {
+  uint64_t first = 0;
+  size_t count = 0;
+  std::span<const uint32_t> tets;
+};
+
+namespace detail {
+class FormatReader;
+}
+
+class MeshStream {
+ public:
+  static constexpr size_t kDefaultChunk = 1 << 16;
+
+  // Opens and indexes the file (reads headers, checks sizes); no vertex is read yet.
+  static std::unique_ptr<MeshStream> open(const std::filesystem::path& path);
+  // The same over bytes in memory (fuzzing, tests). TetGen takes `.node` then `.ele` bytes.
+  static std::unique_ptr<MeshStream> open_memory(MeshFormat format, std::string name,
+                                                 std::span<const char> bytes,
+                                                 std::span<const char> second_bytes = {});
+  ~MeshStream();
+  MeshStream(const MeshStream&) = delete;
+  MeshStream& operator=(const MeshStream&) = delete;
+
+  const MeshHeader& header() const { return header_; }
+
+  // Next run of at most `max_vertices` vertices; false when all were delivered.
+  bool next_vertices(VertexChunk& chunk, size_t max_vertices = kDefaultChunk);
+  // Next run of tets; call after all vertices were read. False at the end.
+  bool next_tets(TetChunk& chunk, size_t max_tets = kDefaultChunk);
+
+  // Coordinates of all vertices read so far (kept for orientation); the caller may
+  // borrow them instead of keeping a copy.
+  std::span<const float> x() const { return x_; }
+  std::span<const float> y() const { return y_; }
+  std::span<const float> z() const { return z_; }
+
+  const ReadStats& stats() const { return stats_; }
+
+ private:
+  explicit MeshStream(std::unique_ptr<detail::FormatReader> reader);
+  void split_cells();
+
+  std::unique_ptr<detail::FormatReader> reader_;
+  MeshHeader header_;
+  ReadStats stats_;
+  std::vector<float> x_, y_, z_;
+  uint64_t vertices_read_ = 0;
+  uint64_t tets_emitted_ = 0;
+  std::vector<float> xyz_scratch_;
+  std::vector<std::vector<float>> attribute_scratch_;
+  std::vector<uint32_t> tet_scratch_;
+  struct CellScratch;
+  std::unique_ptr<CellScratch> cells_;
+  bool cells_done_ = false;
+};
+
+// Reads a whole (small) mesh into memory. `stats` may be null.
+TetMesh load_mesh(const std::filesystem::path& path, ReadStats* stats = nullptr);
+TetMesh load_stream(MeshStream& stream);
+
+}  // namespace tetrascope::storage

@@ -1,0 +1,215 @@
+// The seam between MeshStream and the per-format readers, and typed value decoding
+// shared by them (ASCII tokens, raw binary of either byte order, base64, zlib blocks).
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <memory>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "input.h"
+#include "tetrascope/storage/mesh_stream.h"
+
+namespace tetrascope::storage::detail {
+
+// VTK cell type ids; readers of other formats translate into these.
+enum VtkCellType : uint8_t {
+  kVtkVertex = 1, kVtkPolyVertex = 2, kVtkLine = 3, kVtkPolyLine = 4, kVtkTriangle = 5,
+  kVtkTriangleStrip = 6, kVtkPolygon = 7, kVtkPixel = 8, kVtkQuad = 9, kVtkTetra = 10,
+  kVtkVoxel = 11, kVtkHexahedron = 12, kVtkWedge = 13, kVtkPyramid = 14,
+  kVtkQuadraticEdge = 21, kVtkQuadraticTriangle = 22, kVtkQuadraticQuad = 23,
+  kVtkQuadraticTetra = 24, kVtkQuadraticHexahedron = 25, kVtkQuadraticWedge = 26,
+  kVtkQuadraticPyramid = 27, kVtkBiquadraticQuad = 28, kVtkTriquadraticHexahedron = 29,
+  kVtkQuadraticLinearQuad = 30, kVtkQuadraticLinearWedge = 31,
+  kVtkBiquadraticQuadraticWedge = 32, kVtkBiquadraticQuadraticHexahedron = 33,
+  kVtkBiquadraticTriangle = 34, kVtkCubicLine = 35, kVtkQuadraticPolygon = 36,
+  kVtkTriquadraticPyramid = 37, kVtkPolyhedron = 42,
+};
+
+// How a cell type turns into a volume: its corner count, or 0 for a cell that is skipped
+// (points, lines, surfaces), or -1 for one that cannot be used.
+int volume_corner_count(int vtk_type, int node_count);
+
+struct CellBatch {
+  std::vector<uint8_t> types;
+  std::vector<uint64_t> offsets{0};  // types.size() + 1 entries into nodes
+  std::vector<uint32_t> nodes;       // 0-based vertex indices, already range-checked
+  uint64_t reduced = 0;              // higher-order cells the reader cut down to their corners
+  void clear() {
+    reduced = 0;
+    types.clear();
+    offsets.assign(1, 0);
+    nodes.clear();
+  }
+  size_t size() const { return types.size(); }
+  void push(uint8_t type, std::span<const uint32_t> cell_nodes) {
+    types.push_back(type);
+    nodes.insert(nodes.end(), cell_nodes.begin(), cell_nodes.end());
+    offsets.push_back(nodes.size());
+  }
+};
+
+class FormatReader {
+ public:
+  virtual ~FormatReader() = default;
+  // Reads headers, checks that every declared count fits in the file, locates sections.
+  virtual MeshHeader index(ReadStats& stats) = 0;
+  // The next `count` vertices in file order: xyz interleaved (3 * count, finite), and one
+  // array per header attribute (count * components).
+  virtual void read_vertices(size_t count, float* xyz, std::span<float* const> attributes,
+                             ReadStats& stats) = 0;
+  // Appends up to about `max_cells` cells; returns false when no cell is left.
+  virtual bool read_cells(CellBatch& batch, size_t max_cells) = 0;
+};
+
+std::unique_ptr<FormatReader> make_vtk_legacy_reader(std::shared_ptr<InputFile> file);
+std::unique_ptr<FormatReader> make_vtu_reader(std::shared_ptr<InputFile> file);
+std::unique_ptr<FormatReader> make_gmsh_reader(std::shared_ptr<InputFile> file);
+std::unique_ptr<FormatReader> make_tetgen_reader(std::shared_ptr<InputFile> node_file,
+                                                 std::shared_ptr<InputFile> ele_file);
+std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);
+
+// ---- typed values -------------------------------------------------------------------
+
+enum class ScalarType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kInt64, kUInt64, kFloat32, kFloat64 };
+size_t scalar_size(ScalarType type);
+bool is_integer(ScalarType type);
+
+// Bytes of one encoded array, in order.
+class ByteStream {
+ public:
+  virtual ~ByteStream() = default;
+  virtual void read(void* dst, size_t n, std::string_view what) = 0;
+  [[noreturn]] virtual void fail(std::string_view what) const = 0;
+};
+
+// A bounded window of raw bytes read through a cursor.
+class RawBytes final : public ByteStream {
+ public:
+  RawBytes(std::shared_ptr<const InputFile> file, uint64_t offset, uint64_t limit);
+  void read(void* dst, size_t n, std::string_view what) override;
+  [[noreturn]] void fail(std::string_view what) const override { cursor_.fail_byte(what); }
+
+ private:
+  Cursor cursor_;
+  uint64_t left_;
+};
+
+// Base64 text (whitespace ignored); padded quanta may be followed by more base64, as when
+// VTK encodes a header and its data separately.
+class Base64Bytes final : public ByteStream {
+ public:
+  Base64Bytes(std::shared_ptr<const InputFile> file, uint64_t offset, uint64_t line);
+  void read(void* dst, size_t n, std::string_view what) override;
+  [[noreturn]] void fail(std::string_view what) const override { cursor_.fail(what); }
+
+ private:
+  Cursor cursor_;
+  uint8_t pending_[3]{};
+  int pending_count_ = 0;
+  int pending_pos_ = 0;
+};
+
+// VTK's vtkZLibDataCompressor framing: a header [blocks, block size, last block size,
+// compressed sizes...] (UInt32 or UInt64) and then the deflated blocks.
+class ZlibBlocks final : public ByteStream {
+ public:
+  ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bool little_endian,
+             uint64_t expected_bytes, uint64_t file_size);
+  void read(void* dst, size_t n, std::string_view what) override;
+  [[noreturn]] void fail(std::string_view what) const override {
+    inner_->fail(what);
+    __builtin_unreachable();
+  }
+
+ private:
+  void next_block();
+  std::unique_ptr<ByteStream> inner_;
+  std::vector<uint64_t> compressed_sizes_;
+  uint64_t block_size_ = 0, last_block_size_ = 0;
+  size_t block_ = 0;
+  std::vector<uint8_t> compressed_, block_data_;
+  size_t block_pos_ = 0;
+};
+
+class ValueStream {
+ public:
+  virtual ~ValueStream() = default;
+  // n values as float. finite_only: a NaN or infinity fails; otherwise they are counted
+  // and the count returned.
+  virtual uint64_t read_float(float* out, size_t n, bool finite_only, std::string_view what) = 0;
+  virtual void read_int(int64_t* out, size_t n, std::string_view what) = 0;
+  [[noreturn]] virtual void fail(std::string_view what) const = 0;
+};
+
+class AsciiValues final : public ValueStream {
+ public:
+  AsciiValues(std::shared_ptr<const InputFile> file, uint64_t offset, uint64_t line)
+      : cursor_(std::move(file), offset, line) {}
+  uint64_t read_float(float* out, size_t n, bool finite_only, std::string_view what) override;
+  void read_int(int64_t* out, size_t n, std::string_view what) override;
+  [[noreturn]] void fail(std::string_view what) const override { cursor_.fail(what); }
+
+ private:
+  Cursor cursor_;
+};
+
+class BinaryValues final : public ValueStream {
+ public:
+  BinaryValues(std::unique_ptr<ByteStream> bytes, ScalarType type, bool little_endian)
+      : bytes_(std::move(bytes)), type_(type), little_endian_(little_endian) {}
+  uint64_t read_float(float* out, size_t n, bool finite_only, std::string_view what) override;
+  void read_int(int64_t* out, size_t n, std::string_view what) override;
+  [[noreturn]] void fail(std::string_view what) const override {
+    bytes_->fail(what);
+    __builtin_unreachable();
+  }
+
+ private:
+  const uint8_t* fetch(size_t n, std::string_view what);
+  std::unique_ptr<ByteStream> bytes_;
+  ScalarType type_;
+  bool little_endian_;
+  std::vector<uint8_t> scratch_;
+  std::vector<double> tmp_;
+};
+
+// Integers read ahead in blocks from a ValueStream that holds exactly `total` of them.
+class BufferedInts {
+ public:
+  BufferedInts() = default;
+  BufferedInts(ValueStream* stream, uint64_t total) : stream_(stream), left_(total) {}
+  uint64_t remaining() const { return left_ + (buffer_.size() - pos_); }
+  int64_t next(std::string_view what) {
+    if (pos_ == buffer_.size()) refill(what);
+    return buffer_[pos_++];
+  }
+  ValueStream& stream() { return *stream_; }
+
+ private:
+  void refill(std::string_view what) {
+    if (left_ == 0) stream_->fail("more values needed than declared for " + std::string(what));
+    size_t n = static_cast<size_t>(std::min<uint64_t>(left_, 1 << 15));
+    buffer_.resize(n);
+    stream_->read_int(buffer_.data(), n, what);
+    left_ -= n;
+    pos_ = 0;
+  }
+  ValueStream* stream_ = nullptr;
+  uint64_t left_ = 0;
+  std::vector<int64_t> buffer_;
+  size_t pos_ = 0;
+};
+
+// Converts `count` values of `type` stored at `src` (given byte order) to double / int64.
+void decode_values(const uint8_t* src, size_t count, ScalarType type, bool little_endian, double* out);
+void decode_values(const uint8_t* src, size_t count, ScalarType type, bool little_endian, int64_t* out);
+
+// Fails unless `needed` bytes (count * per_item) fit in what is left of the file; guards
+// allocations driven by untrusted counts. Overflow-safe.
+void check_fits(const Cursor& cursor, uint64_t count, uint64_t bytes_per_item, std::string_view what);
+
+}  // namespace tetrascope::storage::detail

@@ -1,0 +1,148 @@
+#include "tetrascope/storage/mesh_info.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace tetrascope::storage {
+
+MeshSummary summarize_stream(MeshStream& stream) {
+  MeshSummary s;
+  s.header = stream.header();
+  for (const AttributeInfo& info : s.header.attributes) {
+    AttributeSummary a;
+    a.info = info;
+    a.min = std::numeric_limits<double>::infinity();
+    a.max = -std::numeric_limits<double>::infinity();
+    a.component_ranges.assign(info.components, {a.min, a.max});
+    s.attributes.push_back(a);
+  }
+  std::array<double, 3> lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+  std::array<double, 3> hi{-lo[0], -lo[1], -lo[2]};
+  VertexChunk chunk;
+  while (stream.next_vertices(chunk)) {
+    for (size_t i = 0; i < chunk.count; ++i) {
+      const float p[3] = {chunk.x[i], chunk.y[i], chunk.z[i]};
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min<double>(lo[k], p[k]);
+        hi[k] = std::max<double>(hi[k], p[k]);
+      }
+    }
+    for (size_t a = 0; a < chunk.attributes.size(); ++a) {
+      AttributeSummary& sum = s.attributes[a];
+      const uint32_t c = sum.info.components;
+      const float* v = chunk.attributes[a].data();
+      for (size_t i = 0; i < chunk.count; ++i) {
+        double magnitude2 = 0;
+        bool finite = true;
+        for (uint32_t k = 0; k < c; ++k) {
+          double x = v[i * c + k];
+          if (!std::isfinite(x)) {
+            finite = false;
+            continue;
+          }
+          auto& r = sum.component_ranges[k];
+          r[0] = std::min(r[0], x);
+          r[1] = std::max(r[1], x);
+          magnitude2 += x * x;
+        }
+        if (!finite) {
+          ++sum.nonfinite;
+          continue;
+        }
+        double value = c == 1 ? double(v[i]) : std::sqrt(magnitude2);
+        sum.min = std::min(sum.min, value);
+        sum.max = std::max(sum.max, value);
+      }
+    }
+  }
+  TetChunk tets;
+  while (stream.next_tets(tets)) {
+  }
+  s.stats = stream.stats();
+  if (s.header.vertex_count > 0) {
+    s.bounds.min = lo;
+    s.bounds.max = hi;
+  }
+  return s;
+}
+
+MeshSummary summarize_mesh(const std::filesystem::path& path) {
+  auto start = std::chrono::steady_clock::now();
+  auto stream = MeshStream::open(path);
+  MeshSummary s = summarize_stream(*stream);
+  s.read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  s.file = path.string();
+  std::error_code ec;
+  s.file_bytes = std::filesystem::file_size(path, ec);
+  if (s.header.format == MeshFormat::kTetgen) {
+    std::filesystem::path node = path, ele = path;
+    s.file_bytes = std::filesystem::file_size(node.replace_extension(".node"), ec) + std::filesystem::file_size(ele.replace_extension(".ele"), ec);
+  }
+  return s;
+}
+
+namespace {
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+}  // namespace
+
+nlohmann::json summary_json(const MeshSummary& s) {
+  nlohmann::json j;
+  j["file"] = s.file;
+  j["format"] = format_name(s.header.format);
+  j["description"] = s.header.description;
+  j["file_bytes"] = s.file_bytes;
+  j["vertices"] = s.header.vertex_count;
+  j["tetrahedra"] = s.stats.tetrahedra;
+  j["cells"] = {{"total", s.header.cell_count}, {"volume", s.stats.cells}, {"hexahedra", s.stats.hexahedra},
+                {"wedges", s.stats.wedges}, {"pyramids", s.stats.pyramids}, {"higher_order", s.stats.quadratic_cells},
+                {"skipped", s.stats.skipped_cells}};
+  nlohmann::json attributes = nlohmann::json::array();
+  for (const AttributeSummary& a : s.attributes) {
+    nlohmann::json ranges = nlohmann::json::array();
+    for (auto r : a.component_ranges) ranges.push_back({number(r[0]), number(r[1])});
+    attributes.push_back({{"name", a.info.name}, {"components", a.info.components}, {"min", number(a.min)}, {"max", number(a.max)},
+                          {"range_of", a.info.components == 1 ? "value" : "magnitude"}, {"component_ranges", ranges},
+                          {"nonfinite", a.nonfinite}});
+  }
+  j["attributes"] = attributes;
+  j["bounds"] = {{"min", {s.bounds.min[0], s.bounds.min[1], s.bounds.min[2]}}, {"max", {s.bounds.max[0], s.bounds.max[1], s.bounds.max[2]}}};
+  j["quality"] = {{"degenerate", s.stats.degenerate}, {"inverted", s.stats.inverted}};
+  j["warnings"] = s.stats.warnings;
+  j["read_seconds"] = s.read_seconds;
+  return j;
+}
+
+std::string summary_text(const MeshSummary& s) {
+  char line[512];
+  std::string out;
+  auto add = [&](const char* fmt, auto... args) {
+    std::snprintf(line, sizeof line, fmt, args...);
+    out += line;
+  };
+  add("file        %s (%s, %.1f MB)\n", s.file.c_str(), s.header.description.c_str(), s.file_bytes / 1e6);
+  add("vertices    %llu\n", static_cast<unsigned long long>(s.header.vertex_count));
+  add("tetrahedra  %llu", static_cast<unsigned long long>(s.stats.tetrahedra));
+  if (s.stats.cells != s.stats.tetrahedra) add("  (from %llu volume cells)", static_cast<unsigned long long>(s.stats.cells));
+  add("\n");
+  if (s.stats.hexahedra + s.stats.wedges + s.stats.pyramids > 0) {
+    add("split       %llu hexahedra, %llu wedges, %llu pyramids\n", static_cast<unsigned long long>(s.stats.hexahedra),
+        static_cast<unsigned long long>(s.stats.wedges), static_cast<unsigned long long>(s.stats.pyramids));
+  }
+  if (s.stats.quadratic_cells) add("higher-order cells reduced to corners: %llu\n", static_cast<unsigned long long>(s.stats.quadratic_cells));
+  if (s.stats.skipped_cells) add("skipped     %llu points/lines/surface cells\n", static_cast<unsigned long long>(s.stats.skipped_cells));
+  add("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", s.bounds.min[0], s.bounds.max[0], s.bounds.min[1], s.bounds.max[1], s.bounds.min[2], s.bounds.max[2]);
+  add("attributes  %zu\n", s.attributes.size());
+  for (const AttributeSummary& a : s.attributes) {
+    add("  %-24s %s  %g .. %g%s\n", a.info.name.c_str(), a.info.components == 1 ? "scalar" : (std::to_string(a.info.components) + "-vector").c_str(),
+        a.min, a.max, a.info.components == 1 ? "" : " (magnitude)");
+  }
+  add("degenerate  %llu tets of zero volume\n", static_cast<unsigned long long>(s.stats.degenerate));
+  add("inverted    %llu tets re-oriented\n", static_cast<unsigned long long>(s.stats.inverted));
+  for (const std::string& w : s.stats.warnings) add("warning     %s\n", w.c_str());
+  add("read time   %.3f s\n", s.read_seconds);
+  return out;
+}
+
+}  // namespace tetrascope::storage

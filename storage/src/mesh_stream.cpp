@@ -1,0 +1,216 @@
+#include "tetrascope/storage/mesh_stream.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "cell_split.h"
+#include "format_reader.h"
+
+namespace tetrascope::storage {
+
+using detail::CellBatch;
+
+struct MeshStream::CellScratch {
+  CellBatch batch;
+};
+
+const char* format_name(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::kVtkLegacy: return "vtk";
+    case MeshFormat::kVtu: return "vtu";
+    case MeshFormat::kGmsh: return "msh";
+    case MeshFormat::kTetgen: return "tetgen";
+    case MeshFormat::kOff: return "off";
+  }
+  return "?";
+}
+
+MeshFormat format_from_path(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".vtk") return MeshFormat::kVtkLegacy;
+  if (ext == ".vtu") return MeshFormat::kVtu;
+  if (ext == ".msh") return MeshFormat::kGmsh;
+  if (ext == ".node" || ext == ".ele") return MeshFormat::kTetgen;
+  if (ext == ".off") return MeshFormat::kOff;
+  throw MeshError(path.string() + ": unknown mesh format '" + ext +
+                  "' (expected .vtk, .vtu, .msh, .node/.ele or .off)");
+}
+
+std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path) {
+  MeshFormat format = format_from_path(path);
+  std::unique_ptr<detail::FormatReader> reader;
+  switch (format) {
+    case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(detail::InputFile::open(path)); break;
+    case MeshFormat::kVtu: reader = detail::make_vtu_reader(detail::InputFile::open(path)); break;
+    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(detail::InputFile::open(path)); break;
+    case MeshFormat::kOff: reader = detail::make_off_reader(detail::InputFile::open(path)); break;
+    case MeshFormat::kTetgen: {
+      std::filesystem::path node = path, ele = path;
+      node.replace_extension(".node");
+      ele.replace_extension(".ele");
+      reader = detail::make_tetgen_reader(detail::InputFile::open(node), detail::InputFile::open(ele));
+      break;
+    }
+  }
+  return std::unique_ptr<MeshStream>(new MeshStream(std::move(reader)));
+}
+
+std::unique_ptr<MeshStream> MeshStream::open_memory(MeshFormat format, std::string name, std::span<const char> bytes,
+                                                    std::span<const char> second_bytes) {
+  auto file = detail::InputFile::from_memory(name, bytes);
+  std::unique_ptr<detail::FormatReader> reader;
+  switch (format) {
+    case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(file); break;
+    case MeshFormat::kVtu: reader = detail::make_vtu_reader(file); break;
+    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(file); break;
+    case MeshFormat::kOff: reader = detail::make_off_reader(file); break;
+    case MeshFormat::kTetgen:
+      reader = detail::make_tetgen_reader(file, detail::InputFile::from_memory(name + ".ele", second_bytes));
+      break;
+  }
+  return std::unique_ptr<MeshStream>(new MeshStream(std::move(reader)));
+}
+
+MeshStream::MeshStream(std::unique_ptr<detail::FormatReader> reader)
+    : reader_(std::move(reader)), cells_(std::make_unique<CellScratch>()) {
+  header_ = reader_->index(stats_);
+  // Counts were checked against the file size by the reader, so this allocation is bounded
+  // by the input, not by what a header claims.
+  x_.reserve(header_.vertex_count);
+  y_.reserve(header_.vertex_count);
+  z_.reserve(header_.vertex_count);
+  attribute_scratch_.resize(header_.attributes.size());
+}
+
+MeshStream::~MeshStream() = default;
+
+bool MeshStream::next_vertices(VertexChunk& chunk, size_t max_vertices) {
+  if (vertices_read_ >= header_.vertex_count) return false;
+  size_t count = static_cast<size_t>(std::min<uint64_t>(std::max<size_t>(max_vertices, 1), header_.vertex_count - vertices_read_));
+  xyz_scratch_.resize(3 * count);
+  std::vector<float*> attribute_pointers;
+  for (size_t a = 0; a < header_.attributes.size(); ++a) {
+    attribute_scratch_[a].resize(count * header_.attributes[a].components);
+    attribute_pointers.push_back(attribute_scratch_[a].data());
+  }
+  reader_->read_vertices(count, xyz_scratch_.data(), attribute_pointers, stats_);
+  size_t base = x_.size();
+  for (size_t i = 0; i < count; ++i) {
+    x_.push_back(xyz_scratch_[3 * i]);
+    y_.push_back(xyz_scratch_[3 * i + 1]);
+    z_.push_back(xyz_scratch_[3 * i + 2]);
+  }
+  chunk.first = vertices_read_;
+  chunk.count = count;
+  chunk.x = std::span<const float>(x_).subspan(base, count);
+  chunk.y = std::span<const float>(y_).subspan(base, count);
+  chunk.z = std::span<const float>(z_).subspan(base, count);
+  chunk.attributes.clear();
+  for (const auto& a : attribute_scratch_) chunk.attributes.emplace_back(a);
+  vertices_read_ += count;
+  return true;
+}
+
+namespace {
+// Returns 6 * signed volume, and whether it is numerically zero relative to the edges.
+double orientation(const float* x, const float* y, const float* z, const uint32_t* t, bool& degenerate) {
+  double ax = double(x[t[1]]) - x[t[0]], ay = double(y[t[1]]) - y[t[0]], az = double(z[t[1]]) - z[t[0]];
+  double bx = double(x[t[2]]) - x[t[0]], by = double(y[t[2]]) - y[t[0]], bz = double(z[t[2]]) - z[t[0]];
+  double cx = double(x[t[3]]) - x[t[0]], cy = double(y[t[3]]) - y[t[0]], cz = double(z[t[3]]) - z[t[0]];
+  double det = ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+  double scale = std::sqrt((ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz) * (cx * cx + cy * cy + cz * cz));
+  degenerate = std::fabs(det) <= 1e-12 * scale;
+  return det;
+}
+}  // namespace
+
+bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
+  VertexChunk drain;
+  while (next_vertices(drain)) {
+  }
+  tet_scratch_.clear();
+  max_tets = std::max<size_t>(max_tets, 6);
+  CellBatch& batch = cells_->batch;
+  while (!cells_done_ && tet_scratch_.size() / 4 + 6 <= max_tets) {
+    batch.clear();
+    size_t want = std::max<size_t>(1, (max_tets - tet_scratch_.size() / 4) / 6);
+    if (!reader_->read_cells(batch, want)) {
+      cells_done_ = true;
+      break;
+    }
+    stats_.quadratic_cells += batch.reduced;
+    for (size_t c = 0; c < batch.size(); ++c) {
+      int type = batch.types[c];
+      size_t node_count = batch.offsets[c + 1] - batch.offsets[c];
+      std::span<const uint32_t> nodes(batch.nodes.data() + batch.offsets[c], node_count);
+      int corners = detail::volume_corner_count(type, static_cast<int>(node_count));
+      if (corners <= 0) {
+        ++stats_.skipped_cells;
+        continue;
+      }
+      ++stats_.cells;
+      if (static_cast<size_t>(corners) < node_count) ++stats_.quadratic_cells;
+      int linear = type;
+      if (corners == 4) linear = detail::kVtkTetra;
+      else if (corners == 8) linear = type == detail::kVtkVoxel ? detail::kVtkVoxel : detail::kVtkHexahedron;
+      else if (corners == 6) linear = detail::kVtkWedge;
+      else if (corners == 5) linear = detail::kVtkPyramid;
+      if (corners == 8) ++stats_.hexahedra;
+      if (corners == 6) ++stats_.wedges;
+      if (corners == 5) ++stats_.pyramids;
+      size_t at = tet_scratch_.size();
+      tet_scratch_.resize(at + 4 * 6);
+      size_t produced = detail::split_cell(linear, nodes.first(static_cast<size_t>(corners)), tet_scratch_.data() + at);
+      tet_scratch_.resize(at + 4 * produced);
+      for (size_t t = 0; t < produced; ++t) {
+        uint32_t* tet = tet_scratch_.data() + at + 4 * t;
+        bool degenerate = false;
+        double det = orientation(x_.data(), y_.data(), z_.data(), tet, degenerate);
+        if (degenerate) {
+          ++stats_.degenerate;
+        } else if (det < 0) {
+          std::swap(tet[2], tet[3]);
+          if (linear == detail::kVtkTetra) ++stats_.inverted;
+        }
+      }
+    }
+  }
+  if (tet_scratch_.empty()) return false;
+  chunk.first = tets_emitted_;
+  chunk.count = tet_scratch_.size() / 4;
+  chunk.tets = tet_scratch_;
+  tets_emitted_ += chunk.count;
+  stats_.tetrahedra = tets_emitted_;
+  return true;
+}
+
+TetMesh load_stream(MeshStream& stream) {
+  TetMesh mesh;
+  const MeshHeader& header = stream.header();
+  for (const AttributeInfo& info : header.attributes) {
+    mesh.attributes.push_back({info, {}});
+    mesh.attributes.back().values.reserve(header.vertex_count * info.components);
+  }
+  VertexChunk chunk;
+  while (stream.next_vertices(chunk)) {
+    for (size_t a = 0; a < chunk.attributes.size(); ++a) {
+      mesh.attributes[a].values.insert(mesh.attributes[a].values.end(), chunk.attributes[a].begin(), chunk.attributes[a].end());
+    }
+  }
+  mesh.x.assign(stream.x().begin(), stream.x().end());
+  mesh.y.assign(stream.y().begin(), stream.y().end());
+  mesh.z.assign(stream.z().begin(), stream.z().end());
+  TetChunk tets;
+  while (stream.next_tets(tets)) mesh.tets.insert(mesh.tets.end(), tets.tets.begin(), tets.tets.end());
+  return mesh;
+}
+
+TetMesh load_mesh(const std::filesystem::path& path, ReadStats* stats) {
+  auto stream = MeshStream::open(path);
+  TetMesh mesh = load_stream(*stream);
+  if (stats) *stats = stream->stats();
+  return mesh;
+}
+
+}  // namespace tetrascope::storage
