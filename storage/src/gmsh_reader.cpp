@@ -170,6 +170,7 @@ void GmshReader::read_nodes() {
       }
     }
   } else {
+    if (binary_) cursor_.skip_to_next_line();
     uint64_t blocks = count_value("node block count");
     uint64_t n = count_value("node count");
     count_value("minimum node tag");
@@ -336,6 +337,7 @@ void GmshReader::skip_elements() {
       done += static_cast<uint64_t>(count);
     }
   } else {
+    cursor_.skip_to_next_line();
     uint64_t blocks = binary<uint64_t>("element block count"), n = binary<uint64_t>("element count");
     binary<uint64_t>("minimum element tag");
     binary<uint64_t>("maximum element tag");
@@ -488,6 +490,7 @@ bool GmshReader::read_cells(CellBatch& batch, size_t max_cells) {
     elements_started_ = true;
     cursor_.seek(elements_offset_, elements_line_);
     if (version4_) {
+      if (binary_) cursor_.skip_to_next_line();
       blocks_left_ = count_value("element block count");
       elements_left_ = count_value("element count");
       count_value("minimum element tag");

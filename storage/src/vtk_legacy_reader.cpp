@@ -119,6 +119,7 @@ std::unique_ptr<ValueStream> VtkLegacyReader::stream_at(const ArrayLocation& loc
 }
 
 void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, ReadStats& stats) {
+  if (tuples > (uint64_t{1} << 40)) cursor_.fail(std::string(point_data ? "POINT_DATA" : "CELL_DATA") + " count too large");
   if (point_data && tuples != header_.vertex_count) {
     cursor_.fail("POINT_DATA has " + std::to_string(tuples) + " values but POINTS has " +
                  std::to_string(header_.vertex_count));
@@ -246,9 +247,10 @@ MeshHeader VtkLegacyReader::index(ReadStats& stats) {
     if (keyword == "POINTS") {
       uint64_t n = cursor_.parse_int<uint64_t>("point count");
       std::string type(cursor_.expect_token("point data type"));
-      if (n >= std::numeric_limits<uint32_t>::max()) cursor_.fail("more than 2^32-1 points are not supported");
+      if (n > (uint64_t{1} << 40)) cursor_.fail("POINTS: " + std::to_string(n) + " declared, more than any file can hold");
       header_.vertex_count = n;
       points_ = skip_array(n * 3, type, "POINTS");
+      if (n >= std::numeric_limits<uint32_t>::max()) cursor_.fail("more than 2^32-1 points are not supported");
     } else if (keyword == "CELLS") {
       uint64_t a = cursor_.parse_int<uint64_t>("cell count");
       uint64_t b = cursor_.parse_int<uint64_t>("cell list size");

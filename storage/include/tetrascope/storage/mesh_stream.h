@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/mesh_error.h"
 
 namespace tetrascope::storage {
 

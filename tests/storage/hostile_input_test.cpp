@@ -1,0 +1,278 @@
+// Untrusted input: truncated files, flipped bytes, absurd counts, bad indices, NaNs,
+// unknown cell types. Each must give a MeshError naming the file, never a crash, a hang or
+// an allocation driven by a claimed count. Run under ASan+UBSan in CI (preset "asan").
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "fixture_writers.h"
+#include "test_paths.h"
+#include "tetrascope/storage/mesh_stream.h"
+
+namespace tetrascope::testing {
+namespace {
+
+using storage::MeshError;
+using storage::MeshFormat;
+
+// Reads fully; returns "" on success or the MeshError text. Any other exception fails.
+std::string try_read(MeshFormat format, const std::string& name, const std::string& bytes, const std::string& second = {}) {
+  try {
+    auto stream = storage::MeshStream::open_memory(format, name, bytes, second);
+    storage::VertexChunk v;
+    while (stream->next_vertices(v, 777)) {
+    }
+    storage::TetChunk t;
+    while (stream->next_tets(t, 999)) {
+    }
+    return "";
+  } catch (const MeshError& e) {
+    return e.what();
+  }
+}
+
+CellMesh small_mesh() {
+  CellMesh m;
+  const int n = 3;
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        m.x.push_back(static_cast<float>(i));
+        m.y.push_back(static_cast<float>(j) * 1.5f);
+        m.z.push_back(static_cast<float>(k) * 0.5f);
+      }
+  auto at = [&](int i, int j, int k) { return static_cast<uint32_t>((k * (n + 1) + j) * (n + 1) + i); };
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        // 5-tet split with alternating parity: conforming
+        uint32_t c[8] = {at(i, j, k), at(i + 1, j, k), at(i + 1, j + 1, k), at(i, j + 1, k),
+                         at(i, j, k + 1), at(i + 1, j, k + 1), at(i + 1, j + 1, k + 1), at(i, j + 1, k + 1)};
+        if ((i + j + k) % 2) {
+          m.add_cell(10, {c[0], c[1], c[3], c[4]});
+          m.add_cell(10, {c[1], c[2], c[3], c[6]});
+          m.add_cell(10, {c[1], c[4], c[5], c[6]});
+          m.add_cell(10, {c[3], c[4], c[6], c[7]});
+          m.add_cell(10, {c[1], c[3], c[4], c[6]});
+        } else {
+          m.add_cell(12, {c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]});
+        }
+      }
+  storage::Attribute t{{"temperature", 1}, {}}, v{{"velocity", 3}, {}};
+  for (size_t i = 0; i < m.x.size(); ++i) {
+    t.values.push_back(m.x[i] * m.y[i]);
+    v.values.insert(v.values.end(), {m.z[i], -m.x[i], 1.0f});
+  }
+  m.attributes = {t, v};
+  return m;
+}
+
+struct Sample {
+  std::string name;
+  MeshFormat format;
+  std::string bytes, second;
+};
+
+void PrintTo(const Sample& s, std::ostream* os) { *os << s.name; }
+
+std::vector<Sample> samples() {
+  CellMesh m = small_mesh();
+  // tets only, for formats without hybrid cells
+  auto dir = scratch_dir("hostile_samples");
+  write_vtk_legacy(dir / "h.vtk", m);
+  CellMesh tets = from_tets(storage::load_mesh(dir / "h.vtk"));
+  std::vector<Sample> s;
+  auto add = [&](const std::string& name, MeshFormat format, const std::string& file) {
+    s.push_back({name, format, read_file(dir / file), ""});
+  };
+  write_vtk_legacy(dir / "a.vtk", m, {.binary = false});
+  add("vtk_ascii", MeshFormat::kVtkLegacy, "a.vtk");
+  write_vtk_legacy(dir / "b.vtk", m, {.binary = true});
+  add("vtk_binary", MeshFormat::kVtkLegacy, "b.vtk");
+  write_vtk_legacy(dir / "c.vtk", m, {.binary = true, .version5 = true});
+  add("vtk51_binary", MeshFormat::kVtkLegacy, "c.vtk");
+  write_vtu(dir / "a.vtu", m, {.encoding = VtuEncoding::kAscii});
+  add("vtu_ascii", MeshFormat::kVtu, "a.vtu");
+  write_vtu(dir / "b.vtu", m, {.encoding = VtuEncoding::kInlineBase64, .zlib = true, .block_size = 256});
+  add("vtu_base64_zlib", MeshFormat::kVtu, "b.vtu");
+  write_vtu(dir / "c.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 256});
+  add("vtu_raw_zlib", MeshFormat::kVtu, "c.vtu");
+  write_vtu(dir / "d.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .header_uint64 = false});
+  add("vtu_raw", MeshFormat::kVtu, "d.vtu");
+  write_gmsh(dir / "a.msh", m, {.version4 = false, .binary = false});
+  add("msh22_ascii", MeshFormat::kGmsh, "a.msh");
+  write_gmsh(dir / "b.msh", m, {.version4 = false, .binary = true});
+  add("msh22_binary", MeshFormat::kGmsh, "b.msh");
+  write_gmsh(dir / "c.msh", m, {.version4 = true, .binary = false});
+  add("msh41_ascii", MeshFormat::kGmsh, "c.msh");
+  write_gmsh(dir / "d.msh", m, {.version4 = true, .binary = true});
+  add("msh41_binary", MeshFormat::kGmsh, "d.msh");
+  write_off(dir / "a.off", tets);
+  add("off", MeshFormat::kOff, "a.off");
+  write_tetgen(dir / "t", tets);
+  s.push_back({"tetgen", MeshFormat::kTetgen, read_file(dir / "t.node"), read_file(dir / "t.ele")});
+  return s;
+}
+
+class Hostile : public ::testing::TestWithParam<Sample> {};
+
+TEST_P(Hostile, IntactSampleReads) {
+  const Sample& s = GetParam();
+  EXPECT_EQ(try_read(s.format, s.name, s.bytes, s.second), "");
+}
+
+TEST_P(Hostile, TruncationsFailCleanly) {
+  const Sample& s = GetParam();
+  const std::string& bytes = s.bytes;
+  size_t rejected = 0, tried = 0;
+  for (size_t cut = 0; cut < bytes.size(); cut += std::max<size_t>(1, bytes.size() / 150)) {
+    std::string error = try_read(s.format, s.name, bytes.substr(0, cut), s.second);
+    ++tried;
+    if (!error.empty()) {
+      ++rejected;
+      EXPECT_EQ(error.rfind(s.name + ":", 0), 0u) << "error does not name the file: " << error;
+    }
+  }
+  // cutting a file in half must always be noticed
+  EXPECT_NE(try_read(s.format, s.name, bytes.substr(0, bytes.size() / 2), s.second), "");
+  EXPECT_GT(rejected, tried * 8 / 10);
+  if (!s.second.empty()) {
+    EXPECT_NE(try_read(s.format, s.name, s.bytes, s.second.substr(0, s.second.size() / 2)), "");
+  }
+}
+
+TEST_P(Hostile, FlippedBytesNeverCrash) {
+  const Sample& s = GetParam();
+  std::mt19937 rng(12345);
+  for (int round = 0; round < 300; ++round) {
+    std::string bytes = s.bytes, second = s.second;
+    std::string& target = (!second.empty() && round % 2) ? second : bytes;
+    int flips = 1 + round % 4;
+    for (int f = 0; f < flips; ++f) {
+      size_t at = rng() % target.size();
+      target[at] = static_cast<char>(target[at] ^ static_cast<char>(1 + rng() % 255));
+    }
+    try_read(s.format, s.name, bytes, second);  // only MeshError may come out
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllFormats, Hostile, ::testing::ValuesIn(samples()), [](const auto& test_info) { return test_info.param.name; });
+
+// ---- specific threats, each with the message a user needs ------------------------------
+
+void expect_error(MeshFormat format, const std::string& bytes, const std::string& fragment, const std::string& second = {}) {
+  std::string error = try_read(format, "bad", bytes, second);
+  ASSERT_NE(error, "") << "accepted hostile input";
+  EXPECT_NE(error.find(fragment), std::string::npos) << "message was: " << error;
+  EXPECT_EQ(error.rfind("bad", 0), 0u) << error;
+}
+
+const std::string kVtkHead = "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\n";
+
+TEST(HostileVtk, ClaimsATrillionPointsInASmallFile) {
+  expect_error(MeshFormat::kVtkLegacy, kVtkHead + "POINTS 1000000000000 float\n0 0 0\n", "declared");
+  std::string binary = "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 999999999 float\n";
+  expect_error(MeshFormat::kVtkLegacy, binary + std::string(64, '\0'), "declared");
+}
+TEST(HostileVtk, WrongMagic) { expect_error(MeshFormat::kVtkLegacy, "# not vtk\n", "not a VTK legacy file"); }
+TEST(HostileVtk, VertexIndexOutOfRange) {
+  expect_error(MeshFormat::kVtkLegacy, kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 7\nCELL_TYPES 1\n10\n",
+               "vertex id 7 out of range");
+}
+TEST(HostileVtk, NanCoordinateNamesTheLine) {
+  expect_error(MeshFormat::kVtkLegacy, kVtkHead + "POINTS 4 float\n0 0 0\n1 nan 0\n0 1 0\n0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n",
+               "line 7: point coordinate is not a finite number");
+}
+TEST(HostileVtk, UnknownCellType) {
+  expect_error(MeshFormat::kVtkLegacy, kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n99\n",
+               "unsupported cell type 99");
+}
+TEST(HostileVtk, WrongVertexCountForTetra) {
+  expect_error(MeshFormat::kVtkLegacy, kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n10\n",
+               "unsupported cell type 10 with 3 vertices");
+}
+TEST(HostileVtk, MissingAttributeArrayData) {
+  expect_error(MeshFormat::kVtkLegacy,
+               kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 4\nSCALARS t float 1\nLOOKUP_TABLE default\n1 2\n",
+               "SCALARS 't': 4 declared");
+}
+TEST(HostileVtk, PointDataCountDisagreesWithPoints) {
+  expect_error(MeshFormat::kVtkLegacy,
+               kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 5\n",
+               "POINT_DATA has 5 values but POINTS has 4");
+}
+TEST(HostileVtk, NotAVolumeDataset) {
+  expect_error(MeshFormat::kVtkLegacy, "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\n", "not a volume mesh");
+}
+
+TEST(HostileVtu, ClaimsHugePointCount) {
+  expect_error(MeshFormat::kVtu,
+               "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"1000000000000\" NumberOfCells=\"1\">",
+               "does not fit");
+}
+TEST(HostileVtu, AppendedOffsetPastTheEnd) {
+  CellMesh m = small_mesh();
+  auto dir = scratch_dir("vtu_offset");
+  write_vtu(dir / "m.vtu", m, {.encoding = VtuEncoding::kAppendedRaw});
+  std::string bytes = read_file(dir / "m.vtu");
+  size_t at = bytes.find("offset=\"0\"");
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 10, "offset=\"99999999\"");
+  expect_error(MeshFormat::kVtu, bytes, "past the end");
+}
+TEST(HostileVtu, CorruptZlibBlock) {
+  CellMesh m = small_mesh();
+  auto dir = scratch_dir("vtu_zlib");
+  write_vtu(dir / "m.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true});
+  std::string bytes = read_file(dir / "m.vtu");
+  size_t data = bytes.find(">\n_") + 3;
+  // first array: header of 3 + blocks UInt64 items; damage the deflate stream after it
+  bytes[data + 40] = static_cast<char>(bytes[data + 40] ^ 0x5a);
+  bytes[data + 41] = static_cast<char>(bytes[data + 41] ^ 0xa5);
+  expect_error(MeshFormat::kVtu, bytes, "corrupt");
+}
+TEST(HostileVtu, UnsupportedCompressor) {
+  expect_error(MeshFormat::kVtu, "<VTKFile type=\"UnstructuredGrid\" compressor=\"vtkLZ4DataCompressor\">", "not supported");
+}
+
+TEST(HostileGmsh, ClaimsHugeNodeCount) {
+  expect_error(MeshFormat::kGmsh, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5000000000\n1 0 0 0\n", "declared");
+}
+TEST(HostileGmsh, ElementRefersToMissingNode) {
+  expect_error(MeshFormat::kGmsh,
+               "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n"
+               "$Elements\n1\n1 4 0 1 2 3 42\n$EndElements\n",
+               "refers to node 42, which is not in $Nodes");
+}
+TEST(HostileGmsh, UnknownElementType) {
+  expect_error(MeshFormat::kGmsh,
+               "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n"
+               "$Elements\n1\n1 77 0 1 2 3 4\n$EndElements\n",
+               "unknown Gmsh element type 77");
+}
+TEST(HostileGmsh, UnsupportedVersion) { expect_error(MeshFormat::kGmsh, "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n", "not supported"); }
+
+TEST(HostileOff, ClaimsHugeCounts) { expect_error(MeshFormat::kOff, "100000000000 5\n0 0 0 1\n", "declared"); }
+TEST(HostileOff, IndexOutOfRange) {
+  expect_error(MeshFormat::kOff, "4 1\n0 0 0 1\n1 0 0 1\n0 1 0 1\n0 0 1 1\n0 1 2 4\n", "vertex index 4 out of range");
+}
+
+TEST(HostileTetgen, NodeOutOfRange) {
+  expect_error(MeshFormat::kTetgen, "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n", "node 5 out of range", "1 4 0\n1 1 2 3 5\n");
+}
+TEST(HostileTetgen, NonConsecutiveNumbering) {
+  expect_error(MeshFormat::kTetgen, "3 3 0 0\n1 0 0 0\n2 1 0 0\n9 0 1 0\n", "numbered consecutively", "0 4 0\n");
+}
+
+TEST(HostileFiles, MissingFileAndUnknownExtension) {
+  try {
+    storage::MeshStream::open("/nonexistent/mesh.vtk");
+    FAIL() << "opened a missing file";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
+  }
+  EXPECT_THROW(storage::MeshStream::open("mesh.stl"), MeshError);
+}
+
+}  // namespace
+}  // namespace tetrascope::testing

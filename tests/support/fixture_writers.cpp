@@ -1,0 +1,404 @@
+#include "fixture_writers.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace tetrascope::testing {
+
+void CellMesh::add_cell(uint8_t type, std::initializer_list<uint32_t> nodes) {
+  types.push_back(type);
+  connectivity.insert(connectivity.end(), nodes.begin(), nodes.end());
+  offsets.push_back(static_cast<uint32_t>(connectivity.size()));
+}
+
+CellMesh from_tets(const storage::TetMesh& mesh) {
+  CellMesh c;
+  c.x = mesh.x;
+  c.y = mesh.y;
+  c.z = mesh.z;
+  c.attributes = mesh.attributes;
+  for (size_t t = 0; t < mesh.tet_count(); ++t) {
+    c.add_cell(10, {mesh.tets[4 * t], mesh.tets[4 * t + 1], mesh.tets[4 * t + 2], mesh.tets[4 * t + 3]});
+  }
+  return c;
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_file(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+namespace {
+
+std::string fmt(double v) {
+  char b[40];
+  std::snprintf(b, sizeof b, "%.9g", v);
+  return b;
+}
+
+template <typename T>
+void append(std::string& out, T value, bool big_endian) {
+  char b[sizeof(T)];
+  std::memcpy(b, &value, sizeof(T));
+  if (big_endian == (std::endian::native == std::endian::little)) std::reverse(b, b + sizeof(T));
+  out.append(b, sizeof(T));
+}
+
+std::string base64(const std::string& bytes) {
+  static const char* letters = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    uint32_t v = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
+    for (int k = 3; k >= 0; --k) out += letters[(v >> (6 * k)) & 63];
+  }
+  if (i < bytes.size()) {
+    uint32_t v = uint8_t(bytes[i]) << 16;
+    if (i + 1 < bytes.size()) v |= uint8_t(bytes[i + 1]) << 8;
+    out += letters[(v >> 18) & 63];
+    out += letters[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? letters[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+}  // namespace
+
+void write_vtk_legacy(const std::filesystem::path& path, const CellMesh& m, const VtkOptions& o) {
+  std::string out = "# vtk DataFile Version " + std::string(o.version5 ? "5.1" : "3.0") + "\nfixture\n" +
+                    (o.binary ? "BINARY" : "ASCII") + "\nDATASET UNSTRUCTURED_GRID\n";
+  const size_t n = m.x.size(), cells = m.cell_count();
+  auto values = [&](const std::vector<double>& v) {
+    if (o.binary) {
+      for (double d : v) o.doubles ? append(out, d, true) : append(out, static_cast<float>(d), true);
+      out += "\n";
+    } else {
+      for (size_t i = 0; i < v.size(); ++i) out += fmt(v[i]) + ((i % 9 == 8) ? "\n" : " ");
+      out += "\n";
+    }
+  };
+  auto ints = [&](const std::vector<int64_t>& v, bool wide) {
+    if (o.binary) {
+      for (int64_t d : v) wide ? append(out, d, true) : append(out, static_cast<int32_t>(d), true);
+      out += "\n";
+    } else {
+      for (size_t i = 0; i < v.size(); ++i) out += std::to_string(v[i]) + ((i % 12 == 11) ? "\n" : " ");
+      out += "\n";
+    }
+  };
+  const char* real = o.doubles ? "double" : "float";
+  out += "POINTS " + std::to_string(n) + " " + real + "\n";
+  std::vector<double> xyz;
+  for (size_t i = 0; i < n; ++i) xyz.insert(xyz.end(), {m.x[i], m.y[i], m.z[i]});
+  values(xyz);
+  if (o.version5) {
+    out += "CELLS " + std::to_string(cells + 1) + " " + std::to_string(m.connectivity.size()) + "\n";
+    out += "OFFSETS vtktypeint64\n";
+    ints(std::vector<int64_t>(m.offsets.begin(), m.offsets.end()), true);
+    out += "CONNECTIVITY vtktypeint64\n";
+    ints(std::vector<int64_t>(m.connectivity.begin(), m.connectivity.end()), true);
+  } else {
+    std::vector<int64_t> list;
+    for (size_t c = 0; c < cells; ++c) {
+      list.push_back(m.offsets[c + 1] - m.offsets[c]);
+      for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) list.push_back(m.connectivity[k]);
+    }
+    out += "CELLS " + std::to_string(cells) + " " + std::to_string(list.size()) + "\n";
+    ints(list, false);
+  }
+  out += "CELL_TYPES " + std::to_string(cells) + "\n";
+  ints(std::vector<int64_t>(m.types.begin(), m.types.end()), false);
+  if (!m.attributes.empty()) {
+    out += "POINT_DATA " + std::to_string(n) + "\n";
+    if (o.field) out += "FIELD FieldData " + std::to_string(m.attributes.size()) + "\n";
+    for (const auto& a : m.attributes) {
+      if (o.field) out += a.info.name + " " + std::to_string(a.info.components) + " " + std::to_string(n) + " " + real + "\n";
+      else if (a.info.components == 3) out += "VECTORS " + a.info.name + " " + real + "\n";
+      else out += "SCALARS " + a.info.name + " " + real + " " + std::to_string(a.info.components) + "\nLOOKUP_TABLE default\n";
+      values(std::vector<double>(a.values.begin(), a.values.end()));
+    }
+  }
+  write_file(path, out);
+}
+
+namespace {
+
+struct VtuArray {
+  std::string name;
+  std::string type;   // VTK XML type name
+  uint32_t components;
+  std::string raw;    // little-endian bytes
+  std::string ascii;  // text values
+};
+
+VtuArray real_array(const std::string& name, uint32_t components, const std::vector<float>& v, bool doubles) {
+  VtuArray a{name, doubles ? "Float64" : "Float32", components, "", ""};
+  for (float f : v) {
+    doubles ? append(a.raw, static_cast<double>(f), false) : append(a.raw, f, false);
+    a.ascii += fmt(f) + " ";
+  }
+  return a;
+}
+
+template <typename T>
+VtuArray int_array(const std::string& name, const std::string& type, const std::vector<T>& v) {
+  VtuArray a{name, type, 1, "", ""};
+  for (T x : v) {
+    append(a.raw, x, false);
+    a.ascii += std::to_string(static_cast<int64_t>(x)) + " ";
+  }
+  return a;
+}
+
+std::string header_items(const std::vector<uint64_t>& items, bool uint64) {
+  std::string s;
+  for (uint64_t v : items) uint64 ? append(s, v, false) : append(s, static_cast<uint32_t>(v), false);
+  return s;
+}
+
+// The bytes VTK stores for one binary array: size header + data, or zlib header + blocks.
+std::pair<std::string, std::string> encode_binary(const std::string& raw, const VtuOptions& o) {
+  if (!o.zlib) return {header_items({raw.size()}, o.header_uint64), raw};
+  std::vector<uint64_t> sizes;
+  std::string blocks;
+  size_t count = (raw.size() + o.block_size - 1) / o.block_size;
+  for (size_t b = 0; b < count; ++b) {
+    size_t len = std::min(o.block_size, raw.size() - b * o.block_size);
+    uLongf out_len = compressBound(static_cast<uLong>(len));
+    std::string z(out_len, '\0');
+    compress2(reinterpret_cast<Bytef*>(z.data()), &out_len, reinterpret_cast<const Bytef*>(raw.data() + b * o.block_size), static_cast<uLong>(len), 6);
+    z.resize(out_len);
+    sizes.push_back(out_len);
+    blocks += z;
+  }
+  size_t last = count == 0 ? 0 : raw.size() - (count - 1) * o.block_size;
+  std::vector<uint64_t> header{count, o.block_size, last};
+  header.insert(header.end(), sizes.begin(), sizes.end());
+  return {header_items(header, o.header_uint64), blocks};
+}
+
+}  // namespace
+
+void write_vtu(const std::filesystem::path& path, const CellMesh& m, const VtuOptions& o) {
+  std::vector<VtuArray> point_data;
+  for (const auto& a : m.attributes) point_data.push_back(real_array(a.info.name, a.info.components, a.values, o.doubles));
+  std::vector<float> xyz;
+  for (size_t i = 0; i < m.x.size(); ++i) xyz.insert(xyz.end(), {m.x[i], m.y[i], m.z[i]});
+  VtuArray points = real_array("Points", 3, xyz, o.doubles);
+  std::vector<int64_t> connectivity(m.connectivity.begin(), m.connectivity.end());
+  std::vector<int64_t> offsets(m.offsets.begin() + 1, m.offsets.end());
+  VtuArray cells[3] = {int_array("connectivity", "Int64", connectivity), int_array("offsets", "Int64", offsets),
+                       int_array("types", "UInt8", m.types)};
+  std::string appended;
+  auto element = [&](const VtuArray& a) {
+    std::string head = "<DataArray type=\"" + a.type + "\" Name=\"" + a.name + "\" NumberOfComponents=\"" + std::to_string(a.components) + "\"";
+    if (o.encoding == VtuEncoding::kAscii) return head + " format=\"ascii\">\n" + a.ascii + "\n</DataArray>\n";
+    auto [header, data] = encode_binary(a.raw, o);
+    std::string encoded;
+    if (o.encoding == VtuEncoding::kAppendedRaw) {
+      encoded = header + data;
+    } else {
+      bool separate = o.separate_header || o.zlib;  // VTK encodes a compression header on its own
+      encoded = separate ? base64(header) + base64(data) : base64(header + data);
+    }
+    if (o.encoding == VtuEncoding::kInlineBase64) return head + " format=\"binary\">\n" + encoded + "\n</DataArray>\n";
+    std::string tag = head + " format=\"appended\" offset=\"" + std::to_string(appended.size()) + "\"/>\n";
+    appended += encoded;
+    return tag;
+  };
+  std::string out = "<?xml version=\"1.0\"?>\n<!-- fixture -->\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"" +
+                    std::string(o.header_uint64 ? "UInt64" : "UInt32") + "\"" + (o.zlib ? " compressor=\"vtkZLibDataCompressor\"" : "") + ">\n";
+  out += "<UnstructuredGrid>\n<Piece NumberOfPoints=\"" + std::to_string(m.x.size()) + "\" NumberOfCells=\"" + std::to_string(m.cell_count()) + "\">\n";
+  out += "<PointData>\n";
+  for (const auto& a : point_data) out += element(a);
+  out += "</PointData>\n<Points>\n" + element(points) + "</Points>\n<Cells>\n";
+  for (const auto& a : cells) out += element(a);
+  out += "</Cells>\n</Piece>\n</UnstructuredGrid>\n";
+  if (o.encoding == VtuEncoding::kAppendedRaw || o.encoding == VtuEncoding::kAppendedBase64) {
+    out += std::string("<AppendedData encoding=\"") + (o.encoding == VtuEncoding::kAppendedRaw ? "raw" : "base64") + "\">\n_" + appended + "\n</AppendedData>\n";
+  }
+  out += "</VTKFile>\n";
+  write_file(path, out);
+}
+
+namespace {
+int gmsh_type(uint8_t vtk) {
+  switch (vtk) {
+    case 10: return 4;
+    case 12: return 5;
+    case 13: return 6;
+    case 14: return 7;
+    case 5: return 2;
+    default: throw std::runtime_error("write_gmsh: unsupported cell type " + std::to_string(vtk));
+  }
+}
+}  // namespace
+
+void write_gmsh(const std::filesystem::path& path, const CellMesh& m, const GmshOptions& o) {
+  const bool bin = o.binary;
+  std::string out = "$MeshFormat\n" + std::string(o.version4 ? "4.1" : "2.2") + (bin ? " 1 8\n" : " 0 8\n");
+  if (bin) {
+    append(out, int32_t{1}, false);
+    out += "\n";
+  }
+  out += "$EndMeshFormat\n";
+  const size_t n = m.x.size(), cells = m.cell_count();
+  auto tag = [&](size_t i) { return static_cast<uint64_t>(o.first_tag) + i * o.tag_step; };
+  out += "$Nodes\n";
+  if (!o.version4) {
+    out += std::to_string(n) + "\n";
+    for (size_t i = 0; i < n; ++i) {
+      if (bin) {
+        append(out, static_cast<int32_t>(tag(i)), false);
+        for (double v : {double(m.x[i]), double(m.y[i]), double(m.z[i])}) append(out, v, false);
+      } else {
+        out += std::to_string(tag(i)) + " " + fmt(m.x[i]) + " " + fmt(m.y[i]) + " " + fmt(m.z[i]) + "\n";
+      }
+    }
+  } else {
+    // two entity blocks to exercise block handling
+    size_t half = n / 2;
+    size_t ranges[2][2] = {{0, half}, {half, n}};
+    if (bin) {
+      for (uint64_t v : {uint64_t{2}, uint64_t{n}, tag(0), tag(n - 1)}) append(out, v, false);
+    } else {
+      out += "2 " + std::to_string(n) + " " + std::to_string(tag(0)) + " " + std::to_string(tag(n - 1)) + "\n";
+    }
+    for (auto& r : ranges) {
+      uint64_t count = r[1] - r[0];
+      if (bin) {
+        append(out, int32_t{3}, false);
+        append(out, int32_t{1}, false);
+        append(out, int32_t{0}, false);
+        append(out, count, false);
+        for (size_t i = r[0]; i < r[1]; ++i) append(out, tag(i), false);
+        for (size_t i = r[0]; i < r[1]; ++i) for (double v : {double(m.x[i]), double(m.y[i]), double(m.z[i])}) append(out, v, false);
+      } else {
+        out += "3 1 0 " + std::to_string(count) + "\n";
+        for (size_t i = r[0]; i < r[1]; ++i) out += std::to_string(tag(i)) + "\n";
+        for (size_t i = r[0]; i < r[1]; ++i) out += fmt(m.x[i]) + " " + fmt(m.y[i]) + " " + fmt(m.z[i]) + "\n";
+      }
+    }
+  }
+  out += (bin ? "\n" : "") + std::string("$EndNodes\n$Elements\n");
+  if (!o.version4) {
+    out += std::to_string(cells) + "\n";
+    for (size_t c = 0; c < cells; ++c) {
+      int type = gmsh_type(m.types[c]);
+      if (bin) {  // one block per element keeps the writer simple and exercises block headers
+        for (int32_t v : {int32_t(type), int32_t{1}, int32_t{2}}) append(out, v, false);
+        for (int32_t v : {int32_t(c + 1), int32_t{1}, int32_t{1}}) append(out, v, false);
+        for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) append(out, static_cast<int32_t>(tag(m.connectivity[k])), false);
+      } else {
+        out += std::to_string(c + 1) + " " + std::to_string(type) + " 2 1 1";
+        for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) out += " " + std::to_string(tag(m.connectivity[k]));
+        out += "\n";
+      }
+    }
+  } else {
+    // one block per run of equal types
+    std::vector<std::pair<size_t, size_t>> runs;
+    for (size_t c = 0; c < cells; ++c) {
+      if (runs.empty() || m.types[runs.back().first] != m.types[c]) runs.push_back({c, c});
+      runs.back().second = c + 1;
+    }
+    if (bin) {
+      for (uint64_t v : {uint64_t(runs.size()), uint64_t(cells), uint64_t{1}, uint64_t(cells)}) append(out, v, false);
+    } else {
+      out += std::to_string(runs.size()) + " " + std::to_string(cells) + " 1 " + std::to_string(cells) + "\n";
+    }
+    for (auto [begin, end] : runs) {
+      int type = gmsh_type(m.types[begin]);
+      int dim = m.types[begin] == 5 ? 2 : 3;
+      if (bin) {
+        for (int32_t v : {int32_t(dim), int32_t{1}, int32_t(type)}) append(out, v, false);
+        append(out, uint64_t(end - begin), false);
+      } else {
+        out += std::to_string(dim) + " 1 " + std::to_string(type) + " " + std::to_string(end - begin) + "\n";
+      }
+      for (size_t c = begin; c < end; ++c) {
+        if (bin) {
+          append(out, uint64_t(c + 1), false);
+          for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) append(out, tag(m.connectivity[k]), false);
+        } else {
+          out += std::to_string(c + 1);
+          for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) out += " " + std::to_string(tag(m.connectivity[k]));
+          out += "\n";
+        }
+      }
+    }
+  }
+  out += (bin ? "\n" : "") + std::string("$EndElements\n");
+  for (const auto& a : m.attributes) {
+    out += "$NodeData\n1\n\"" + a.info.name + "\"\n1\n0.0\n3\n0\n" + std::to_string(a.info.components) + "\n" + std::to_string(n) + "\n";
+    for (size_t i = 0; i < n; ++i) {
+      if (bin) {
+        append(out, static_cast<int32_t>(tag(i)), false);
+        for (uint32_t k = 0; k < a.info.components; ++k) append(out, double(a.values[i * a.info.components + k]), false);
+      } else {
+        out += std::to_string(tag(i));
+        for (uint32_t k = 0; k < a.info.components; ++k) out += " " + fmt(a.values[i * a.info.components + k]);
+        out += "\n";
+      }
+    }
+    out += (bin ? "\n" : "") + std::string("$EndNodeData\n");
+  }
+  write_file(path, out);
+}
+
+void write_tetgen(const std::filesystem::path& base, const CellMesh& m) {
+  std::vector<const storage::Attribute*> scalars;
+  for (const auto& a : m.attributes) if (a.info.components == 1) scalars.push_back(&a);
+  std::string node = std::to_string(m.x.size()) + " 3 " + std::to_string(scalars.size()) + " 0\n# attributes:";
+  for (auto* a : scalars) node += " " + a->info.name;
+  node += "\n";
+  for (size_t i = 0; i < m.x.size(); ++i) {
+    node += std::to_string(i + 1) + " " + fmt(m.x[i]) + " " + fmt(m.y[i]) + " " + fmt(m.z[i]);
+    for (auto* a : scalars) node += " " + fmt(a->values[i]);
+    node += "\n";
+  }
+  std::string ele = std::to_string(m.cell_count()) + " 4 0\n";
+  for (size_t c = 0; c < m.cell_count(); ++c) {
+    if (m.types[c] != 10) throw std::runtime_error("write_tetgen: tets only");
+    ele += std::to_string(c + 1);
+    for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) ele += " " + std::to_string(m.connectivity[k] + 1);
+    ele += "\n";
+  }
+  std::filesystem::path node_path = base, ele_path = base;
+  write_file(node_path.replace_extension(".node"), node);
+  write_file(ele_path.replace_extension(".ele"), ele);
+}
+
+void write_off(const std::filesystem::path& path, const CellMesh& m) {
+  const storage::Attribute* scalar = nullptr;
+  for (const auto& a : m.attributes) if (!scalar && a.info.components == 1) scalar = &a;
+  std::string out = std::to_string(m.x.size()) + " " + std::to_string(m.cell_count()) + "\n";
+  for (size_t i = 0; i < m.x.size(); ++i) {
+    out += fmt(m.x[i]) + " " + fmt(m.y[i]) + " " + fmt(m.z[i]);
+    if (scalar) out += " " + fmt(scalar->values[i]);
+    out += "\n";
+  }
+  for (size_t c = 0; c < m.cell_count(); ++c) {
+    if (m.types[c] != 10) throw std::runtime_error("write_off: tets only");
+    for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) out += std::to_string(m.connectivity[k]) + (k + 1 < m.offsets[c + 1] ? " " : "\n");
+  }
+  write_file(path, out);
+}
+
+}  // namespace tetrascope::testing

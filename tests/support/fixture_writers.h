@@ -1,0 +1,62 @@
+// Writers of every input format the readers accept, for test fixtures and fuzz seeds.
+// They are test code: simple, not streaming, and trusted.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "tetrascope/storage/mesh.h"
+
+namespace tetrascope::testing {
+
+// A mesh of any linear VTK cells (tets, hexes, wedges, pyramids, voxels, triangles).
+struct CellMesh {
+  std::vector<float> x, y, z;
+  std::vector<storage::Attribute> attributes;
+  std::vector<uint8_t> types;        // VTK cell types
+  std::vector<uint32_t> offsets{0};  // cell c uses connectivity[offsets[c] .. offsets[c+1])
+  std::vector<uint32_t> connectivity;
+  void add_cell(uint8_t type, std::initializer_list<uint32_t> nodes);
+  size_t cell_count() const { return types.size(); }
+};
+
+CellMesh from_tets(const storage::TetMesh& mesh);
+
+struct VtkOptions {
+  bool binary = true;
+  bool doubles = false;     // POINTS and arrays as double
+  bool field = false;       // point arrays in a FIELD instead of SCALARS/VECTORS
+  bool version5 = false;    // 5.1 layout: CELLS with OFFSETS and CONNECTIVITY (vtktypeint64)
+};
+void write_vtk_legacy(const std::filesystem::path& path, const CellMesh& mesh, const VtkOptions& options = {});
+
+enum class VtuEncoding { kAscii, kInlineBase64, kAppendedRaw, kAppendedBase64 };
+struct VtuOptions {
+  VtuEncoding encoding = VtuEncoding::kAppendedRaw;
+  bool zlib = false;
+  bool header_uint64 = true;
+  bool doubles = false;
+  bool separate_header = false;  // base64: encode the size header and the data separately
+  size_t block_size = 4096;      // zlib block size
+};
+void write_vtu(const std::filesystem::path& path, const CellMesh& mesh, const VtuOptions& options = {});
+
+struct GmshOptions {
+  bool version4 = false;  // 4.1, else 2.2
+  bool binary = false;
+  uint32_t first_tag = 1;  // node tags start here (and step by tag_step)
+  uint32_t tag_step = 1;
+};
+void write_gmsh(const std::filesystem::path& path, const CellMesh& mesh, const GmshOptions& options = {});
+
+// Writes BASE.node and BASE.ele (tets only), 1-based, with scalar attributes named in a comment.
+void write_tetgen(const std::filesystem::path& base, const CellMesh& mesh);
+// HAVS-style OFF with the first scalar attribute as the 4th column (tets only).
+void write_off(const std::filesystem::path& path, const CellMesh& mesh);
+
+std::string read_file(const std::filesystem::path& path);
+void write_file(const std::filesystem::path& path, const std::string& bytes);
+
+}  // namespace tetrascope::testing

@@ -1,0 +1,15 @@
+#pragma once
+#include <filesystem>
+#include <string>
+
+namespace tetrascope::testing {
+
+std::filesystem::path source_dir();
+std::filesystem::path sample_mesh();  // data/samples/disk_out_ref.vtk
+// ../shared/data next to the checkout; empty when it is not there (tests then skip).
+std::filesystem::path shared_data();
+std::filesystem::path tetrascope_binary();
+// A fresh empty directory for one test.
+std::filesystem::path scratch_dir(const std::string& name);
+
+}  // namespace tetrascope::testing
