@@ -1,0 +1,57 @@
+// Writes a seed corpus for each fuzz target: small valid files in every variant.
+#include <filesystem>
+#include <iostream>
+
+#include "fixture_writers.h"
+#include "tetrascope/storage/mesh_stream.h"
+
+using namespace tetrascope::testing;
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::cerr << "usage: fuzz_seeds OUTDIR\n";
+    return 2;
+  }
+  std::filesystem::path out = argv[1];
+  CellMesh m;
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 3; ++i) {
+        m.x.push_back(static_cast<float>(i));
+        m.y.push_back(static_cast<float>(j));
+        m.z.push_back(static_cast<float>(k));
+      }
+  m.add_cell(12, {0, 1, 4, 3, 6, 7, 10, 9});
+  m.add_cell(10, {1, 2, 5, 8});
+  m.add_cell(10, {1, 5, 4, 10});
+  tetrascope::storage::Attribute t{{"t", 1}, {}}, v{{"v", 3}, {}};
+  for (size_t i = 0; i < m.x.size(); ++i) {
+    t.values.push_back(static_cast<float>(i));
+    v.values.insert(v.values.end(), {1.0f, 2.0f, static_cast<float>(i)});
+  }
+  m.attributes = {t, v};
+  CellMesh tets = m;
+  tets.types = {10, 10};
+  tets.offsets = {0, 4, 8};
+  tets.connectivity = {1, 2, 5, 8, 1, 5, 4, 10};
+  for (const char* d : {"vtk", "vtu", "msh", "tetgen", "off"}) std::filesystem::create_directories(out / d);
+  write_vtk_legacy(out / "vtk/ascii.vtk", m, {.binary = false});
+  write_vtk_legacy(out / "vtk/binary.vtk", m, {.binary = true});
+  write_vtk_legacy(out / "vtk/v51.vtk", m, {.binary = true, .version5 = true});
+  write_vtk_legacy(out / "vtk/field.vtk", m, {.binary = false, .field = true});
+  write_vtu(out / "vtu/ascii.vtu", m, {.encoding = VtuEncoding::kAscii});
+  write_vtu(out / "vtu/base64.vtu", m, {.encoding = VtuEncoding::kInlineBase64});
+  write_vtu(out / "vtu/base64_zlib.vtu", m, {.encoding = VtuEncoding::kInlineBase64, .zlib = true, .block_size = 64});
+  write_vtu(out / "vtu/raw.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .header_uint64 = false});
+  write_vtu(out / "vtu/raw_zlib.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 64});
+  write_gmsh(out / "msh/a22.msh", m, {.version4 = false, .binary = false});
+  write_gmsh(out / "msh/b22.msh", m, {.version4 = false, .binary = true});
+  write_gmsh(out / "msh/a41.msh", m, {.version4 = true, .binary = false});
+  write_gmsh(out / "msh/b41.msh", m, {.version4 = true, .binary = true});
+  write_off(out / "off/a.off", tets);
+  write_tetgen(out / "tetgen/t", tets);
+  write_file(out / "tetgen/pair", read_file(out / "tetgen/t.node") + "#ele\n" + read_file(out / "tetgen/t.ele"));
+  std::filesystem::remove(out / "tetgen/t.node");
+  std::filesystem::remove(out / "tetgen/t.ele");
+  return 0;
+}
