@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <limits>
 
@@ -114,34 +115,40 @@ nlohmann::json summary_json(const MeshSummary& s) {
   return j;
 }
 
-std::string summary_text(const MeshSummary& s) {
+namespace {
+__attribute__((format(printf, 2, 3))) void appendf(std::string& out, const char* format, ...) {
   char line[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(line, sizeof line, format, args);
+  va_end(args);
+  out += line;
+}
+}  // namespace
+
+std::string summary_text(const MeshSummary& s) {
   std::string out;
-  auto add = [&](const char* fmt, auto... args) {
-    std::snprintf(line, sizeof line, fmt, args...);
-    out += line;
-  };
-  add("file        %s (%s, %.1f MB)\n", s.file.c_str(), s.header.description.c_str(), s.file_bytes / 1e6);
-  add("vertices    %llu\n", static_cast<unsigned long long>(s.header.vertex_count));
-  add("tetrahedra  %llu", static_cast<unsigned long long>(s.stats.tetrahedra));
-  if (s.stats.cells != s.stats.tetrahedra) add("  (from %llu volume cells)", static_cast<unsigned long long>(s.stats.cells));
-  add("\n");
+  appendf(out, "file        %s (%s, %.1f MB)\n", s.file.c_str(), s.header.description.c_str(), s.file_bytes / 1e6);
+  appendf(out, "vertices    %llu\n", static_cast<unsigned long long>(s.header.vertex_count));
+  appendf(out, "tetrahedra  %llu", static_cast<unsigned long long>(s.stats.tetrahedra));
+  if (s.stats.cells != s.stats.tetrahedra) appendf(out, "  (from %llu volume cells)", static_cast<unsigned long long>(s.stats.cells));
+  appendf(out, "\n");
   if (s.stats.hexahedra + s.stats.wedges + s.stats.pyramids > 0) {
-    add("split       %llu hexahedra, %llu wedges, %llu pyramids\n", static_cast<unsigned long long>(s.stats.hexahedra),
+    appendf(out, "split       %llu hexahedra, %llu wedges, %llu pyramids\n", static_cast<unsigned long long>(s.stats.hexahedra),
         static_cast<unsigned long long>(s.stats.wedges), static_cast<unsigned long long>(s.stats.pyramids));
   }
-  if (s.stats.quadratic_cells) add("higher-order cells reduced to corners: %llu\n", static_cast<unsigned long long>(s.stats.quadratic_cells));
-  if (s.stats.skipped_cells) add("skipped     %llu points/lines/surface cells\n", static_cast<unsigned long long>(s.stats.skipped_cells));
-  add("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", s.bounds.min[0], s.bounds.max[0], s.bounds.min[1], s.bounds.max[1], s.bounds.min[2], s.bounds.max[2]);
-  add("attributes  %zu\n", s.attributes.size());
+  if (s.stats.quadratic_cells) appendf(out, "higher-order cells reduced to corners: %llu\n", static_cast<unsigned long long>(s.stats.quadratic_cells));
+  if (s.stats.skipped_cells) appendf(out, "skipped     %llu points/lines/surface cells\n", static_cast<unsigned long long>(s.stats.skipped_cells));
+  appendf(out, "bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", s.bounds.min[0], s.bounds.max[0], s.bounds.min[1], s.bounds.max[1], s.bounds.min[2], s.bounds.max[2]);
+  appendf(out, "attributes  %zu\n", s.attributes.size());
   for (const AttributeSummary& a : s.attributes) {
-    add("  %-24s %s  %g .. %g%s\n", a.info.name.c_str(), a.info.components == 1 ? "scalar" : (std::to_string(a.info.components) + "-vector").c_str(),
+    appendf(out, "  %-24s %s  %g .. %g%s\n", a.info.name.c_str(), a.info.components == 1 ? "scalar" : (std::to_string(a.info.components) + "-vector").c_str(),
         a.min, a.max, a.info.components == 1 ? "" : " (magnitude)");
   }
-  add("degenerate  %llu tets of zero volume\n", static_cast<unsigned long long>(s.stats.degenerate));
-  add("inverted    %llu tets re-oriented\n", static_cast<unsigned long long>(s.stats.inverted));
-  for (const std::string& w : s.stats.warnings) add("warning     %s\n", w.c_str());
-  add("read time   %.3f s\n", s.read_seconds);
+  appendf(out, "degenerate  %llu tets of zero volume\n", static_cast<unsigned long long>(s.stats.degenerate));
+  appendf(out, "inverted    %llu tets re-oriented\n", static_cast<unsigned long long>(s.stats.inverted));
+  for (const std::string& w : s.stats.warnings) appendf(out, "warning     %s\n", w.c_str());
+  appendf(out, "read time   %.3f s\n", s.read_seconds);
   return out;
 }
 

@@ -151,10 +151,11 @@ bool VtuReader::next_tag(Tag& tag) {
       tag.closing = true;
       i = 1;
     }
-    if (text.back() == '/') {
+    if (text.size() > i && text.back() == '/') {
       tag.self_closing = true;
       text.pop_back();
     }
+    if (text.size() <= i) fail_line(tag.line, "empty XML tag");
     size_t name_end = text.find_first_of(" \t\r\n", i);
     tag.name = text.substr(i, name_end == std::string::npos ? std::string::npos : name_end - i);
     size_t p = name_end;

@@ -231,6 +231,9 @@ TEST(HostileVtu, CorruptZlibBlock) {
   bytes[data + 41] = static_cast<char>(bytes[data + 41] ^ 0xa5);
   expect_error(MeshFormat::kVtu, bytes, "corrupt");
 }
+TEST(HostileVtu, EmptyClosingTagFoundByFuzzer) {
+  expect_error(MeshFormat::kVtu, "<VTKFile type=\"UnstructuredGrid\"></>", "empty XML tag");
+}
 TEST(HostileVtu, UnsupportedCompressor) {
   expect_error(MeshFormat::kVtu, "<VTKFile type=\"UnstructuredGrid\" compressor=\"vtkLZ4DataCompressor\">", "not supported");
 }
