@@ -50,6 +50,11 @@ struct CellBatch {
     nodes.insert(nodes.end(), cell_nodes.begin(), cell_nodes.end());
     offsets.push_back(nodes.size());
   }
+  void push(uint8_t type, const uint32_t (&tet)[4]) {
+    types.push_back(type);
+    nodes.insert(nodes.end(), tet, tet + 4);
+    offsets.push_back(nodes.size());
+  }
 };
 
 class FormatReader {

@@ -119,8 +119,9 @@ double orientation(const float* x, const float* y, const float* z, const uint32_
   double bx = double(x[t[2]]) - x[t[0]], by = double(y[t[2]]) - y[t[0]], bz = double(z[t[2]]) - z[t[0]];
   double cx = double(x[t[3]]) - x[t[0]], cy = double(y[t[3]]) - y[t[0]], cz = double(z[t[3]]) - z[t[0]];
   double det = ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
-  double scale = std::sqrt((ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz) * (cx * cx + cy * cy + cz * cz));
-  degenerate = std::fabs(det) <= 1e-12 * scale;
+  // |det| <= 1e-12 |a||b||c|, squared to avoid the square root
+  double scale2 = (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz) * (cx * cx + cy * cy + cz * cz);
+  degenerate = det * det <= 1e-24 * scale2;
   return det;
 }
 }  // namespace
@@ -131,6 +132,7 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
   }
   tet_scratch_.clear();
   max_tets = std::max<size_t>(max_tets, 6);
+  tet_scratch_.reserve(4 * max_tets + 24);
   CellBatch& batch = cells_->batch;
   while (!cells_done_ && tet_scratch_.size() / 4 + 6 <= max_tets) {
     batch.clear();
@@ -143,7 +145,22 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
     for (size_t c = 0; c < batch.size(); ++c) {
       int type = batch.types[c];
       size_t node_count = batch.offsets[c + 1] - batch.offsets[c];
-      std::span<const uint32_t> nodes(batch.nodes.data() + batch.offsets[c], node_count);
+      const uint32_t* first = batch.nodes.data() + batch.offsets[c];
+      if (type == detail::kVtkTetra && node_count == 4) {  // the common case, without the split path
+        ++stats_.cells;
+        uint32_t tet[4] = {first[0], first[1], first[2], first[3]};
+        bool degenerate = false;
+        double det = orientation(x_.data(), y_.data(), z_.data(), tet, degenerate);
+        if (degenerate) {
+          ++stats_.degenerate;
+        } else if (det < 0) {
+          std::swap(tet[2], tet[3]);
+          ++stats_.inverted;
+        }
+        tet_scratch_.insert(tet_scratch_.end(), tet, tet + 4);
+        continue;
+      }
+      std::span<const uint32_t> nodes(first, node_count);
       int corners = detail::volume_corner_count(type, static_cast<int>(node_count));
       if (corners <= 0) {
         ++stats_.skipped_cells;
