@@ -124,6 +124,17 @@ double orientation(const float* x, const float* y, const float* z, const uint32_
   degenerate = det * det <= 1e-24 * scale2;
   return det;
 }
+// Makes the tet positively oriented in place and counts what it found.
+void orient(const float* x, const float* y, const float* z, uint32_t* tet, ReadStats& stats, bool count_inversion) {
+  bool degenerate = false;
+  double det = orientation(x, y, z, tet, degenerate);
+  if (degenerate) {
+    ++stats.degenerate;
+  } else if (det < 0) {
+    std::swap(tet[2], tet[3]);
+    if (count_inversion) ++stats.inverted;
+  }
+}
 }  // namespace
 
 bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
@@ -149,14 +160,7 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       if (type == detail::kVtkTetra && node_count == 4) {  // the common case, without the split path
         ++stats_.cells;
         uint32_t tet[4] = {first[0], first[1], first[2], first[3]};
-        bool degenerate = false;
-        double det = orientation(x_.data(), y_.data(), z_.data(), tet, degenerate);
-        if (degenerate) {
-          ++stats_.degenerate;
-        } else if (det < 0) {
-          std::swap(tet[2], tet[3]);
-          ++stats_.inverted;
-        }
+        orient(x_.data(), y_.data(), z_.data(), tet, stats_, true);
         tet_scratch_.insert(tet_scratch_.end(), tet, tet + 4);
         continue;
       }
@@ -181,15 +185,8 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       size_t produced = detail::split_cell(linear, nodes.first(static_cast<size_t>(corners)), tet_scratch_.data() + at);
       tet_scratch_.resize(at + 4 * produced);
       for (size_t t = 0; t < produced; ++t) {
-        uint32_t* tet = tet_scratch_.data() + at + 4 * t;
-        bool degenerate = false;
-        double det = orientation(x_.data(), y_.data(), z_.data(), tet, degenerate);
-        if (degenerate) {
-          ++stats_.degenerate;
-        } else if (det < 0) {
-          std::swap(tet[2], tet[3]);
-          if (linear == detail::kVtkTetra) ++stats_.inverted;
-        }
+        // split products come in either orientation; only native tets count as inverted
+        orient(x_.data(), y_.data(), z_.data(), tet_scratch_.data() + at + 4 * t, stats_, linear == detail::kVtkTetra);
       }
     }
   }

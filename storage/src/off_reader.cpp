@@ -9,6 +9,18 @@
 namespace tetrascope::storage::detail {
 namespace {
 
+int count_columns(std::string_view text) {
+  int columns = 0;
+  for (size_t p = 0; p < text.size();) {
+    size_t s = text.find_first_not_of(" \t\r", p);
+    if (s == std::string_view::npos) break;
+    ++columns;
+    size_t e = text.find_first_of(" \t\r", s);
+    p = e == std::string_view::npos ? text.size() : e;
+  }
+  return columns;
+}
+
 class OffReader final : public FormatReader {
  public:
   explicit OffReader(std::shared_ptr<InputFile> file) : file_(std::move(file)), cursor_(file_) {}
@@ -48,14 +60,7 @@ class OffReader final : public FormatReader {
       cursor_.skip_whitespace();
       uint64_t line = cursor_.line();
       if (!cursor_.line_text(text)) cursor_.fail("file ends before the first vertex");
-      int columns = 0;
-      for (size_t p = 0; p < text.size();) {
-        size_t s = text.find_first_not_of(" \t\r", p);
-        if (s == std::string_view::npos) break;
-        ++columns;
-        size_t e = text.find_first_of(" \t\r", s);
-        p = e == std::string_view::npos ? text.size() : e;
-      }
+      int columns = count_columns(text);
       if (columns < 3 || columns > 3 + 64) {
         throw MeshError(file_->name() + ": line " + std::to_string(line) + ": a vertex needs x y z and at most 64 values, got " + std::to_string(columns) + " columns");
       }
@@ -93,14 +98,7 @@ class OffReader final : public FormatReader {
         cursor_.skip_whitespace();
         std::string_view text;
         cursor_.line_text(text);
-        int columns = 0;
-        for (size_t p = 0; p < text.size();) {
-          size_t s = text.find_first_not_of(" \t\r", p);
-          if (s == std::string_view::npos) break;
-          ++columns;
-          size_t e = text.find_first_of(" \t\r", s);
-          p = e == std::string_view::npos ? text.size() : e;
-        }
+        int columns = count_columns(text);
         counted_ = columns == 5;
         cursor_.seek(mark, line);
       }

@@ -2,6 +2,7 @@
 // 5.1 (OFFSETS/CONNECTIVITY cells). Format: "VTK File Formats", VTK User's Guide ch. 19.
 #include <algorithm>
 #include <cctype>
+#include <functional>
 #include <optional>
 
 #include "format_reader.h"
@@ -41,6 +42,12 @@ class VtkLegacyReader final : public FormatReader {
   // Skips `values` values of `type` (binary: by size; ASCII: by token) and returns where they began.
   ArrayLocation skip_array(uint64_t values, std::string_view type_name, std::string_view what);
   void read_attribute_section(bool point_data, uint64_t tuples, ReadStats& stats);
+  // A FIELD block. With `tuples`, every array must have that many and is passed to `keep`;
+  // without, arrays of any size are skipped.
+  void read_field(std::optional<uint64_t> tuples,
+                  const std::function<void(std::string, uint32_t, const ArrayLocation&)>& keep);
+  // VTK 9 writes METADATA / INFORMATION blocks ended by an empty line.
+  void skip_metadata();
   std::unique_ptr<ValueStream> stream_at(const ArrayLocation& location) const;
 
   std::shared_ptr<InputFile> file_;
@@ -118,6 +125,34 @@ std::unique_ptr<ValueStream> VtkLegacyReader::stream_at(const ArrayLocation& loc
   return std::make_unique<AsciiValues>(file_, location.offset, location.line);
 }
 
+void VtkLegacyReader::read_field(std::optional<uint64_t> tuples,
+                                 const std::function<void(std::string, uint32_t, const ArrayLocation&)>& keep) {
+  cursor_.expect_token("field name");
+  uint32_t arrays = cursor_.parse_int<uint32_t>("field array count");
+  for (uint32_t a = 0; a < arrays; ++a) {
+    std::string name(cursor_.expect_token("field array name"));
+    if (upper(name) == "NULL_ARRAY") continue;
+    uint32_t components = cursor_.parse_int<uint32_t>("field array component count");
+    uint64_t count = cursor_.parse_int<uint64_t>("field array tuple count");
+    std::string type(cursor_.expect_token("field array data type"));
+    if (components == 0 || components > 1024) cursor_.fail("FIELD array '" + name + "' has " + std::to_string(components) + " components, expected 1 to 1024");
+    if (count > (uint64_t{1} << 40)) cursor_.fail("FIELD array '" + name + "' is too large");
+    if (tuples && count != *tuples) cursor_.fail("FIELD array '" + name + "' has " + std::to_string(count) + " tuples, expected " + std::to_string(*tuples));
+    std::string t = upper(type);
+    if (t == "STRING" || t == "UTF8_STRING" || t == "VARIANT") cursor_.fail("FIELD array '" + name + "' of type " + type + " is not supported");
+    ArrayLocation loc = skip_array(count * components, type, "FIELD array '" + name + "'");
+    if (keep && t != "BIT" && components <= 64) keep(std::move(name), components, loc);
+  }
+}
+
+void VtkLegacyReader::skip_metadata() {
+  std::string_view text;
+  cursor_.line_text(text);
+  while (cursor_.line_text(text)) {
+    if (text.find_first_not_of(" \t\r") == std::string_view::npos) break;
+  }
+}
+
 void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, ReadStats& stats) {
   if (tuples > (uint64_t{1} << 40)) cursor_.fail(std::string(point_data ? "POINT_DATA" : "CELL_DATA") + " count too large");
   if (point_data && tuples != header_.vertex_count) {
@@ -193,29 +228,9 @@ void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, R
       if (size > (uint64_t{1} << 40)) cursor_.fail("lookup table size too large");
       skip_array(size * 4, binary_ ? "unsigned_char" : "float", "LOOKUP_TABLE");
     } else if (keyword == "FIELD") {
-      cursor_.expect_token("field name");
-      uint32_t arrays = cursor_.parse_int<uint32_t>("field array count");
-      for (uint32_t a = 0; a < arrays; ++a) {
-        std::string name(cursor_.expect_token("field array name"));
-        if (upper(name) == "NULL_ARRAY") continue;
-        uint32_t components = cursor_.parse_int<uint32_t>("field array component count");
-        uint64_t count = cursor_.parse_int<uint64_t>("field array tuple count");
-        std::string type(cursor_.expect_token("field array data type"));
-        if (components == 0 || components > 64) cursor_.fail("FIELD array '" + name + "' has " + std::to_string(components) + " components, expected 1 to 64");
-        if (count != tuples) cursor_.fail("FIELD array '" + name + "' has " + std::to_string(count) + " tuples, expected " + std::to_string(tuples));
-        if (upper(type) == "STRING" || upper(type) == "UTF8_STRING" || upper(type) == "VARIANT") {
-          cursor_.fail("FIELD array '" + name + "' of type " + type + " is not supported");
-        }
-        ArrayLocation loc = skip_array(count * components, type, "FIELD array '" + name + "'");
-        if (upper(type) != "BIT") add(name, components, loc);
-      }
+      read_field(tuples, [&](std::string name, uint32_t components, const ArrayLocation& loc) { add(std::move(name), components, loc); });
     } else if (keyword == "METADATA") {
-      // VTK 9 writes METADATA / INFORMATION blocks ended by an empty line.
-      std::string_view text;
-      cursor_.line_text(text);
-      while (cursor_.line_text(text)) {
-        if (text.find_first_not_of(" \t\r") == std::string_view::npos) break;
-      }
+      skip_metadata();
     } else {
       cursor_.seek(keyword_offset, keyword_line);  // POINT_DATA / CELL_DATA / unknown
       return;
@@ -277,24 +292,10 @@ MeshHeader VtkLegacyReader::index(ReadStats& stats) {
       uint64_t n = cursor_.parse_int<uint64_t>(keyword + " count");
       read_attribute_section(keyword == "POINT_DATA", n, stats);
     } else if (keyword == "FIELD") {
-      // dataset-level field data (e.g. TIME): not per vertex, skip it
-      cursor_.expect_token("field name");
-      uint32_t arrays = cursor_.parse_int<uint32_t>("field array count");
-      for (uint32_t a = 0; a < arrays; ++a) {
-        std::string name(cursor_.expect_token("field array name"));
-        if (upper(name) == "NULL_ARRAY") continue;
-        uint64_t components = cursor_.parse_int<uint32_t>("field array component count");
-        uint64_t tuples = cursor_.parse_int<uint64_t>("field array tuple count");
-        std::string type(cursor_.expect_token("field array data type"));
-        if (components > 1024 || tuples > (uint64_t{1} << 40)) cursor_.fail("FIELD array '" + name + "' is too large");
-        skip_array(components * tuples, type, "FIELD array '" + name + "'");
-      }
+      // dataset-level field data (e.g. TIME): not per vertex, skipped
+      read_field(std::nullopt, nullptr);
     } else if (keyword == "METADATA") {
-      std::string_view t;
-      cursor_.line_text(t);
-      while (cursor_.line_text(t)) {
-        if (t.find_first_not_of(" \t\r") == std::string_view::npos) break;
-      }
+      skip_metadata();
     } else {
       cursor_.fail("unexpected keyword " + quote_text(token) + " in an UNSTRUCTURED_GRID");
     }
