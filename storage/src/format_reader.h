@@ -38,19 +38,23 @@ struct CellBatch {
   std::vector<uint64_t> offsets{0};  // types.size() + 1 entries into nodes
   std::vector<uint32_t> nodes;       // 0-based vertex indices, already range-checked
   uint64_t reduced = 0;              // higher-order cells the reader cut down to their corners
+  bool only_tets = true;             // every cell is a 4-vertex tetrahedron
   void clear() {
     reduced = 0;
+    only_tets = true;
     types.clear();
     offsets.assign(1, 0);
     nodes.clear();
   }
   size_t size() const { return types.size(); }
   void push(uint8_t type, std::span<const uint32_t> cell_nodes) {
+    only_tets = only_tets && type == kVtkTetra && cell_nodes.size() == 4;
     types.push_back(type);
     nodes.insert(nodes.end(), cell_nodes.begin(), cell_nodes.end());
     offsets.push_back(nodes.size());
   }
   void push(uint8_t type, const uint32_t (&tet)[4]) {
+    only_tets = only_tets && type == kVtkTetra;
     types.push_back(type);
     nodes.insert(nodes.end(), tet, tet + 4);
     offsets.push_back(nodes.size());
@@ -185,6 +189,7 @@ class BinaryValues final : public ValueStream {
 // Integers read ahead in blocks from a ValueStream that holds exactly `total` of them.
 class BufferedInts {
  public:
+  static constexpr size_t kBlock = 1 << 15;
   BufferedInts() = default;
   BufferedInts(ValueStream* stream, uint64_t total) : stream_(stream), left_(total) {}
   uint64_t remaining() const { return left_ + (buffer_.size() - pos_); }
@@ -192,12 +197,27 @@ class BufferedInts {
     if (pos_ == buffer_.size()) refill(what);
     return buffer_[pos_++];
   }
+  // The next `n` values (n <= remaining()) without consuming them; valid until the next call.
+  std::span<const int64_t> peek(size_t n, std::string_view what) {
+    if (buffer_.size() - pos_ < n) {
+      buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(pos_));
+      pos_ = 0;
+      size_t have = buffer_.size();
+      size_t more = static_cast<size_t>(std::min<uint64_t>(left_, std::max(n - have, kBlock)));
+      if (have + more < n) stream_->fail("more values needed than declared for " + std::string(what));
+      buffer_.resize(have + more);
+      stream_->read_int(buffer_.data() + have, more, what);
+      left_ -= more;
+    }
+    return {buffer_.data() + pos_, n};
+  }
+  void consume(size_t n) { pos_ += n; }
   ValueStream& stream() { return *stream_; }
 
  private:
   void refill(std::string_view what) {
     if (left_ == 0) stream_->fail("more values needed than declared for " + std::string(what));
-    size_t n = static_cast<size_t>(std::min<uint64_t>(left_, 1 << 15));
+    size_t n = static_cast<size_t>(std::min<uint64_t>(left_, kBlock));
     buffer_.resize(n);
     stream_->read_int(buffer_.data(), n, what);
     left_ -= n;
@@ -208,6 +228,13 @@ class BufferedInts {
   std::vector<int64_t> buffer_;
   size_t pos_ = 0;
 };
+
+// Appends up to `count` tetrahedra from the next `count` cells when they are all 4-vertex
+// tets with in-range indices; otherwise appends nothing and returns false, and the caller
+// reads them one by one (which finds and reports any problem). `connectivity` holds
+// `stride` values a cell: the vertex count first when stride is 5 (legacy VTK), else 4.
+bool append_tet_run(std::span<const int64_t> types, std::span<const int64_t> connectivity, size_t stride,
+                    uint64_t vertex_count, CellBatch& batch);
 
 // Converts `count` values of `type` stored at `src` (given byte order) to double / int64.
 void decode_values(const uint8_t* src, size_t count, ScalarType type, bool little_endian, double* out);

@@ -77,9 +77,7 @@ MeshStream::MeshStream(std::unique_ptr<detail::FormatReader> reader)
   header_ = reader_->index(stats_);
   // Counts were checked against the file size by the reader, so this allocation is bounded
   // by the input, not by what a header claims.
-  x_.reserve(header_.vertex_count);
-  y_.reserve(header_.vertex_count);
-  z_.reserve(header_.vertex_count);
+  xyz_.reserve(3 * header_.vertex_count);
   attribute_scratch_.resize(header_.attributes.size());
 }
 
@@ -88,24 +86,26 @@ MeshStream::~MeshStream() = default;
 bool MeshStream::next_vertices(VertexChunk& chunk, size_t max_vertices) {
   if (vertices_read_ >= header_.vertex_count) return false;
   size_t count = static_cast<size_t>(std::min<uint64_t>(std::max<size_t>(max_vertices, 1), header_.vertex_count - vertices_read_));
-  xyz_scratch_.resize(3 * count);
   std::vector<float*> attribute_pointers;
   for (size_t a = 0; a < header_.attributes.size(); ++a) {
     attribute_scratch_[a].resize(count * header_.attributes[a].components);
     attribute_pointers.push_back(attribute_scratch_[a].data());
   }
-  reader_->read_vertices(count, xyz_scratch_.data(), attribute_pointers, stats_);
-  size_t base = x_.size();
+  // Coordinates stay interleaved: orienting a tet then touches one cache line a vertex.
+  size_t base = xyz_.size();
+  xyz_.resize(base + 3 * count);
+  reader_->read_vertices(count, xyz_.data() + base, attribute_pointers, stats_);
+  soa_scratch_.resize(3 * count);
   for (size_t i = 0; i < count; ++i) {
-    x_.push_back(xyz_scratch_[3 * i]);
-    y_.push_back(xyz_scratch_[3 * i + 1]);
-    z_.push_back(xyz_scratch_[3 * i + 2]);
+    soa_scratch_[i] = xyz_[base + 3 * i];
+    soa_scratch_[count + i] = xyz_[base + 3 * i + 1];
+    soa_scratch_[2 * count + i] = xyz_[base + 3 * i + 2];
   }
   chunk.first = vertices_read_;
   chunk.count = count;
-  chunk.x = std::span<const float>(x_).subspan(base, count);
-  chunk.y = std::span<const float>(y_).subspan(base, count);
-  chunk.z = std::span<const float>(z_).subspan(base, count);
+  chunk.x = std::span<const float>(soa_scratch_).subspan(0, count);
+  chunk.y = std::span<const float>(soa_scratch_).subspan(count, count);
+  chunk.z = std::span<const float>(soa_scratch_).subspan(2 * count, count);
   chunk.attributes.clear();
   for (const auto& a : attribute_scratch_) chunk.attributes.emplace_back(a);
   vertices_read_ += count;
@@ -114,10 +114,14 @@ bool MeshStream::next_vertices(VertexChunk& chunk, size_t max_vertices) {
 
 namespace {
 // Returns 6 * signed volume, and whether it is numerically zero relative to the edges.
-double orientation(const float* x, const float* y, const float* z, const uint32_t* t, bool& degenerate) {
-  double ax = double(x[t[1]]) - x[t[0]], ay = double(y[t[1]]) - y[t[0]], az = double(z[t[1]]) - z[t[0]];
-  double bx = double(x[t[2]]) - x[t[0]], by = double(y[t[2]]) - y[t[0]], bz = double(z[t[2]]) - z[t[0]];
-  double cx = double(x[t[3]]) - x[t[0]], cy = double(y[t[3]]) - y[t[0]], cz = double(z[t[3]]) - z[t[0]];
+double orientation(const float* xyz, const uint32_t* t, bool& degenerate) {
+  const float* p0 = xyz + 3 * size_t{t[0]};
+  const float* p1 = xyz + 3 * size_t{t[1]};
+  const float* p2 = xyz + 3 * size_t{t[2]};
+  const float* p3 = xyz + 3 * size_t{t[3]};
+  double ax = double(p1[0]) - p0[0], ay = double(p1[1]) - p0[1], az = double(p1[2]) - p0[2];
+  double bx = double(p2[0]) - p0[0], by = double(p2[1]) - p0[1], bz = double(p2[2]) - p0[2];
+  double cx = double(p3[0]) - p0[0], cy = double(p3[1]) - p0[1], cz = double(p3[2]) - p0[2];
   double det = ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
   // |det| <= 1e-12 |a||b||c|, squared to avoid the square root
   double scale2 = (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz) * (cx * cx + cy * cy + cz * cz);
@@ -125,9 +129,9 @@ double orientation(const float* x, const float* y, const float* z, const uint32_
   return det;
 }
 // Makes the tet positively oriented in place and counts what it found.
-void orient(const float* x, const float* y, const float* z, uint32_t* tet, ReadStats& stats, bool count_inversion) {
+void orient(const float* xyz, uint32_t* tet, ReadStats& stats, bool count_inversion) {
   bool degenerate = false;
-  double det = orientation(x, y, z, tet, degenerate);
+  double det = orientation(xyz, tet, degenerate);
   if (degenerate) {
     ++stats.degenerate;
   } else if (det < 0) {
@@ -153,6 +157,12 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       break;
     }
     stats_.quadratic_cells += batch.reduced;
+    if (batch.only_tets) {  // bulk path: orient in place, append in one copy
+      for (size_t t = 0; t < batch.size(); ++t) orient(xyz_.data(), batch.nodes.data() + 4 * t, stats_, true);
+      stats_.cells += batch.size();
+      tet_scratch_.insert(tet_scratch_.end(), batch.nodes.begin(), batch.nodes.end());
+      continue;
+    }
     for (size_t c = 0; c < batch.size(); ++c) {
       int type = batch.types[c];
       size_t node_count = batch.offsets[c + 1] - batch.offsets[c];
@@ -160,7 +170,7 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       if (type == detail::kVtkTetra && node_count == 4) {  // the common case, without the split path
         ++stats_.cells;
         uint32_t tet[4] = {first[0], first[1], first[2], first[3]};
-        orient(x_.data(), y_.data(), z_.data(), tet, stats_, true);
+        orient(xyz_.data(), tet, stats_, true);
         tet_scratch_.insert(tet_scratch_.end(), tet, tet + 4);
         continue;
       }
@@ -186,7 +196,7 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       tet_scratch_.resize(at + 4 * produced);
       for (size_t t = 0; t < produced; ++t) {
         // split products come in either orientation; only native tets count as inverted
-        orient(x_.data(), y_.data(), z_.data(), tet_scratch_.data() + at + 4 * t, stats_, linear == detail::kVtkTetra);
+        orient(xyz_.data(), tet_scratch_.data() + at + 4 * t, stats_, linear == detail::kVtkTetra);
       }
     }
   }
@@ -212,9 +222,16 @@ TetMesh load_stream(MeshStream& stream) {
       mesh.attributes[a].values.insert(mesh.attributes[a].values.end(), chunk.attributes[a].begin(), chunk.attributes[a].end());
     }
   }
-  mesh.x.assign(stream.x().begin(), stream.x().end());
-  mesh.y.assign(stream.y().begin(), stream.y().end());
-  mesh.z.assign(stream.z().begin(), stream.z().end());
+  std::span<const float> xyz = stream.xyz();
+  const size_t n = xyz.size() / 3;
+  mesh.x.resize(n);
+  mesh.y.resize(n);
+  mesh.z.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    mesh.x[i] = xyz[3 * i];
+    mesh.y[i] = xyz[3 * i + 1];
+    mesh.z[i] = xyz[3 * i + 2];
+  }
   TetChunk tets;
   while (stream.next_tets(tets)) mesh.tets.insert(mesh.tets.end(), tets.tets.begin(), tets.tets.end());
   return mesh;

@@ -57,6 +57,31 @@ int volume_corner_count(int type, int node_count) {
   }
 }
 
+bool append_tet_run(std::span<const int64_t> types, std::span<const int64_t> connectivity, size_t stride,
+                    uint64_t vertex_count, CellBatch& batch) {
+  const size_t count = types.size();
+  bool ok = true;
+  for (size_t c = 0; c < count; ++c) ok &= types[c] == kVtkTetra;
+  if (stride == 5) {
+    for (size_t c = 0; c < count; ++c) ok &= connectivity[5 * c] == 4;
+  }
+  const size_t skip = stride == 5 ? 1 : 0;
+  uint64_t bad = 0;
+  for (size_t c = 0; c < count; ++c) {
+    for (size_t k = 0; k < 4; ++k) bad |= static_cast<uint64_t>(connectivity[stride * c + skip + k]) >= vertex_count;
+  }
+  if (!ok || bad) return false;
+  size_t base = batch.nodes.size();
+  batch.nodes.resize(base + 4 * count);
+  uint32_t* out = batch.nodes.data() + base;
+  for (size_t c = 0; c < count; ++c) {
+    for (size_t k = 0; k < 4; ++k) out[4 * c + k] = static_cast<uint32_t>(connectivity[stride * c + skip + k]);
+  }
+  batch.types.insert(batch.types.end(), count, static_cast<uint8_t>(kVtkTetra));
+  for (size_t c = 0; c < count; ++c) batch.offsets.push_back(base + 4 * (c + 1));
+  return true;
+}
+
 // ---- raw -----------------------------------------------------------------------------
 
 RawBytes::RawBytes(std::shared_ptr<const InputFile> file, uint64_t offset, uint64_t limit)

@@ -67,6 +67,8 @@ class VtkLegacyReader final : public FormatReader {
   std::unique_ptr<ValueStream> cell_stream_, offset_stream_, type_stream_;
   BufferedInts cell_ints_, offset_ints_, type_ints_;
   int64_t previous_offset_ = 0;
+  static constexpr uint64_t kTetRun = 1024;
+  size_t slow_cells_ = 0;  // cells left to read one by one after a run that was not plain tets
   std::vector<uint32_t> cell_nodes_;
 };
 
@@ -340,6 +342,36 @@ bool VtkLegacyReader::read_cells(CellBatch& batch, size_t max_cells) {
   const uint64_t vertex_count = header_.vertex_count;
   size_t added = 0;
   while (added < max_cells && cells_read_ < cell_count_) {
+    // Runs of plain tets take the bulk path; anything else (or any error) goes cell by cell.
+    size_t run = static_cast<size_t>(std::min<uint64_t>({kTetRun, max_cells - added, cell_count_ - cells_read_}));
+    if (slow_cells_ == 0 && run >= 16) {
+      bool done = false;
+      if (cells_ && cell_ints_.remaining() >= 5 * run) {
+        if (append_tet_run(type_ints_.peek(run, "CELL_TYPES"), cell_ints_.peek(5 * run, "CELLS"), 5, vertex_count, batch)) {
+          cell_ints_.consume(5 * run);
+          done = true;
+        }
+      } else if (!cells_ && cell_ints_.remaining() >= 4 * run) {
+        auto ends = offset_ints_.peek(run, "OFFSETS");
+        bool steady = true;
+        for (size_t i = 0; i < run; ++i) steady &= ends[i] == previous_offset_ + 4 * static_cast<int64_t>(i + 1);
+        int64_t last = ends[run - 1];
+        if (steady && append_tet_run(type_ints_.peek(run, "CELL_TYPES"), cell_ints_.peek(4 * run, "CONNECTIVITY"), 4, vertex_count, batch)) {
+          offset_ints_.consume(run);
+          cell_ints_.consume(4 * run);
+          previous_offset_ = last;
+          done = true;
+        }
+      }
+      if (done) {
+        type_ints_.consume(run);
+        cells_read_ += run;
+        added += run;
+        continue;
+      }
+      slow_cells_ = run;
+    }
+    if (slow_cells_ > 0) --slow_cells_;
     int64_t n;
     if (cells_) {
       n = cell_ints_.next("CELLS");

@@ -108,6 +108,8 @@ class VtuReader final : public FormatReader {
   bool cells_started_ = false;
   uint64_t cells_read_ = 0;
   int64_t previous_end_ = 0;
+  static constexpr uint64_t kTetRun = 1024;
+  size_t slow_cells_ = 0;  // cells left to read one by one after a run that was not plain tets
   std::unique_ptr<ValueStream> connectivity_stream_, offset_stream_, type_stream_;
   BufferedInts connectivity_ints_, offset_ints_, type_ints_;
   std::vector<uint32_t> cell_nodes_;
@@ -416,6 +418,25 @@ bool VtuReader::read_cells(CellBatch& batch, size_t max_cells) {
   const uint64_t vertex_count = header_.vertex_count;
   size_t added = 0;
   while (added < max_cells && cells_read_ < cell_count) {
+    // Runs of plain tets take the bulk path; anything else (or any error) goes cell by cell.
+    size_t run = static_cast<size_t>(std::min<uint64_t>({kTetRun, max_cells - added, cell_count - cells_read_}));
+    if (slow_cells_ == 0 && run >= 16 && connectivity_ints_.remaining() >= 4 * run) {
+      auto ends = offset_ints_.peek(run, "offsets");
+      bool steady = true;
+      for (size_t i = 0; i < run; ++i) steady &= ends[i] == previous_end_ + 4 * static_cast<int64_t>(i + 1);
+      int64_t last_end = ends[run - 1];
+      if (steady && append_tet_run(type_ints_.peek(run, "types"), connectivity_ints_.peek(4 * run, "connectivity"), 4, vertex_count, batch)) {
+        offset_ints_.consume(run);
+        type_ints_.consume(run);
+        connectivity_ints_.consume(4 * run);
+        previous_end_ = last_end;
+        cells_read_ += run;
+        added += run;
+        continue;
+      }
+      slow_cells_ = run;
+    }
+    if (slow_cells_ > 0) --slow_cells_;
     int64_t end = offset_ints_.next("offsets");
     int64_t n = end - previous_end_;
     if (n < 0 || static_cast<uint64_t>(n) > connectivity_ints_.remaining()) {

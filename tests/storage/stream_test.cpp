@@ -47,7 +47,7 @@ TEST(MeshStream, TetsBeforeVerticesStillOrients) {
   size_t total = 0;
   while (stream->next_tets(t)) total += t.count;
   EXPECT_EQ(total, 44832u);
-  EXPECT_EQ(stream->x().size(), 8499u);
+  EXPECT_EQ(stream->xyz().size(), 3u * 8499u);
 }
 
 TEST(MeshStream, InvertedTetsAreReorientedAndCounted) {

@@ -74,11 +74,9 @@ class MeshStream {
   // Next run of tets; call after all vertices were read. False at the end.
   bool next_tets(TetChunk& chunk, size_t max_tets = kDefaultChunk);
 
-  // Coordinates of all vertices read so far (kept for orientation); the caller may
-  // borrow them instead of keeping a copy.
-  std::span<const float> x() const { return x_; }
-  std::span<const float> y() const { return y_; }
-  std::span<const float> z() const { return z_; }
+  // Coordinates of all vertices read so far, interleaved x0 y0 z0 x1 ... (kept to orient
+  // tets); the caller may borrow them instead of keeping a copy.
+  std::span<const float> xyz() const { return xyz_; }
 
   const ReadStats& stats() const { return stats_; }
 
@@ -89,10 +87,10 @@ class MeshStream {
   std::unique_ptr<detail::FormatReader> reader_;
   MeshHeader header_;
   ReadStats stats_;
-  std::vector<float> x_, y_, z_;
+  std::vector<float> xyz_;
   uint64_t vertices_read_ = 0;
   uint64_t tets_emitted_ = 0;
-  std::vector<float> xyz_scratch_;
+  std::vector<float> soa_scratch_;
   std::vector<std::vector<float>> attribute_scratch_;
   std::vector<uint32_t> tet_scratch_;
   struct CellScratch;
