@@ -13,6 +13,8 @@
 #include "input.h"
 #include "tetrascope/storage/mesh_stream.h"
 
+struct libdeflate_decompressor;
+
 namespace tetrascope::storage::detail {
 
 // VTK cell type ids; readers of other formats translate into these.
@@ -124,10 +126,13 @@ class Base64Bytes final : public ByteStream {
 
 // VTK's vtkZLibDataCompressor framing: a header [blocks, block size, last block size,
 // compressed sizes...] (UInt32 or UInt64) and then the deflated blocks.
+// Blocks are inflated with libdeflate, several at a time and on two threads.
 class ZlibBlocks final : public ByteStream {
  public:
+  static constexpr uint64_t kGroupBytes = 2 << 20;  // inflate about this much output at once
   ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bool little_endian,
              uint64_t expected_bytes, uint64_t file_size);
+  ~ZlibBlocks() override;
   void read(void* dst, size_t n, std::string_view what) override;
   [[noreturn]] void fail(std::string_view what) const override {
     inner_->fail(what);
@@ -135,13 +140,15 @@ class ZlibBlocks final : public ByteStream {
   }
 
  private:
-  void next_block();
+  void next_group();
+  uint64_t block_bytes(size_t block) const;
   std::unique_ptr<ByteStream> inner_;
   std::vector<uint64_t> compressed_sizes_;
   uint64_t block_size_ = 0, last_block_size_ = 0;
   size_t block_ = 0;
   std::vector<uint8_t> compressed_, block_data_;
   size_t block_pos_ = 0;
+  libdeflate_decompressor* inflaters_[2] = {nullptr, nullptr};
 };
 
 class ValueStream {
@@ -192,41 +199,42 @@ class BufferedInts {
   static constexpr size_t kBlock = 1 << 15;
   BufferedInts() = default;
   BufferedInts(ValueStream* stream, uint64_t total) : stream_(stream), left_(total) {}
-  uint64_t remaining() const { return left_ + (buffer_.size() - pos_); }
+  uint64_t remaining() const { return left_ + (end_ - pos_); }
   int64_t next(std::string_view what) {
-    if (pos_ == buffer_.size()) refill(what);
+    if (pos_ == end_) fill(1, what);
     return buffer_[pos_++];
   }
   // The next `n` values (n <= remaining()) without consuming them; valid until the next call.
   std::span<const int64_t> peek(size_t n, std::string_view what) {
-    if (buffer_.size() - pos_ < n) {
-      buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(pos_));
-      pos_ = 0;
-      size_t have = buffer_.size();
-      size_t more = static_cast<size_t>(std::min<uint64_t>(left_, std::max(n - have, kBlock)));
-      if (have + more < n) stream_->fail("more values needed than declared for " + std::string(what));
-      buffer_.resize(have + more);
-      stream_->read_int(buffer_.data() + have, more, what);
-      left_ -= more;
-    }
-    return {buffer_.data() + pos_, n};
+    if (end_ - pos_ < n) fill(n, what);
+    return {buffer_.get() + pos_, n};
   }
   void consume(size_t n) { pos_ += n; }
   ValueStream& stream() { return *stream_; }
 
  private:
-  void refill(std::string_view what) {
-    if (left_ == 0) stream_->fail("more values needed than declared for " + std::string(what));
-    size_t n = static_cast<size_t>(std::min<uint64_t>(left_, kBlock));
-    buffer_.resize(n);
-    stream_->read_int(buffer_.data(), n, what);
-    left_ -= n;
+  // Makes at least `n` values available from pos_, reading at least a block.
+  void fill(size_t n, std::string_view what) {
+    size_t have = end_ - pos_;
+    size_t more = static_cast<size_t>(std::min<uint64_t>(left_, std::max(n - have, kBlock)));
+    if (have + more < n || more == 0) stream_->fail("more values needed than declared for " + std::string(what));
+    if (have + more > capacity_) {  // uninitialised storage: every slot is written before it is read
+      std::unique_ptr<int64_t[]> bigger(new int64_t[have + more]);
+      std::copy(buffer_.get() + pos_, buffer_.get() + end_, bigger.get());
+      buffer_ = std::move(bigger);
+      capacity_ = have + more;
+    } else {
+      std::copy(buffer_.get() + pos_, buffer_.get() + end_, buffer_.get());
+    }
+    stream_->read_int(buffer_.get() + have, more, what);
+    left_ -= more;
     pos_ = 0;
+    end_ = have + more;
   }
   ValueStream* stream_ = nullptr;
   uint64_t left_ = 0;
-  std::vector<int64_t> buffer_;
-  size_t pos_ = 0;
+  std::unique_ptr<int64_t[]> buffer_;
+  size_t capacity_ = 0, pos_ = 0, end_ = 0;
 };
 
 // Appends up to `count` tetrahedra from the next `count` cells when they are all 4-vertex

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include "cell_split.h"
 #include "format_reader.h"
@@ -146,6 +147,7 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
   while (next_vertices(drain)) {
   }
   tet_scratch_.clear();
+  split_scratch_.clear();
   max_tets = std::max<size_t>(max_tets, 6);
   tet_scratch_.reserve(4 * max_tets + 24);
   CellBatch& batch = cells_->batch;
@@ -157,24 +159,16 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       break;
     }
     stats_.quadratic_cells += batch.reduced;
-    if (batch.only_tets) {  // bulk path: orient in place, append in one copy
-      for (size_t t = 0; t < batch.size(); ++t) orient(xyz_.data(), batch.nodes.data() + 4 * t, stats_, true);
+    if (batch.only_tets) {  // bulk path: one copy
       stats_.cells += batch.size();
       tet_scratch_.insert(tet_scratch_.end(), batch.nodes.begin(), batch.nodes.end());
+      split_scratch_.resize(tet_scratch_.size() / 4, 0);
       continue;
     }
     for (size_t c = 0; c < batch.size(); ++c) {
       int type = batch.types[c];
       size_t node_count = batch.offsets[c + 1] - batch.offsets[c];
-      const uint32_t* first = batch.nodes.data() + batch.offsets[c];
-      if (type == detail::kVtkTetra && node_count == 4) {  // the common case, without the split path
-        ++stats_.cells;
-        uint32_t tet[4] = {first[0], first[1], first[2], first[3]};
-        orient(xyz_.data(), tet, stats_, true);
-        tet_scratch_.insert(tet_scratch_.end(), tet, tet + 4);
-        continue;
-      }
-      std::span<const uint32_t> nodes(first, node_count);
+      std::span<const uint32_t> nodes(batch.nodes.data() + batch.offsets[c], node_count);
       int corners = detail::volume_corner_count(type, static_cast<int>(node_count));
       if (corners <= 0) {
         ++stats_.skipped_cells;
@@ -194,19 +188,37 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       tet_scratch_.resize(at + 4 * 6);
       size_t produced = detail::split_cell(linear, nodes.first(static_cast<size_t>(corners)), tet_scratch_.data() + at);
       tet_scratch_.resize(at + 4 * produced);
-      for (size_t t = 0; t < produced; ++t) {
-        // split products come in either orientation; only native tets count as inverted
-        orient(xyz_.data(), tet_scratch_.data() + at + 4 * t, stats_, linear == detail::kVtkTetra);
-      }
+      // split products come in either orientation; only native tets count as inverted
+      split_scratch_.resize(tet_scratch_.size() / 4, linear == detail::kVtkTetra ? 0 : 1);
     }
   }
   if (tet_scratch_.empty()) return false;
+  orient_chunk();
   chunk.first = tets_emitted_;
   chunk.count = tet_scratch_.size() / 4;
   chunk.tets = tet_scratch_;
   tets_emitted_ += chunk.count;
   stats_.tetrahedra = tets_emitted_;
   return true;
+}
+
+void MeshStream::orient_chunk() {
+  // Orientation reads four random vertices a tet and dominates reading once parsing is bulk;
+  // large chunks are split over two threads.
+  const size_t count = tet_scratch_.size() / 4;
+  auto orient_range = [this](size_t begin, size_t end, ReadStats& stats) {
+    for (size_t t = begin; t < end; ++t) orient(xyz_.data(), tet_scratch_.data() + 4 * t, stats, split_scratch_[t] == 0);
+  };
+  if (count < kParallelOrientTets) {
+    orient_range(0, count, stats_);
+    return;
+  }
+  ReadStats other;
+  std::thread helper(orient_range, count / 2, count, std::ref(other));
+  orient_range(0, count / 2, stats_);
+  helper.join();
+  stats_.degenerate += other.degenerate;
+  stats_.inverted += other.inverted;
 }
 
 TetMesh load_stream(MeshStream& stream) {

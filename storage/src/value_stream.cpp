@@ -1,12 +1,14 @@
 // Typed value decoding for the mesh readers: ASCII tokens, raw binary of either byte
 // order, base64 text, and VTK's zlib block framing. All sizes are checked against the
 // file before anything is allocated.
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <new>
+#include <thread>
 
 #include "format_reader.h"
 
@@ -203,26 +205,65 @@ ZlibBlocks::ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bo
   }
 }
 
-void ZlibBlocks::next_block() {
-  if (block_ >= compressed_sizes_.size()) inner_->fail("compressed data ends early");
-  uint64_t expected = (block_ + 1 == compressed_sizes_.size() && last_block_size_ != 0) ? last_block_size_ : block_size_;
-  compressed_.resize(static_cast<size_t>(compressed_sizes_[block_]));
-  inner_->read(compressed_.data(), compressed_.size(), "compressed block");
-  block_data_.resize(static_cast<size_t>(expected));
-  uLongf out_size = static_cast<uLongf>(expected);
-  int rc = ::uncompress(block_data_.data(), &out_size, compressed_.data(), static_cast<uLong>(compressed_.size()));
-  if (rc != Z_OK || out_size != expected) {
-    inner_->fail("compressed block " + std::to_string(block_) + " is corrupt (zlib: " +
-                 (rc == Z_OK ? std::string("wrong size") : std::string(zError(rc))) + ")");
+ZlibBlocks::~ZlibBlocks() {
+  for (libdeflate_decompressor* d : inflaters_) {
+    if (d) libdeflate_free_decompressor(d);
   }
-  ++block_;
+}
+
+uint64_t ZlibBlocks::block_bytes(size_t block) const {
+  return (block + 1 == compressed_sizes_.size() && last_block_size_ != 0) ? last_block_size_ : block_size_;
+}
+
+void ZlibBlocks::next_group() {
+  if (block_ >= compressed_sizes_.size()) inner_->fail("compressed data ends early");
+  // Consecutive blocks up to kGroupBytes of output, read in one go and inflated in two halves.
+  size_t first = block_, last = block_;
+  uint64_t out_bytes = 0, in_bytes = 0;
+  std::vector<uint64_t> in_at{0}, out_at{0};
+  while (last < compressed_sizes_.size() && (last == first || out_bytes + block_bytes(last) <= kGroupBytes)) {
+    out_bytes += block_bytes(last);
+    in_bytes += compressed_sizes_[last];
+    in_at.push_back(in_bytes);
+    out_at.push_back(out_bytes);
+    ++last;
+  }
+  compressed_.resize(static_cast<size_t>(in_bytes));
+  inner_->read(compressed_.data(), compressed_.size(), "compressed block");
+  block_data_.resize(static_cast<size_t>(out_bytes));
+  for (auto*& d : inflaters_) {
+    if (!d) d = libdeflate_alloc_decompressor();
+    if (!d) throw std::bad_alloc();
+  }
+  const size_t count = last - first;
+  auto inflate = [&](size_t begin, size_t end, libdeflate_decompressor* d) -> size_t {  // returns the first bad block or end
+    for (size_t b = begin; b < end; ++b) {
+      size_t produced = 0;
+      libdeflate_result rc = libdeflate_zlib_decompress(d, compressed_.data() + in_at[b], in_at[b + 1] - in_at[b],
+                                                        block_data_.data() + out_at[b], out_at[b + 1] - out_at[b], &produced);
+      if (rc != LIBDEFLATE_SUCCESS || produced != out_at[b + 1] - out_at[b]) return b;
+    }
+    return end;
+  };
+  size_t bad_first = count, bad_second = count;
+  if (count >= 4) {
+    std::thread helper([&] { bad_second = inflate(count / 2, count, inflaters_[1]); });
+    bad_first = inflate(0, count / 2, inflaters_[0]);
+    helper.join();
+    if (bad_first == count / 2) bad_first = count;
+  } else {
+    bad_first = inflate(0, count, inflaters_[0]);
+  }
+  size_t bad = std::min(bad_first, bad_second);
+  if (bad < count) inner_->fail("compressed block " + std::to_string(first + bad) + " is corrupt (inflate failed or wrong size)");
+  block_ = last;
   block_pos_ = 0;
 }
 
 void ZlibBlocks::read(void* dst, size_t n, std::string_view) {
   uint8_t* out = static_cast<uint8_t*>(dst);
   while (n > 0) {
-    if (block_pos_ >= block_data_.size()) next_block();
+    if (block_pos_ >= block_data_.size()) next_group();
     size_t take = std::min(n, block_data_.size() - block_pos_);
     std::memcpy(out, block_data_.data() + block_pos_, take);
     block_pos_ += take;

@@ -82,7 +82,8 @@ class MeshStream {
 
  private:
   explicit MeshStream(std::unique_ptr<detail::FormatReader> reader);
-  void split_cells();
+  void orient_chunk();
+  static constexpr size_t kParallelOrientTets = 16384;
 
   std::unique_ptr<detail::FormatReader> reader_;
   MeshHeader header_;
@@ -93,6 +94,7 @@ class MeshStream {
   std::vector<float> soa_scratch_;
   std::vector<std::vector<float>> attribute_scratch_;
   std::vector<uint32_t> tet_scratch_;
+  std::vector<uint8_t> split_scratch_;  // per tet in the chunk: 1 when it came from a split cell
   struct CellScratch;
   std::unique_ptr<CellScratch> cells_;
   bool cells_done_ = false;
