@@ -129,7 +129,7 @@ class Base64Bytes final : public ByteStream {
 // Blocks are inflated with libdeflate, several at a time and on two threads.
 class ZlibBlocks final : public ByteStream {
  public:
-  static constexpr uint64_t kGroupBytes = 2 << 20;  // inflate about this much output at once
+  static constexpr uint64_t kGroupBytes = 1 << 20;  // inflate about this much output at once
   ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bool little_endian,
              uint64_t expected_bytes, uint64_t file_size);
   ~ZlibBlocks() override;

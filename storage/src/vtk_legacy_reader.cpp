@@ -325,6 +325,8 @@ void VtkLegacyReader::read_vertices(size_t count, float* xyz, std::span<float* c
 bool VtkLegacyReader::read_cells(CellBatch& batch, size_t max_cells) {
   if (!cells_started_) {
     cells_started_ = true;
+    point_values_.reset();  // the vertex pass is over: free its buffers
+    attribute_values_.clear();
     type_stream_ = stream_at(*cell_types_);
     type_ints_ = BufferedInts(type_stream_.get(), cell_types_->values);
     if (cells_) {

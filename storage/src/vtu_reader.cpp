@@ -407,6 +407,8 @@ bool VtuReader::read_cells(CellBatch& batch, size_t max_cells) {
   const uint64_t cell_count = header_.cell_count;
   if (!cells_started_) {
     cells_started_ = true;
+    point_values_.reset();  // the vertex pass is over: free its buffers
+    attribute_values_.clear();
     uint64_t connectivity_values = value_count(*connectivity_);
     connectivity_stream_ = open_values(*connectivity_, connectivity_values);
     offset_stream_ = open_values(*offsets_, cell_count);
