@@ -1,13 +1,21 @@
 // The one tetrascope executable; each subcommand lives in the library that owns it and
 // this file only parses arguments and maps errors to exit codes.
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <map>
 #include <cstring>
 #include <iostream>
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
+#include "tetrascope/lod/segmentation.h"
 #include "tetrascope/storage/mesh_error.h"
 #include "tetrascope/storage/mesh_info.h"
+#include "tetrascope/storage/store.h"
+#include "tetrascope/storage/store_verify.h"
 
 namespace {
 
@@ -15,32 +23,154 @@ constexpr const char* kUsage =
     "usage: tetrascope <command> [options]\n"
     "\n"
     "commands:\n"
-    "  info MESH [--json]     counts, attributes with ranges, bounds, quality counters\n"
+    "  info MESH|STORE [--json]      counts, attributes with ranges, bounds, quality counters\n"
+    "  segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S]\n"
+    "                                [--force] [--progress bar|json|none] [--json]\n"
+    "                                out-of-core segmentation (stage 1 of preprocess)\n"
+    "  verify STORE [--progress bar|json|none] [--json]\n"
+    "                                checksums and structure of a store\n"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off\n";
 
-int run_info(const std::vector<std::string>& args) {
-  std::string path;
-  bool json = false;
-  for (const std::string& a : args) {
-    if (a == "--json") json = true;
-    else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetrascope info: unknown option %s\n", a.c_str());
-      return 2;
-    } else if (path.empty()) path = a;
-    else {
-      std::fprintf(stderr, "tetrascope info: one mesh at a time\n");
-      return 2;
+// Command-line arguments: positionals and --name value / --flag options.
+class Args {
+ public:
+  Args(const std::vector<std::string>& args, const std::vector<std::string>& flags, const std::vector<std::string>& valued) {
+    for (size_t i = 0; i < args.size(); ++i) {
+      const std::string& a = args[i];
+      if (a.size() > 1 && a[0] == '-') {
+        std::string name = a == "-o" ? "--output" : a;
+        if (std::find(flags.begin(), flags.end(), name) != flags.end()) {
+          values_[name] = "1";
+        } else if (std::find(valued.begin(), valued.end(), name) != valued.end()) {
+          if (i + 1 >= args.size()) throw std::invalid_argument(name + " needs a value");
+          values_[name] = args[++i];
+        } else {
+          throw std::invalid_argument("unknown option " + a);
+        }
+      } else {
+        positionals_.push_back(a);
+      }
     }
   }
-  if (path.empty()) {
-    std::fprintf(stderr, "usage: tetrascope info MESH [--json]\n");
+  const std::vector<std::string>& positionals() const { return positionals_; }
+  bool has(const std::string& name) const { return values_.count(name) != 0; }
+  std::string get(const std::string& name, const std::string& fallback = "") const {
+    auto it = values_.find(name);
+    return it == values_.end() ? fallback : it->second;
+  }
+  uint32_t number(const std::string& name, uint32_t fallback) const {
+    if (!has(name)) return fallback;
+    const std::string& text = values_.at(name);
+    size_t used = 0;
+    unsigned long long v = 0;
+    try {
+      v = std::stoull(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != text.size() || text.empty() || text[0] == '-' || v > 0xFFFFFFFFull) throw std::invalid_argument(name + " expects a whole number, got '" + text + "'");
+    return static_cast<uint32_t>(v);
+  }
+
+ private:
+  std::vector<std::string> positionals_;
+  std::map<std::string, std::string> values_;
+};
+
+tetrascope::storage::Progress::Mode progress_mode(const Args& args) {
+  std::string option = args.get("--progress", "bar");
+  if (option != "bar" && option != "json" && option != "none") throw std::invalid_argument("--progress expects bar, json or none");
+  return tetrascope::storage::Progress::mode_from(option, option == "json" || ::isatty(STDERR_FILENO));
+}
+
+int print_store_info(const std::string& path, bool json) {
+  auto store = tetrascope::storage::Store::open(path);
+  const auto& m = store->manifest();
+  nlohmann::json j = m.json;
+  j.erase("stream");
+  j.erase("checksum");
+  std::error_code ec;
+  j["files"]["segments.bin"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "segments.bin", ec);
+  j["files"]["manifest.json"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "manifest.json", ec);
+  j["vertices"] = m.vertex_count;
+  j["tetrahedra"] = m.tet_count;
+  if (json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::printf("store       %s (format %u)\n", path.c_str(), m.version);
+  std::printf("source      %s (sha256 %.16s...)\n", m.source_file.c_str(), m.source_sha256.c_str());
+  std::printf("vertices    %llu\ntetrahedra  %llu\nsegments    %u\n", static_cast<unsigned long long>(m.vertex_count),
+              static_cast<unsigned long long>(m.tet_count), m.segment_count);
+  const auto& seg = m.json.at("segmentation");
+  std::printf("per segment %s vertices, %s tets (min/avg/max)\n",
+              (seg["vertices_per_segment"]["min"].dump() + "/" + std::to_string(seg["vertices_per_segment"]["avg"].get<double>()).substr(0, 8) + "/" + seg["vertices_per_segment"]["max"].dump()).c_str(),
+              (seg["tets_per_segment"]["min"].dump() + "/" + std::to_string(seg["tets_per_segment"]["avg"].get<double>()).substr(0, 8) + "/" + seg["tets_per_segment"]["max"].dump()).c_str());
+  std::printf("streaming   at most %u segments active (%.1f%%)\n", m.max_workload_segments, 100.0 * m.max_workload_segments / m.segment_count);
+  std::printf("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", m.bounds.min[0], m.bounds.max[0], m.bounds.min[1], m.bounds.max[1], m.bounds.min[2], m.bounds.max[2]);
+  for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
+  std::printf("files       segments.bin %.1f MB\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6);
+  return 0;
+}
+
+int run_info(const std::vector<std::string>& raw) {
+  Args args(raw, {"--json"}, {});
+  if (args.positionals().size() != 1) {
+    std::fprintf(stderr, "usage: tetrascope info MESH|STORE [--json]\n");
     return 2;
   }
+  const std::string& path = args.positionals()[0];
+  if (std::filesystem::is_directory(path)) return print_store_info(path, args.has("--json"));
   auto summary = tetrascope::storage::summarize_mesh(path);
-  if (json) std::cout << tetrascope::storage::summary_json(summary).dump(2) << "\n";
+  if (args.has("--json")) std::cout << tetrascope::storage::summary_json(summary).dump(2) << "\n";
   else std::cout << tetrascope::storage::summary_text(summary);
   return 0;
+}
+
+int run_segment(const std::vector<std::string>& raw) {
+  Args args(raw, {"--force", "--json"}, {"--output", "--leaf-vertices", "--segment-tets", "--segments", "--seed", "--progress"});
+  if (args.positionals().size() != 1 || !args.has("--output")) {
+    std::fprintf(stderr, "usage: tetrascope segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
+    return 2;
+  }
+  tetrascope::lod::SegmentationOptions options;
+  options.leaf_vertices = args.number("--leaf-vertices", options.leaf_vertices);
+  options.segment_tets = args.number("--segment-tets", options.segment_tets);
+  options.segments = args.number("--segments", 0);
+  options.seed = static_cast<int>(args.number("--seed", 1));
+  options.replace = args.has("--force");
+  tetrascope::storage::Progress progress(progress_mode(args), {{"read vertices", 0.15}, {"partition", 0.05}, {"assign tets", 0.3}, {"match faces", 0.2}, {"write segments", 0.3}});
+  auto report = tetrascope::lod::segment_mesh(args.positionals()[0], args.get("--output"), options, &progress);
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+  } else {
+    std::printf("%s: %llu tets in %u segments (%.0f avg, %u max tets; %u..%u vertices), at most %u segments active; %.2f s, %.2f M tets/s\n",
+                args.get("--output").c_str(), static_cast<unsigned long long>(report.tets), report.segments, report.avg_tets, report.max_tets,
+                report.min_vertices, report.max_vertices, report.max_workload, report.seconds, report.tets / 1e6 / report.seconds);
+  }
+  return 0;
+}
+
+int run_verify(const std::vector<std::string>& raw) {
+  Args args(raw, {"--json"}, {"--progress"});
+  if (args.positionals().size() != 1) {
+    std::fprintf(stderr, "usage: tetrascope verify STORE [--progress bar|json|none] [--json]\n");
+    return 2;
+  }
+  tetrascope::storage::Progress progress(progress_mode(args), {{"check segments", 1.0}});
+  auto report = tetrascope::storage::verify_store(args.positionals()[0], &progress);
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+  } else if (report.ok) {
+    std::printf("%s: ok (%llu segments, %llu tets, %llu shared vertex copies, %llu border faces)\n", args.positionals()[0].c_str(),
+                static_cast<unsigned long long>(report.segments), static_cast<unsigned long long>(report.tets),
+                static_cast<unsigned long long>(report.shared_vertex_copies), static_cast<unsigned long long>(report.border_faces));
+  } else {
+    std::fprintf(stderr, "%s: DAMAGED\n", args.positionals()[0].c_str());
+    for (const auto& p : report.problems) std::fprintf(stderr, "  %s\n", p.c_str());
+  }
+  return report.ok ? 0 : 1;
 }
 
 }  // namespace
@@ -54,7 +184,12 @@ int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 2, argv + argc);
   try {
     if (command == "info") return run_info(args);
+    if (command == "segment") return run_segment(args);
+    if (command == "verify") return run_verify(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
+    return 2;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "tetrascope %s: %s\n", command.c_str(), e.what());
     return 2;
   } catch (const tetrascope::storage::MeshError& e) {
     std::fprintf(stderr, "tetrascope %s: %s\n", command.c_str(), e.what());

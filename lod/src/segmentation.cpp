@@ -1,0 +1,475 @@
+// Out-of-core segmentation, dissertation §6.1.1-6.1.3, written into the store format of
+// storage/store_format.h.
+//
+// Pass 1 streams the vertices (kept in memory) and partitions them (octree + METIS).
+// Segments are numbered by ascending vertex count. Pass 2 streams the tets, gives each to the
+// lowest segment among its vertices and spills it to that segment's blocks in a temporary
+// file. Pass 3 reads each segment back, pairs its faces locally and collects the unpaired
+// ones; a global sort pairs those across segments (segment borders) and leaves the mesh
+// boundary. Pass 4 writes the segments in streaming order: owned vertices first, then shared
+// copies; border tets first (§6.2.3); opposites inside the segment, links across it.
+#include "tetrascope/lod/segmentation.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <future>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <stdexcept>
+
+#include "tetrascope/lod/octree_partition.h"
+#include "tetrascope/lod/streaming_order.h"
+#include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/sha256.h"
+#include "tetrascope/storage/store_format.h"
+#include "tetrascope/storage/store_writer.h"
+
+namespace tetrascope::lod {
+namespace {
+
+using storage::store::BorderLink;
+
+// Tets of every segment, spilled in blocks to one temporary file (one descriptor however many
+// segments there are).
+class TetSpill {
+ public:
+  static constexpr uint32_t kBlockTets = 1024;
+  TetSpill(const std::filesystem::path& path, uint32_t segments) : path_(path), buffers_(segments), blocks_(segments), counts_(segments, 0) {
+    file_ = std::fopen(path.c_str(), "w+b");
+    if (!file_) throw std::runtime_error(path.string() + ": cannot create spill file");
+  }
+  ~TetSpill() {
+    if (file_) std::fclose(file_);
+    std::error_code ignored;
+    std::filesystem::remove(path_, ignored);
+  }
+  void add(uint32_t segment, const uint32_t* tet) {
+    auto& buffer = buffers_[segment];
+    buffer.insert(buffer.end(), tet, tet + 4);
+    ++counts_[segment];
+    if (buffer.size() == 4 * kBlockTets) flush(segment);
+  }
+  void flush_all() {
+    for (uint32_t s = 0; s < buffers_.size(); ++s) {
+      if (!buffers_[s].empty()) flush(s);
+      std::vector<uint32_t>().swap(buffers_[s]);
+    }
+    std::fflush(file_);
+  }
+  uint64_t count(uint32_t segment) const { return counts_[segment]; }
+  // All tets of a segment, in the order they were added.
+  void read(uint32_t segment, std::vector<uint32_t>& out) const {
+    out.resize(4 * counts_[segment]);
+    size_t at = 0;
+    for (auto [offset, tets] : blocks_[segment]) {
+      if (::pread(fileno(file_), out.data() + at, 16 * size_t{tets}, static_cast<off_t>(offset)) != static_cast<ssize_t>(16 * size_t{tets})) {
+        throw std::runtime_error(path_.string() + ": spill read failed");
+      }
+      at += 4 * size_t{tets};
+    }
+  }
+
+ private:
+  void flush(uint32_t segment) {
+    auto& buffer = buffers_[segment];
+    blocks_[segment].push_back({written_, static_cast<uint32_t>(buffer.size() / 4)});
+    if (std::fwrite(buffer.data(), 4, buffer.size(), file_) != buffer.size()) throw std::runtime_error(path_.string() + ": spill write failed (disk full?)");
+    written_ += 4 * buffer.size();
+    buffer.clear();
+  }
+  std::filesystem::path path_;
+  std::FILE* file_ = nullptr;
+  std::vector<std::vector<uint32_t>> buffers_;
+  std::vector<std::vector<std::pair<uint64_t, uint32_t>>> blocks_;
+  std::vector<uint64_t> counts_;
+  uint64_t written_ = 0;
+};
+
+constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // face f is opposite vertex f
+
+struct FaceKey {
+  uint32_t v[3];
+  uint32_t segment;
+  uint32_t face;  // raw tet * 4 + face within the segment's spill order
+  bool operator<(const FaceKey& o) const {
+    if (v[0] != o.v[0]) return v[0] < o.v[0];
+    if (v[1] != o.v[1]) return v[1] < o.v[1];
+    if (v[2] != o.v[2]) return v[2] < o.v[2];
+    if (segment != o.segment) return segment < o.segment;
+    return face < o.face;
+  }
+  bool same_face(const FaceKey& o) const { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
+};
+
+// Faces of a segment's tets (global vertex ids) sorted so that shared faces are adjacent.
+void sorted_faces(uint32_t segment, const std::vector<uint32_t>& tets, std::vector<FaceKey>& faces) {
+  const size_t count = tets.size() / 4;
+  faces.resize(4 * count);
+  for (size_t t = 0; t < count; ++t) {
+    for (int f = 0; f < 4; ++f) {
+      FaceKey& k = faces[4 * t + f];
+      for (int i = 0; i < 3; ++i) k.v[i] = tets[4 * t + kFace[f][i]];
+      std::sort(k.v, k.v + 3);
+      k.segment = segment;
+      k.face = static_cast<uint32_t>(4 * t + f);
+    }
+  }
+  std::sort(faces.begin(), faces.end());
+}
+
+struct Link {  // a border face of one segment (raw numbering) and its partner
+  uint32_t face, segment, remote_face;
+};
+
+}  // namespace
+
+nlohmann::json SegmentationReport::to_json() const {
+  return {{"vertices", vertices}, {"tetrahedra", tets}, {"segments", segments}, {"octree_leaves", leaves},
+          {"vertices_per_segment", {{"min", min_vertices}, {"avg", avg_vertices}, {"max", max_vertices}}},
+          {"tets_per_segment", {{"min", min_tets}, {"avg", avg_tets}, {"max", max_tets}}},
+          {"max_tets_over_avg", avg_tets > 0 ? max_tets / avg_tets : 0.0},
+          {"max_workload_segments", max_workload},
+          {"max_workload_fraction", segments ? double(max_workload) / segments : 0.0},
+          {"metis_contiguous", contiguous}, {"store_bytes", store_bytes}, {"seconds", seconds}};
+}
+
+SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path,
+                                const SegmentationOptions& options, storage::Progress* progress) {
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  if (options.leaf_vertices != 0 && (options.leaf_vertices < kMinLeafVertices || options.leaf_vertices > kMaxLeafVertices)) {
+    throw std::invalid_argument("--leaf-vertices must be " + std::to_string(kMinLeafVertices) + " to " + std::to_string(kMaxLeafVertices));
+  }
+  if (options.segments == 0 && options.segment_tets < kMinSegmentTets) {
+    throw std::invalid_argument("--segment-tets must be at least " + std::to_string(kMinSegmentTets));
+  }
+  if (options.segments > storage::store::kMaxSegments) throw std::invalid_argument("--segments is too large");
+  auto report_progress = [&](const char* stage, double fraction) {
+    if (!progress) return;
+    if (fraction == 0) progress->begin(stage);
+    else progress->update(fraction);
+  };
+
+  // fingerprint the source while we work
+  std::filesystem::path hashed = mesh_path;
+  if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
+  auto sha256 = std::async(std::launch::async, [hashed] { return storage::sha256_file(hashed); });
+
+  // ---- pass 1: vertices ----
+  report_progress("read vertices", 0);
+  auto stream = storage::MeshStream::open(mesh_path);
+  const storage::MeshHeader header = stream->header();
+  const uint64_t vertex_count = header.vertex_count;
+  if (vertex_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no vertices");
+  uint32_t floats_per_vertex = 0;
+  for (const auto& a : header.attributes) floats_per_vertex += a.components;
+  std::vector<std::vector<float>> attributes(header.attributes.size());
+  for (size_t a = 0; a < attributes.size(); ++a) attributes[a].reserve(vertex_count * header.attributes[a].components);
+  std::vector<std::array<double, 2>> ranges(header.attributes.size(), {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+  storage::VertexChunk chunk;
+  while (stream->next_vertices(chunk)) {
+    for (size_t a = 0; a < attributes.size(); ++a) {
+      const uint32_t c = header.attributes[a].components;
+      attributes[a].insert(attributes[a].end(), chunk.attributes[a].begin(), chunk.attributes[a].end());
+      for (size_t i = 0; i < chunk.count; ++i) {
+        double value = 0;
+        for (uint32_t k = 0; k < c; ++k) value += double(chunk.attributes[a][i * c + k]) * chunk.attributes[a][i * c + k];
+        value = c == 1 ? double(chunk.attributes[a][i]) : std::sqrt(value);
+        if (!std::isfinite(value)) continue;
+        ranges[a][0] = std::min(ranges[a][0], value);
+        ranges[a][1] = std::max(ranges[a][1], value);
+      }
+    }
+    report_progress("read vertices", double(chunk.first + chunk.count) / double(vertex_count));
+  }
+  const std::span<const float> xyz = stream->xyz();
+
+  // ---- partition ----
+  report_progress("partition", 0);
+  const uint64_t estimated_tets = std::max<uint64_t>(header.cell_count, 1);
+  PartitionOptions partition_options;
+  partition_options.seed = options.seed;
+  partition_options.parts = options.segments ? options.segments
+                                             : static_cast<uint32_t>(std::max<uint64_t>(1, (estimated_tets + options.segment_tets / 2) / options.segment_tets));
+  // METIS balances whole leaves, so a segment should span several of them
+  partition_options.leaf_vertices = options.leaf_vertices
+      ? options.leaf_vertices
+      : static_cast<uint32_t>(std::clamp<uint64_t>(vertex_count / (8 * uint64_t{partition_options.parts}), kMinLeafVertices, 2000));
+  VertexPartition partition = partition_vertices(xyz, partition_options);
+  // number segments by ascending vertex count (§6.1.1); empty parts are dropped
+  std::vector<uint64_t> part_vertices(partition.parts, 0);
+  for (uint32_t p : partition.part_of_vertex) ++part_vertices[p];
+  std::vector<uint32_t> by_size;
+  for (uint32_t p = 0; p < partition.parts; ++p) {
+    if (part_vertices[p] > 0) by_size.push_back(p);
+  }
+  std::stable_sort(by_size.begin(), by_size.end(), [&](uint32_t a, uint32_t b) { return part_vertices[a] < part_vertices[b]; });
+  const uint32_t segment_count = static_cast<uint32_t>(by_size.size());
+  std::vector<uint32_t> segment_of_part(partition.parts, 0);
+  for (uint32_t s = 0; s < segment_count; ++s) segment_of_part[by_size[s]] = s;
+  std::vector<uint32_t> segment_of_vertex(vertex_count);
+  for (uint64_t v = 0; v < vertex_count; ++v) segment_of_vertex[v] = segment_of_part[partition.part_of_vertex[v]];
+  const uint32_t leaf_count = static_cast<uint32_t>(partition.leaves.size());
+  const bool contiguous = partition.contiguous;
+  partition = VertexPartition();  // free it
+  // owned vertices of every segment, ascending global id
+  std::vector<uint64_t> owned_begin(segment_count + 1, 0);
+  for (uint32_t s : segment_of_vertex) ++owned_begin[s + 1];
+  for (uint32_t s = 0; s < segment_count; ++s) owned_begin[s + 1] += owned_begin[s];
+  std::vector<uint32_t> owned(vertex_count);
+  {
+    std::vector<uint64_t> fill(owned_begin.begin(), owned_begin.end() - 1);
+    for (uint64_t v = 0; v < vertex_count; ++v) owned[fill[segment_of_vertex[v]]++] = static_cast<uint32_t>(v);
+  }
+
+  storage::StoreWriter writer(store_path, options.replace, vertex_count, segment_count, floats_per_vertex);
+
+  // ---- pass 2: tets to segments ----
+  report_progress("assign tets", 0);
+  std::optional<TetSpill> spill_file;
+  spill_file.emplace(writer.temp_directory() / "tets.spill", segment_count);
+  TetSpill& spill = *spill_file;
+  std::vector<uint64_t> pairs;  // (segment << 32 | neighbour) for vertex-sharing segments
+  storage::TetChunk tets;
+  while (stream->next_tets(tets)) {
+    for (size_t t = 0; t < tets.count; ++t) {
+      const uint32_t* tet = tets.tets.data() + 4 * t;
+      uint32_t s0 = segment_of_vertex[tet[0]], s1 = segment_of_vertex[tet[1]], s2 = segment_of_vertex[tet[2]], s3 = segment_of_vertex[tet[3]];
+      uint32_t s = std::min({s0, s1, s2, s3});
+      spill.add(s, tet);
+      for (uint32_t o : {s0, s1, s2, s3}) {
+        if (o != s) pairs.push_back(uint64_t{s} << 32 | o);
+      }
+    }
+    if (pairs.size() > (1u << 22)) {
+      std::sort(pairs.begin(), pairs.end());
+      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    }
+    report_progress("assign tets", estimated_tets ? std::min(1.0, double(tets.first + tets.count) / double(estimated_tets)) : 0);
+  }
+  spill.flush_all();
+  const storage::ReadStats read_stats = stream->stats();
+  uint64_t tet_count = 0;
+  for (uint32_t s = 0; s < segment_count; ++s) {
+    tet_count += spill.count(s);
+    if (spill.count(s) > storage::store::kMaxSegmentTets) throw std::runtime_error("a segment got more than 2^30 tets; use more segments");
+  }
+  if (tet_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
+
+  // ---- pass 3: pair faces inside segments, then across them ----
+  report_progress("match faces", 0);
+  std::vector<FaceKey> unpaired, faces;
+  std::vector<uint32_t> segment_tets;
+  std::vector<std::array<float, 6>> bounds(segment_count);
+  for (uint32_t s = 0; s < segment_count; ++s) {
+    spill.read(s, segment_tets);
+    sorted_faces(s, segment_tets, faces);
+    for (size_t i = 0; i < faces.size();) {
+      size_t j = i + 1;
+      while (j < faces.size() && faces[j].same_face(faces[i])) ++j;
+      if (j - i == 1) unpaired.push_back(faces[i]);  // a pair is internal; more than two are treated as internal pairs + rest
+      else if (j - i > 2) {
+        for (size_t k = i + 2; k < j; ++k) unpaired.push_back(faces[k]);
+      }
+      i = j;
+    }
+    std::array<float, 6>& b = bounds[s];
+    b = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
+         std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest()};
+    auto extend = [&](uint32_t v) {
+      for (int k = 0; k < 3; ++k) {
+        b[k] = std::min(b[k], xyz[3 * size_t{v} + k]);
+        b[3 + k] = std::max(b[3 + k], xyz[3 * size_t{v} + k]);
+      }
+    };
+    for (uint32_t v : segment_tets) extend(v);
+    for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) extend(owned[i]);
+    report_progress("match faces", 0.7 * (s + 1) / segment_count);
+  }
+  std::sort(unpaired.begin(), unpaired.end());
+  std::vector<std::vector<Link>> links(segment_count);
+  std::vector<std::vector<uint32_t>> border_tets(segment_count);  // raw tet ids with a border face, ascending
+  for (size_t i = 0; i < unpaired.size();) {
+    size_t j = i + 1;
+    while (j < unpaired.size() && unpaired[j].same_face(unpaired[i])) ++j;
+    if (j - i == 2 && unpaired[i].segment != unpaired[i + 1].segment) {
+      const FaceKey &a = unpaired[i], &b = unpaired[i + 1];
+      links[a.segment].push_back({a.face, b.segment, b.face});
+      links[b.segment].push_back({b.face, a.segment, a.face});
+      border_tets[a.segment].push_back(a.face / 4);
+      border_tets[b.segment].push_back(b.face / 4);
+      pairs.push_back(uint64_t{a.segment} << 32 | b.segment);
+    }
+    i = j;
+  }
+  std::vector<FaceKey>().swap(unpaired);
+  for (auto& list : border_tets) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  // raw tet -> position after moving border tets to the front (stable)
+  auto final_tet = [&](uint32_t s, uint32_t raw) -> uint32_t {
+    const auto& list = border_tets[s];
+    auto it = std::lower_bound(list.begin(), list.end(), raw);
+    uint32_t rank = static_cast<uint32_t>(it - list.begin());
+    if (it != list.end() && *it == raw) return rank;
+    return static_cast<uint32_t>(list.size()) + raw - rank;
+  };
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::vector<std::vector<uint32_t>> neighbours(segment_count);
+  for (uint64_t p : pairs) {
+    uint32_t a = static_cast<uint32_t>(p >> 32), b = static_cast<uint32_t>(p);
+    neighbours[a].push_back(b);
+    neighbours[b].push_back(a);
+  }
+  std::vector<uint64_t>().swap(pairs);
+  for (auto& list : neighbours) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  StreamOrder order = streaming_order(neighbours, bounds);
+
+  // ---- pass 4: write segments in streaming order ----
+  report_progress("write segments", 0);
+  std::vector<uint32_t> local_of(vertex_count, std::numeric_limits<uint32_t>::max());
+  storage::SegmentData data;
+  SegmentationReport report;
+  report.min_vertices = report.min_tets = std::numeric_limits<uint32_t>::max();
+  for (size_t step = 0; step < order.order.size(); ++step) {
+    const uint32_t s = order.order[step];
+    spill.read(s, segment_tets);
+    const uint32_t raw_count = static_cast<uint32_t>(segment_tets.size() / 4);
+    data = storage::SegmentData();
+    data.id = s;
+    // vertices: owned first, then shared copies, each ascending by global id
+    for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) {
+      local_of[owned[i]] = static_cast<uint32_t>(data.global_ids.size());
+      data.global_ids.push_back(owned[i]);
+    }
+    data.owned_vertex_count = static_cast<uint32_t>(data.global_ids.size());
+    std::vector<uint32_t> shared;
+    for (uint32_t v : segment_tets) {
+      if (segment_of_vertex[v] != s) shared.push_back(v);
+    }
+    std::sort(shared.begin(), shared.end());
+    shared.erase(std::unique(shared.begin(), shared.end()), shared.end());
+    for (uint32_t v : shared) {
+      local_of[v] = static_cast<uint32_t>(data.global_ids.size());
+      data.global_ids.push_back(v);
+    }
+    const size_t nv = data.global_ids.size();
+    data.x.resize(nv);
+    data.y.resize(nv);
+    data.z.resize(nv);
+    data.attributes.resize(nv * floats_per_vertex);
+    size_t attribute_base = 0;
+    for (size_t a = 0; a < attributes.size(); ++a) {
+      const uint32_t c = header.attributes[a].components;
+      for (size_t l = 0; l < nv; ++l) {
+        for (uint32_t k = 0; k < c; ++k) data.attributes[attribute_base + l * c + k] = attributes[a][size_t{data.global_ids[l]} * c + k];
+      }
+      attribute_base += nv * c;
+    }
+    for (size_t l = 0; l < nv; ++l) {
+      const uint32_t g = data.global_ids[l];
+      data.x[l] = xyz[3 * size_t{g}];
+      data.y[l] = xyz[3 * size_t{g} + 1];
+      data.z[l] = xyz[3 * size_t{g} + 2];
+    }
+    // tets: border tets first
+    data.boundary_tet_count = static_cast<uint32_t>(border_tets[s].size());
+    data.tets.resize(segment_tets.size());
+    for (uint32_t raw = 0; raw < raw_count; ++raw) {
+      uint32_t t = final_tet(s, raw);
+      for (int k = 0; k < 4; ++k) data.tets[4 * size_t{t} + k] = local_of[segment_tets[4 * size_t{raw} + k]];
+    }
+    // opposites: inside the segment from the local face pairing, borders from the links
+    data.opposites.assign(segment_tets.size(), storage::store::kMeshBoundary);
+    sorted_faces(s, segment_tets, faces);
+    for (size_t i = 0; i + 1 < faces.size();) {
+      if (faces[i + 1].same_face(faces[i])) {
+        uint32_t fa = final_tet(s, faces[i].face / 4) * 4 + faces[i].face % 4;
+        uint32_t fb = final_tet(s, faces[i + 1].face / 4) * 4 + faces[i + 1].face % 4;
+        data.opposites[fa] = fb;
+        data.opposites[fb] = fa;
+        i += 2;
+        while (i < faces.size() && faces[i].same_face(faces[i - 1])) ++i;
+      } else {
+        ++i;
+      }
+    }
+    for (const Link& link : links[s]) {
+      uint32_t face = final_tet(s, link.face / 4) * 4 + link.face % 4;
+      data.opposites[face] = storage::store::kSegmentBorder;
+      data.links.push_back({face, link.segment, final_tet(link.segment, link.remote_face / 4) * 4 + link.remote_face % 4});
+    }
+    std::sort(data.links.begin(), data.links.end(), [](const BorderLink& a, const BorderLink& b) { return a.face < b.face; });
+    std::copy(bounds[s].begin(), bounds[s].end(), data.bounds);
+    writer.add_segment(data);
+    for (uint32_t v : data.global_ids) local_of[v] = std::numeric_limits<uint32_t>::max();
+    report.min_vertices = std::min<uint32_t>(report.min_vertices, static_cast<uint32_t>(nv));
+    report.max_vertices = std::max<uint32_t>(report.max_vertices, static_cast<uint32_t>(nv));
+    report.min_tets = std::min(report.min_tets, raw_count);
+    report.max_tets = std::max(report.max_tets, raw_count);
+    report.avg_vertices += double(nv) / segment_count;
+    report_progress("write segments", double(step + 1) / segment_count);
+  }
+
+  // ---- manifest ----
+  nlohmann::json manifest;
+  manifest["format"] = "tetrascope-store";
+  manifest["version"] = storage::store::kFormatVersion;
+  std::error_code ec;
+  manifest["source"] = {{"file", std::filesystem::absolute(mesh_path).string()}, {"format", storage::format_name(header.format)},
+                        {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", sha256.get()}};
+  manifest["counts"] = {{"vertices", vertex_count}, {"tetrahedra", tet_count}, {"segments", segment_count},
+                        {"degenerate_tetrahedra", read_stats.degenerate}, {"reoriented_tetrahedra", read_stats.inverted}};
+  nlohmann::json attribute_list = nlohmann::json::array();
+  for (size_t a = 0; a < header.attributes.size(); ++a) {
+    double lo = std::isfinite(ranges[a][0]) ? ranges[a][0] : 0, hi = std::isfinite(ranges[a][1]) ? ranges[a][1] : 0;
+    attribute_list.push_back({{"name", header.attributes[a].name}, {"components", header.attributes[a].components}, {"min", lo}, {"max", hi},
+                              {"range_of", header.attributes[a].components == 1 ? "value" : "magnitude"},
+                              // normalised = (value - offset) * scale maps the range to [0, 1]
+                              {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
+  }
+  manifest["attributes"] = attribute_list;
+  std::array<double, 6> all{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
+                            std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest()};
+  for (const auto& b : bounds) {
+    for (int k = 0; k < 3; ++k) {
+      all[k] = std::min<double>(all[k], b[k]);
+      all[3 + k] = std::max<double>(all[3 + k], b[3 + k]);
+    }
+  }
+  manifest["bounds"] = {{"min", {all[0], all[1], all[2]}}, {"max", {all[3], all[4], all[5]}}};
+  manifest["build"] = {{"leaf_vertices", partition_options.leaf_vertices}, {"segment_tets", options.segment_tets}, {"segments_requested", options.segments},
+                       {"seed", options.seed}, {"octree_leaves", leaf_count}, {"metis_contiguous", contiguous}};
+  manifest["stream"] = {{"tags", order.tags}, {"max_workload_segments", order.max_workload}};
+  report.vertices = vertex_count;
+  report.tets = tet_count;
+  report.segments = segment_count;
+  report.leaves = leaf_count;
+  report.avg_tets = double(tet_count) / segment_count;
+  report.max_workload = order.max_workload;
+  report.contiguous = contiguous;
+  report.store_bytes = writer.bytes_written();
+  manifest["segmentation"] = report.to_json();
+  manifest["segmentation"].erase("seconds");
+  manifest["segmentation"].erase("store_bytes");
+  report_progress("write segments", 1);
+  spill_file.reset();  // removes the spill before the directory is renamed
+  writer.finish(neighbours, manifest);
+  report.seconds = std::chrono::duration<double>(clock::now() - start).count();
+  if (progress) progress->finish();
+  return report;
+}
+
+}  // namespace tetrascope::lod

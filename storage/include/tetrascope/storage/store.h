@@ -1,0 +1,132 @@
+// Reading a store: the manifest, segments.bin's header and directory, and segments mapped
+// on demand. Store files are untrusted: every block is checked (magic, version, sizes, CRC)
+// and every index of a segment is range-checked when it is mapped; problems raise
+// StoreError naming the file, the segment and the field. A validated segment is then used
+// in place, without parsing.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/store_format.h"
+
+namespace tetrascope::storage {
+
+class StoreError : public std::runtime_error {
+ public:
+  explicit StoreError(const std::string& message) : std::runtime_error(message) {}
+};
+
+struct StoreAttribute {
+  std::string name;
+  uint32_t components = 1;
+  double min = 0, max = 0;  // of the value (scalars) or the magnitude (vectors), original units
+};
+
+struct StoreManifest {
+  uint32_t version = 0;
+  std::string source_file;
+  uint64_t source_bytes = 0;
+  std::string source_sha256;
+  uint64_t vertex_count = 0, tet_count = 0;
+  uint32_t segment_count = 0;
+  std::vector<StoreAttribute> attributes;
+  Bounds bounds;
+  std::vector<int64_t> stream_tags;  // §6.1.3: s+1 loads segment s, -(s+1) releases it
+  uint32_t max_workload_segments = 0;
+  nlohmann::json json;               // the whole manifest, as read
+};
+
+// A validated segment, used in place. Arrays as in store_format.h.
+struct SegmentView {
+  uint32_t id = 0;
+  uint32_t vertex_count = 0, owned_vertex_count = 0, tet_count = 0, boundary_tet_count = 0;
+  std::span<const float> x, y, z;
+  std::span<const float> attributes;  // attribute-major: attribute a starts at vertex_count * (sum of earlier components)
+  std::span<const uint32_t> tets, opposites, global_ids;
+  std::span<const store::BorderLink> links;
+};
+
+// One segment mapped from segments.bin; unmapped when the last reference goes.
+class MappedSegment {
+ public:
+  MappedSegment(void* address, size_t length, SegmentView view) : address_(address), length_(length), view_(view) {}
+  ~MappedSegment();
+  MappedSegment(const MappedSegment&) = delete;
+  MappedSegment& operator=(const MappedSegment&) = delete;
+  const SegmentView& view() const { return view_; }
+  size_t mapped_bytes() const { return length_; }
+
+ private:
+  void* address_;
+  size_t length_;
+  SegmentView view_;
+};
+
+class Store {
+ public:
+  // Reads and checks manifest.json and segments.bin's header, directory and neighbour lists.
+  static std::unique_ptr<Store> open(const std::filesystem::path& directory);
+  ~Store();
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  const StoreManifest& manifest() const { return manifest_; }
+  const store::FileHeader& header() const { return header_; }
+  uint32_t segment_count() const { return header_.segment_count; }
+  const store::SegmentRecord& record(uint32_t segment) const { return records_.at(segment); }
+  std::span<const uint32_t> neighbours(uint32_t segment) const;
+  // Maps one segment and checks its CRC and every index. Thread-safe.
+  std::shared_ptr<const MappedSegment> map_segment(uint32_t segment) const;
+
+ private:
+  Store() = default;
+  std::filesystem::path path_;
+  int fd_ = -1;
+  StoreManifest manifest_;
+  store::FileHeader header_{};
+  std::vector<store::SegmentRecord> records_;
+  std::vector<uint32_t> neighbours_;
+};
+
+// Segments shared by many readers: mapped on demand, kept while their bytes fit the budget,
+// least recently used released first (a segment in use stays mapped). Thread-safe.
+class SegmentCache {
+ public:
+  struct Stats {
+    uint64_t hits = 0, misses = 0, evictions = 0, resident_bytes = 0;
+  };
+  SegmentCache(const Store& store, uint64_t budget_bytes) : store_(store), budget_(budget_bytes) {}
+  std::shared_ptr<const MappedSegment> get(uint32_t segment);
+  Stats stats() const;
+
+ private:
+  const Store& store_;
+  const uint64_t budget_;
+  mutable std::mutex mutex_;
+  std::list<uint32_t> lru_;  // most recent first
+  struct Entry {
+    std::shared_ptr<const MappedSegment> segment;
+    std::list<uint32_t>::iterator position;
+  };
+  std::unordered_map<uint32_t, Entry> entries_;
+  Stats stats_;
+};
+
+// CRC-32 (zlib's polynomial) of a byte range.
+uint32_t crc32_of(const void* data, size_t bytes, uint32_t seed = 0);
+
+}  // namespace tetrascope::storage

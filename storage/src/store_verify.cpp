@@ -1,0 +1,137 @@
+// Whole-store checks beyond the per-block ones of Store::open / map_segment: every vertex is
+// owned by exactly one segment, shared copies equal their owner's, opposites inside a segment
+// are symmetric and join faces with the same vertices, links across segments point back,
+// and border tets come first.
+#include "tetrascope/storage/store_verify.h"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+#include "tetrascope/storage/store.h"
+
+namespace tetrascope::storage {
+
+using namespace store;
+
+nlohmann::json VerifyReport::to_json() const {
+  return {{"ok", ok}, {"problems", problems}, {"segments", segments}, {"vertices", vertices}, {"tetrahedra", tets},
+          {"shared_vertex_copies", shared_vertex_copies}, {"border_faces", border_faces}, {"boundary_faces", boundary_faces}};
+}
+
+namespace {
+constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+constexpr size_t kMaxProblems = 20;
+
+std::array<uint32_t, 3> face_vertices(const SegmentView& v, uint32_t face) {
+  const uint32_t t = face / 4, f = face % 4;
+  std::array<uint32_t, 3> g;
+  for (int i = 0; i < 3; ++i) g[i] = v.global_ids[v.tets[4 * size_t{t} + kFace[f][i]]];
+  std::sort(g.begin(), g.end());
+  return g;
+}
+}  // namespace
+
+VerifyReport verify_store(const std::filesystem::path& directory, Progress* progress) {
+  VerifyReport r;
+  auto problem = [&](const std::string& text) {
+    if (r.problems.size() < kMaxProblems) r.problems.push_back(text);
+  };
+  try {
+    auto store = Store::open(directory);
+    const FileHeader& h = store->header();
+    r.segments = h.segment_count;
+    r.vertices = h.vertex_count;
+    r.tets = h.tet_count;
+    const uint32_t floats = h.floats_per_vertex;
+    // attribute a of local vertex l sits at vertex_count * offset_a + l * components_a (attribute-major)
+    auto copy_attributes = [&](const SegmentView& v, uint32_t l, float* out) {
+      uint32_t offset = 0;
+      for (const StoreAttribute& a : store->manifest().attributes) {
+        for (uint32_t k = 0; k < a.components; ++k) out[offset + k] = v.attributes[size_t{v.vertex_count} * offset + size_t{l} * a.components + k];
+        offset += a.components;
+      }
+    };
+    std::vector<float> copy(floats);
+    SegmentCache cache(*store, 256ull << 20);
+    // pass 1: owners, and each owned vertex's data
+    std::vector<uint32_t> owner(h.vertex_count, 0xFFFFFFFFu);
+    std::vector<float> data(h.vertex_count * (3 + uint64_t{floats}));
+    if (progress) progress->begin("check segments");
+    for (uint32_t s = 0; s < h.segment_count && r.problems.size() < kMaxProblems; ++s) {
+      auto mapped = cache.get(s);
+      const SegmentView& v = mapped->view();
+      for (uint32_t l = 0; l < v.owned_vertex_count; ++l) {
+        const uint32_t g = v.global_ids[l];
+        if (owner[g] != 0xFFFFFFFFu) {
+          problem("segment " + std::to_string(s) + ": vertex " + std::to_string(g) + " is also owned by segment " + std::to_string(owner[g]));
+          continue;
+        }
+        owner[g] = s;
+        float* d = &data[size_t{g} * (3 + floats)];
+        d[0] = v.x[l];
+        d[1] = v.y[l];
+        d[2] = v.z[l];
+        copy_attributes(v, l, d + 3);
+      }
+      if (progress) progress->update(0.5 * (s + 1) / h.segment_count);
+    }
+    for (uint64_t g = 0; g < h.vertex_count && r.problems.size() < kMaxProblems; ++g) {
+      if (owner[g] == 0xFFFFFFFFu) problem("vertex " + std::to_string(g) + " is owned by no segment");
+    }
+    // pass 2: shared copies, opposites, links, border tets first
+    for (uint32_t s = 0; s < h.segment_count && r.problems.size() < kMaxProblems; ++s) {
+      auto mapped = cache.get(s);
+      const SegmentView& v = mapped->view();
+      const std::string where = "segment " + std::to_string(s) + ": ";
+      for (uint32_t l = v.owned_vertex_count; l < v.vertex_count; ++l) {
+        const uint32_t g = v.global_ids[l];
+        ++r.shared_vertex_copies;
+        if (owner[g] == s) problem(where + "shared vertex " + std::to_string(g) + " is owned by this segment itself");
+        const float* d = &data[size_t{g} * (3 + floats)];
+        if (d[0] != v.x[l] || d[1] != v.y[l] || d[2] != v.z[l]) problem(where + "shared vertex " + std::to_string(g) + " differs from its owner's coordinates");
+        copy_attributes(v, l, copy.data());
+        if (floats > 0 && std::memcmp(copy.data(), d + 3, floats * sizeof(float)) != 0) problem(where + "shared vertex " + std::to_string(g) + " differs from its owner's attributes");
+      }
+      const uint32_t faces = 4 * v.tet_count;
+      for (uint32_t f = 0; f < faces; ++f) {
+        const uint32_t o = v.opposites[f];
+        if (o == kMeshBoundary) {
+          ++r.boundary_faces;
+        } else if (o == kSegmentBorder) {
+          ++r.border_faces;
+          if (f / 4 >= v.boundary_tet_count) problem(where + "tet " + std::to_string(f / 4) + " has a border face but is not among the first " + std::to_string(v.boundary_tet_count));
+        } else if (v.opposites[o] != f || o / 4 == f / 4) {
+          problem(where + "opposites of faces " + std::to_string(f) + " and " + std::to_string(o) + " are not symmetric");
+        } else if (face_vertices(v, f) != face_vertices(v, o)) {
+          problem(where + "faces " + std::to_string(f) + " and " + std::to_string(o) + " are opposites but have different vertices");
+        }
+      }
+      for (uint32_t t = 0; t < v.boundary_tet_count; ++t) {
+        bool border = false;
+        for (int f = 0; f < 4; ++f) border |= v.opposites[4 * t + f] == kSegmentBorder;
+        if (!border) problem(where + "tet " + std::to_string(t) + " is listed as a border tet but has no border face");
+      }
+      for (const BorderLink& link : v.links) {
+        auto remote = cache.get(link.segment);
+        const SegmentView& w = remote->view();
+        auto it = std::lower_bound(w.links.begin(), w.links.end(), link.remote_face, [](const BorderLink& a, uint32_t face) { return a.face < face; });
+        if (it == w.links.end() || it->face != link.remote_face || it->segment != s || it->remote_face != link.face) {
+          problem(where + "link of face " + std::to_string(link.face) + " to segment " + std::to_string(link.segment) + " does not point back");
+        } else if (face_vertices(v, link.face) != face_vertices(w, link.remote_face)) {
+          problem(where + "face " + std::to_string(link.face) + " and its partner in segment " + std::to_string(link.segment) + " have different vertices");
+        }
+        auto n = store->neighbours(s);
+        if (!std::binary_search(n.begin(), n.end(), link.segment)) problem(where + "links to segment " + std::to_string(link.segment) + ", which is not listed as a neighbour");
+      }
+      if (progress) progress->update(0.5 + 0.5 * (s + 1) / h.segment_count);
+    }
+  } catch (const std::exception& e) {
+    problem(e.what());
+  }
+  r.ok = r.problems.empty();
+  if (progress) progress->finish();
+  return r;
+}
+
+}  // namespace tetrascope::storage
