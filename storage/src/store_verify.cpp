@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <fstream>
 
 #include "tetrascope/storage/store.h"
 
@@ -78,6 +79,33 @@ VerifyReport verify_store(const std::filesystem::path& directory, Progress* prog
     }
     for (uint64_t g = 0; g < h.vertex_count && r.problems.size() < kMaxProblems; ++g) {
       if (owner[g] == 0xFFFFFFFFu) problem("vertex " + std::to_string(g) + " is owned by no segment");
+    }
+    // every byte outside the checksummed blocks is padding and must be zero
+    {
+      std::vector<std::pair<uint64_t, uint64_t>> blocks{{0, sizeof(FileHeader)},
+                                                        {h.directory_offset, h.directory_offset + uint64_t{h.segment_count} * sizeof(SegmentRecord)},
+                                                        {h.neighbours_offset, h.neighbours_offset + 4 * h.neighbour_total}};
+      for (uint32_t s = 0; s < h.segment_count; ++s) blocks.push_back({store->record(s).offset, store->record(s).offset + store->record(s).bytes});
+      std::sort(blocks.begin(), blocks.end());
+      std::ifstream in(directory / "segments.bin", std::ios::binary);
+      std::vector<char> gap;
+      uint64_t at = 0;
+      for (auto [begin, end] : blocks) {
+        if (begin < at) {
+          problem("segments.bin: blocks overlap at byte " + std::to_string(begin));
+        } else if (begin > at) {
+          gap.resize(static_cast<size_t>(begin - at));
+          in.seekg(static_cast<std::streamoff>(at));
+          in.read(gap.data(), static_cast<std::streamsize>(gap.size()));
+          for (size_t i = 0; i < gap.size(); ++i) {
+            if (gap[i] != 0) {
+              problem("segments.bin: byte " + std::to_string(at + i) + ": padding is not zero");
+              break;
+            }
+          }
+        }
+        at = std::max(at, end);
+      }
     }
     // pass 2: shared copies, opposites, links, border tets first
     for (uint32_t s = 0; s < h.segment_count && r.problems.size() < kMaxProblems; ++s) {
