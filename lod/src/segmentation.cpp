@@ -22,6 +22,9 @@
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <atomic>
+#include <exception>
+#include <thread>
 #include <stdexcept>
 
 #include "tetrascope/lod/octree_partition.h"
@@ -122,6 +125,97 @@ void sorted_faces(uint32_t segment, const std::vector<uint32_t>& tets, std::vect
     }
   }
   std::sort(faces.begin(), faces.end());
+}
+
+constexpr uint32_t kNoPartner = 0xFFFFFFFFu;
+
+// Per-thread scratch for pairing a segment's faces.
+struct PairScratch {
+  std::vector<uint32_t> local_of;  // global vertex -> dense local id, all kNoPartner between calls
+  std::vector<uint32_t> touched;
+  std::vector<std::pair<uint64_t, uint32_t>> keys;
+  std::vector<FaceKey> faces;      // fallback for segments of 2^21 vertices or more
+};
+
+// partner[raw face] = the raw face of the same segment sharing its three vertices, or
+// kNoPartner (segment border or mesh boundary). Faces shared by more than two tets pair the
+// first two. Keys pack three 21-bit local vertex ids, so the sort is on 64-bit integers.
+void pair_faces(uint32_t segment, const std::vector<uint32_t>& tets, PairScratch& scratch, std::vector<uint32_t>& partner) {
+  const size_t faces = tets.size();
+  partner.assign(faces, kNoPartner);
+  uint32_t next = 0;
+  for (uint32_t g : tets) {
+    if (scratch.local_of[g] == kNoPartner) {
+      scratch.local_of[g] = next++;
+      scratch.touched.push_back(g);
+    }
+  }
+  auto pair_runs = [&](auto& list, auto same) {
+    for (size_t i = 0; i + 1 < list.size();) {
+      if (same(list[i], list[i + 1])) {
+        uint32_t a = list[i].face_id(), b = list[i + 1].face_id();
+        partner[a] = b;
+        partner[b] = a;
+        i += 2;
+        while (i < list.size() && same(list[i], list[i - 1])) ++i;
+      } else {
+        ++i;
+      }
+    }
+  };
+  if (next < (1u << 21)) {
+    auto& keys = scratch.keys;
+    keys.resize(faces);
+    for (size_t t = 0; t < faces / 4; ++t) {
+      for (int f = 0; f < 4; ++f) {
+        uint64_t v[3];
+        for (int i = 0; i < 3; ++i) v[i] = scratch.local_of[tets[4 * t + kFace[f][i]]];
+        if (v[0] > v[1]) std::swap(v[0], v[1]);
+        if (v[1] > v[2]) std::swap(v[1], v[2]);
+        if (v[0] > v[1]) std::swap(v[0], v[1]);
+        keys[4 * t + f] = {v[0] << 42 | v[1] << 21 | v[2], static_cast<uint32_t>(4 * t + f)};
+      }
+    }
+    std::sort(keys.begin(), keys.end());
+    struct Entry {
+      const std::pair<uint64_t, uint32_t>* p;
+      uint32_t face_id() const { return p->second; }
+    };
+    std::vector<Entry> view(keys.size());
+    for (size_t i = 0; i < keys.size(); ++i) view[i].p = &keys[i];
+    pair_runs(view, [](const Entry& a, const Entry& b) { return a.p->first == b.p->first; });
+  } else {
+    sorted_faces(segment, tets, scratch.faces);
+    struct Entry {
+      const FaceKey* k;
+      uint32_t face_id() const { return k->face; }
+    };
+    std::vector<Entry> view(scratch.faces.size());
+    for (size_t i = 0; i < view.size(); ++i) view[i].k = &scratch.faces[i];
+    pair_runs(view, [](const Entry& a, const Entry& b) { return a.k->same_face(*b.k); });
+  }
+  for (uint32_t g : scratch.touched) scratch.local_of[g] = kNoPartner;
+  scratch.touched.clear();
+}
+
+// Runs work(item, worker) for items 0..count-1 on `workers` threads, items interleaved.
+template <typename Work>
+void parallel_for(size_t count, unsigned workers, Work&& work) {
+  std::vector<std::thread> threads;
+  std::vector<std::exception_ptr> errors(workers);
+  for (unsigned w = 0; w < workers; ++w) {
+    threads.emplace_back([&, w] {
+      try {
+        for (size_t i = w; i < count; i += workers) work(i, w);
+      } catch (...) {
+        errors[w] = std::current_exception();
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  for (auto& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
 }
 
 struct Link {  // a border face of one segment (raw numbering) and its partner
@@ -265,20 +359,25 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
 
   // ---- pass 3: pair faces inside segments, then across them ----
   report_progress("match faces", 0);
-  std::vector<FaceKey> unpaired, faces;
-  std::vector<uint32_t> segment_tets;
+  const unsigned workers = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
+  std::vector<PairScratch> scratch(workers);
+  for (auto& sc : scratch) sc.local_of.assign(vertex_count, kNoPartner);
+  std::vector<std::vector<FaceKey>> unpaired_by_worker(workers);
   std::vector<std::array<float, 6>> bounds(segment_count);
-  for (uint32_t s = 0; s < segment_count; ++s) {
+  std::atomic<uint32_t> matched{0};
+  parallel_for(segment_count, workers, [&](size_t item, unsigned w) {
+    const uint32_t s = static_cast<uint32_t>(item);
+    std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
-    sorted_faces(s, segment_tets, faces);
-    for (size_t i = 0; i < faces.size();) {
-      size_t j = i + 1;
-      while (j < faces.size() && faces[j].same_face(faces[i])) ++j;
-      if (j - i == 1) unpaired.push_back(faces[i]);  // a pair is internal; more than two are treated as internal pairs + rest
-      else if (j - i > 2) {
-        for (size_t k = i + 2; k < j; ++k) unpaired.push_back(faces[k]);
-      }
-      i = j;
+    pair_faces(s, segment_tets, scratch[w], partner);
+    for (uint32_t face = 0; face < partner.size(); ++face) {
+      if (partner[face] != kNoPartner) continue;
+      FaceKey k;
+      for (int i = 0; i < 3; ++i) k.v[i] = segment_tets[4 * size_t{face / 4} + kFace[face % 4][i]];
+      std::sort(k.v, k.v + 3);
+      k.segment = s;
+      k.face = face;
+      unpaired_by_worker[w].push_back(k);
     }
     std::array<float, 6>& b = bounds[s];
     b = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
@@ -291,7 +390,13 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     };
     for (uint32_t v : segment_tets) extend(v);
     for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) extend(owned[i]);
-    report_progress("match faces", 0.7 * (s + 1) / segment_count);
+    if (w == 0) report_progress("match faces", 0.7 * (matched.load() + 1) / segment_count);
+    ++matched;
+  });
+  std::vector<FaceKey> unpaired;
+  for (auto& list : unpaired_by_worker) {
+    unpaired.insert(unpaired.end(), list.begin(), list.end());
+    std::vector<FaceKey>().swap(list);
   }
   std::sort(unpaired.begin(), unpaired.end());
   std::vector<std::vector<Link>> links(segment_count);
@@ -339,21 +444,20 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
 
   // ---- pass 4: write segments in streaming order ----
   report_progress("write segments", 0);
-  std::vector<uint32_t> local_of(vertex_count, std::numeric_limits<uint32_t>::max());
-  storage::SegmentData data;
   SegmentationReport report;
   report.min_vertices = report.min_tets = std::numeric_limits<uint32_t>::max();
-  for (size_t step = 0; step < order.order.size(); ++step) {
-    const uint32_t s = order.order[step];
+  // Builds segment s into `data` with worker w's scratch.
+  auto build_segment = [&](uint32_t s, unsigned w, storage::SegmentData& data) {
+    PairScratch& sc = scratch[w];
+    std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
     const uint32_t raw_count = static_cast<uint32_t>(segment_tets.size() / 4);
+    pair_faces(s, segment_tets, sc, partner);
     data = storage::SegmentData();
     data.id = s;
     // vertices: owned first, then shared copies, each ascending by global id
-    for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) {
-      local_of[owned[i]] = static_cast<uint32_t>(data.global_ids.size());
-      data.global_ids.push_back(owned[i]);
-    }
+    std::vector<uint32_t>& local_of = sc.local_of;
+    for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) data.global_ids.push_back(owned[i]);
     data.owned_vertex_count = static_cast<uint32_t>(data.global_ids.size());
     std::vector<uint32_t> shared;
     for (uint32_t v : segment_tets) {
@@ -361,11 +465,9 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     }
     std::sort(shared.begin(), shared.end());
     shared.erase(std::unique(shared.begin(), shared.end()), shared.end());
-    for (uint32_t v : shared) {
-      local_of[v] = static_cast<uint32_t>(data.global_ids.size());
-      data.global_ids.push_back(v);
-    }
+    data.global_ids.insert(data.global_ids.end(), shared.begin(), shared.end());
     const size_t nv = data.global_ids.size();
+    for (size_t l = 0; l < nv; ++l) local_of[data.global_ids[l]] = static_cast<uint32_t>(l);
     data.x.resize(nv);
     data.y.resize(nv);
     data.z.resize(nv);
@@ -391,20 +493,12 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
       uint32_t t = final_tet(s, raw);
       for (int k = 0; k < 4; ++k) data.tets[4 * size_t{t} + k] = local_of[segment_tets[4 * size_t{raw} + k]];
     }
-    // opposites: inside the segment from the local face pairing, borders from the links
+    for (uint32_t g : data.global_ids) local_of[g] = kNoPartner;
+    // opposites: inside the segment from the local pairing, borders from the links
     data.opposites.assign(segment_tets.size(), storage::store::kMeshBoundary);
-    sorted_faces(s, segment_tets, faces);
-    for (size_t i = 0; i + 1 < faces.size();) {
-      if (faces[i + 1].same_face(faces[i])) {
-        uint32_t fa = final_tet(s, faces[i].face / 4) * 4 + faces[i].face % 4;
-        uint32_t fb = final_tet(s, faces[i + 1].face / 4) * 4 + faces[i + 1].face % 4;
-        data.opposites[fa] = fb;
-        data.opposites[fb] = fa;
-        i += 2;
-        while (i < faces.size() && faces[i].same_face(faces[i - 1])) ++i;
-      } else {
-        ++i;
-      }
+    for (uint32_t face = 0; face < partner.size(); ++face) {
+      if (partner[face] == kNoPartner) continue;
+      data.opposites[final_tet(s, face / 4) * 4 + face % 4] = final_tet(s, partner[face] / 4) * 4 + partner[face] % 4;
     }
     for (const Link& link : links[s]) {
       uint32_t face = final_tet(s, link.face / 4) * 4 + link.face % 4;
@@ -413,14 +507,23 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     }
     std::sort(data.links.begin(), data.links.end(), [](const BorderLink& a, const BorderLink& b) { return a.face < b.face; });
     std::copy(bounds[s].begin(), bounds[s].end(), data.bounds);
-    writer.add_segment(data);
-    for (uint32_t v : data.global_ids) local_of[v] = std::numeric_limits<uint32_t>::max();
-    report.min_vertices = std::min<uint32_t>(report.min_vertices, static_cast<uint32_t>(nv));
-    report.max_vertices = std::max<uint32_t>(report.max_vertices, static_cast<uint32_t>(nv));
-    report.min_tets = std::min(report.min_tets, raw_count);
-    report.max_tets = std::max(report.max_tets, raw_count);
-    report.avg_vertices += double(nv) / segment_count;
-    report_progress("write segments", double(step + 1) / segment_count);
+  };
+  // build `workers` segments at once, write them in streaming order
+  std::vector<storage::SegmentData> built(workers);
+  for (size_t step = 0; step < order.order.size(); step += workers) {
+    const size_t batch = std::min<size_t>(workers, order.order.size() - step);
+    parallel_for(batch, static_cast<unsigned>(batch), [&](size_t i, unsigned w) { build_segment(order.order[step + i], w, built[i]); });
+    for (size_t i = 0; i < batch; ++i) {
+      const storage::SegmentData& data = built[i];
+      writer.add_segment(data);
+      const uint32_t nv = static_cast<uint32_t>(data.global_ids.size()), nt = static_cast<uint32_t>(data.tets.size() / 4);
+      report.min_vertices = std::min(report.min_vertices, nv);
+      report.max_vertices = std::max(report.max_vertices, nv);
+      report.min_tets = std::min(report.min_tets, nt);
+      report.max_tets = std::max(report.max_tets, nt);
+      report.avg_vertices += double(nv) / segment_count;
+    }
+    report_progress("write segments", double(step + batch) / segment_count);
   }
 
   // ---- manifest ----
