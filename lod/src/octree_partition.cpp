@@ -26,7 +26,7 @@ struct Node {
 
 }  // namespace
 
-VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options) {
+VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options, std::span<const float> tets_per_vertex) {
   const size_t n = xyz.size() / 3;
   if (n == 0) throw std::runtime_error("partition: no vertices");
   VertexPartition result;
@@ -136,8 +136,18 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
   if (parts > 1) {
     std::vector<idx_t> xadj(result.adjacency_begin.begin(), result.adjacency_begin.end());
     std::vector<idx_t> adjncy(result.adjacency.begin(), result.adjacency.end());
+    // Node weight: the leaf's vertices (§6.1.1), or its share of the tets when given, which
+    // balances tets where the tets-per-vertex ratio varies (vertices on the mesh boundary
+    // have fewer tets).
+    idx_t ncon = 1;
     std::vector<idx_t> vwgt(leaves), adjwgt(adjncy.size());
-    for (size_t l = 0; l < leaves; ++l) vwgt[l] = static_cast<idx_t>(result.leaves[l].vertex_count);
+    if (tets_per_vertex.empty()) {
+      for (size_t l = 0; l < leaves; ++l) vwgt[l] = static_cast<idx_t>(result.leaves[l].vertex_count);
+    } else {
+      std::vector<double> leaf_tets(leaves, 0.0);
+      for (size_t v = 0; v < n; ++v) leaf_tets[result.leaf_of_vertex[v]] += tets_per_vertex[v];
+      for (size_t l = 0; l < leaves; ++l) vwgt[l] = std::max<idx_t>(1, static_cast<idx_t>(std::lround(leaf_tets[l])));
+    }
     auto centre = [&](uint32_t l, int k) { return 0.5 * (double(result.leaves[l].lo[k]) + result.leaves[l].hi[k]); };
     double longest = 1;
     std::vector<double> distance(adjncy.size());
@@ -151,7 +161,7 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
       }
     }
     for (size_t e = 0; e < adjncy.size(); ++e) adjwgt[e] = 1 + static_cast<idx_t>(std::lround(1000.0 * distance[e] / longest));
-    idx_t nvtxs = static_cast<idx_t>(leaves), ncon = 1, nparts = static_cast<idx_t>(parts), objval = 0;
+    idx_t nvtxs = static_cast<idx_t>(leaves), nparts = static_cast<idx_t>(parts), objval = 0;
     std::vector<idx_t> part(leaves);
     idx_t metis_options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(metis_options);

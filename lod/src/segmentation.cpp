@@ -10,6 +10,7 @@
 // copies; border tets first (§6.2.3); opposites inside the segment, links across it.
 #include "tetrascope/lod/segmentation.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -296,7 +297,19 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   partition_options.leaf_vertices = options.leaf_vertices
       ? options.leaf_vertices
       : static_cast<uint32_t>(std::clamp<uint64_t>(vertex_count / (8 * uint64_t{partition_options.parts}), kMinLeafVertices, 2000));
-  VertexPartition partition = partition_vertices(xyz, partition_options);
+  // A vertex's share of the tets (incident tets / 4), from a first pass over the tets, lets
+  // METIS balance tets as well as vertices: near the mesh boundary a vertex has fewer tets.
+  std::vector<float> tets_per_vertex(vertex_count, 0.0f);
+  {
+    auto count_stream = storage::MeshStream::open(mesh_path);
+    storage::TetChunk counted;
+    while (count_stream->next_tets(counted)) {
+      for (uint32_t v : counted.tets) tets_per_vertex[v] += 0.25f;
+      report_progress("partition", std::min(0.9, 0.9 * double(counted.first + counted.count) / double(estimated_tets)));
+    }
+  }
+  VertexPartition partition = partition_vertices(xyz, partition_options, tets_per_vertex);
+  std::vector<float>().swap(tets_per_vertex);
   // number segments by ascending vertex count (§6.1.1); empty parts are dropped
   std::vector<uint64_t> part_vertices(partition.parts, 0);
   for (uint32_t p : partition.part_of_vertex) ++part_vertices[p];
@@ -363,6 +376,30 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   std::vector<PairScratch> scratch(workers);
   for (auto& sc : scratch) sc.local_of.assign(vertex_count, kNoPartner);
   std::vector<std::vector<FaceKey>> unpaired_by_worker(workers);
+  // the in-segment pairing is kept on disk for pass 4 (16 bytes a tet, not in memory)
+  std::vector<uint64_t> partner_offset(segment_count + 1, 0);
+  for (uint32_t s = 0; s < segment_count; ++s) partner_offset[s + 1] = partner_offset[s] + 16 * spill.count(s);
+  const std::filesystem::path partner_path = writer.temp_directory() / "partners.spill";
+  struct FileCloser {
+    FileCloser(const std::filesystem::path& p) : fd(::open(p.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600)), path(p) {}
+    FileCloser(const FileCloser&) = delete;
+    int fd;
+    std::filesystem::path path;
+    ~FileCloser() {
+      if (fd >= 0) ::close(fd);
+      std::error_code ignored;
+      std::filesystem::remove(path, ignored);
+    }
+  };
+  std::optional<FileCloser> partners;
+  partners.emplace(partner_path);
+  if (partners->fd < 0) throw std::runtime_error(partner_path.string() + ": cannot create spill file");
+  auto transfer = [&](bool write, uint32_t s, std::vector<uint32_t>& partner) {
+    const size_t bytes = 4 * partner.size();
+    ssize_t done = write ? ::pwrite(partners->fd, partner.data(), bytes, static_cast<off_t>(partner_offset[s]))
+                         : ::pread(partners->fd, partner.data(), bytes, static_cast<off_t>(partner_offset[s]));
+    if (done != static_cast<ssize_t>(bytes)) throw std::runtime_error(partner_path.string() + ": spill " + (write ? "write failed (disk full?)" : "read failed"));
+  };
   std::vector<std::array<float, 6>> bounds(segment_count);
   std::atomic<uint32_t> matched{0};
   parallel_for(segment_count, workers, [&](size_t item, unsigned w) {
@@ -370,6 +407,7 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
     pair_faces(s, segment_tets, scratch[w], partner);
+    transfer(true, s, partner);
     for (uint32_t face = 0; face < partner.size(); ++face) {
       if (partner[face] != kNoPartner) continue;
       FaceKey k;
@@ -452,7 +490,8 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
     const uint32_t raw_count = static_cast<uint32_t>(segment_tets.size() / 4);
-    pair_faces(s, segment_tets, sc, partner);
+    partner.resize(segment_tets.size());
+    transfer(false, s, partner);
     data = storage::SegmentData();
     data.id = s;
     // vertices: owned first, then shared copies, each ascending by global id
@@ -568,7 +607,8 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   manifest["segmentation"].erase("seconds");
   manifest["segmentation"].erase("store_bytes");
   report_progress("write segments", 1);
-  spill_file.reset();  // removes the spill before the directory is renamed
+  spill_file.reset();  // removes the spill files before the directory is renamed
+  partners.reset();
   writer.finish(neighbours, manifest);
   report.seconds = std::chrono::duration<double>(clock::now() - start).count();
   if (progress) progress->finish();

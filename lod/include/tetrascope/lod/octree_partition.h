@@ -1,6 +1,6 @@
 // Vertex partition of §6.1.1: an octree with at most K vertices a leaf, leaves joined by
 // face adjacency into a graph, and the graph cut by METIS into balanced, compact,
-// face-connected parts.
+// face-connected parts. Leaves may weigh their tets instead of their vertices (see below).
 #pragma once
 
 #include <cstdint>
@@ -31,8 +31,10 @@ struct PartitionOptions {
   int seed = 1;
 };
 
-// `xyz` interleaved. Deterministic for the same input and options. Throws std::runtime_error
-// when METIS fails.
-VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options);
+// `xyz` interleaved. Leaves weigh their vertex count, or with `tets_per_vertex` (a vertex's
+// share of the tets: incident tets / 4) their share of the tets, so that METIS balances tets.
+// Deterministic for the same input and options. Throws std::runtime_error when METIS fails.
+VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options,
+                                   std::span<const float> tets_per_vertex = {});
 
 }  // namespace tetrascope::lod
