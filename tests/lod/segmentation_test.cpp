@@ -16,6 +16,7 @@
 #include "tetrascope/lod/octree_partition.h"
 #include "tetrascope/lod/segmentation.h"
 #include "tetrascope/lod/streaming_order.h"
+#include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
@@ -265,6 +266,28 @@ TEST(Segmentation, LeafPartitionIsFaceConnected) {
       EXPECT_EQ(touching, 1);
       EXPECT_EQ(overlapping, 2);
     }
+  }
+}
+
+TEST(Segmentation, EverySharedDatasetSegmentsAndVerifies) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to this checkout";
+  std::vector<std::filesystem::path> meshes;
+  for (const auto& entry : std::filesystem::directory_iterator(shared_data())) {
+    if (entry.path().extension() == ".vtk") meshes.push_back(entry.path());
+  }
+  for (const char* f : {"formats/freefem_leman_published.vtu", "formats/onera_m6_coarse.msh", "formats/disk_out_ref.node", "formats/nasa_bluntfin.off"}) {
+    meshes.push_back(shared_data() / f);
+  }
+  std::sort(meshes.begin(), meshes.end());
+  ASSERT_GE(meshes.size(), 11u);
+  auto dir = scratch_dir("segment_shared");
+  for (const auto& mesh : meshes) {
+    lod::SegmentationOptions options;
+    auto report = lod::segment_mesh(mesh, dir / mesh.filename(), options);
+    auto verified = storage::verify_store(dir / mesh.filename());
+    EXPECT_TRUE(verified.ok) << mesh << ": " << (verified.problems.empty() ? "" : verified.problems[0]);
+    EXPECT_EQ(verified.tets, storage::summarize_mesh(mesh).stats.tetrahedra) << mesh;
+    EXPECT_LE(report.max_tets, 1.5 * report.avg_tets) << mesh;
   }
 }
 
