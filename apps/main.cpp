@@ -1,6 +1,7 @@
 // The one tetrascope executable; each subcommand lives in the library that owns it and
 // this file only parses arguments and maps errors to exit codes.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -12,6 +13,8 @@
 #include <unistd.h>
 
 #include "tetrascope/lod/segmentation.h"
+#include "tetrascope/lod/simplify.h"
+#include "tetrascope/storage/vtk_writer.h"
 #include "tetrascope/storage/mesh_error.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/store.h"
@@ -28,6 +31,10 @@ constexpr const char* kUsage =
     "                                [--force] [--progress bar|json|none] [--json]\n"
     "                                out-of-core segmentation (stage 1 of preprocess)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
+    "                                checksums and structure of a store\n"
+    "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
+    "                                [--full-queue] [--json]\n"
+    "                                quadric simplification of a whole mesh\n"
     "                                checksums and structure of a store\n"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off\n";
@@ -152,6 +159,68 @@ int run_segment(const std::vector<std::string>& raw) {
   return 0;
 }
 
+double real_number(const Args& args, const std::string& name) {
+  const std::string text = args.get(name);
+  size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !std::isfinite(v)) throw std::invalid_argument(name + " expects a number, got '" + text + "'");
+  return v;
+}
+
+int run_simplify(const std::vector<std::string>& raw) {
+  Args args(raw, {"--full-queue", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed"});
+  int criteria = args.has("--ratio") + args.has("--tets") + args.has("--max-error");
+  if (args.positionals().size() != 1 || !args.has("--output") || criteria == 0) {
+    std::fprintf(stderr, "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--full-queue] [--json]\n");
+    return 2;
+  }
+  tetrascope::storage::ReadStats stats;
+  auto mesh = tetrascope::storage::load_mesh(args.positionals()[0], &stats);
+  tetrascope::lod::SimplifyOptions options;
+  if (args.has("--ratio")) {
+    double ratio = real_number(args, "--ratio");
+    if (!(ratio > 0 && ratio <= 1)) throw std::invalid_argument("--ratio must be in (0, 1]");
+    options.target_tets = std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(ratio * mesh.tet_count())));
+  }
+  if (args.has("--tets")) {
+    options.target_tets = args.number("--tets", 0);
+    if (options.target_tets == 0) throw std::invalid_argument("--tets must be at least 1");
+  }
+  if (args.has("--max-error")) {
+    options.max_error = real_number(args, "--max-error");
+    if (!(options.max_error > 0)) throw std::invalid_argument("--max-error must be > 0");
+  }
+  if (args.has("--attribute")) {
+    std::string list = args.get("--attribute");
+    for (size_t at = 0; at <= list.size();) {
+      size_t comma = list.find(',', at);
+      if (comma == std::string::npos) comma = list.size();
+      if (comma > at) options.attributes.push_back(list.substr(at, comma - at));
+      at = comma + 1;
+    }
+  }
+  options.independent = !args.has("--full-queue");
+  options.seed = args.number("--seed", 1);
+  auto report = tetrascope::lod::simplify(mesh, options);
+  tetrascope::storage::write_vtk(args.get("--output"), mesh, "tetrascope simplify of " + std::filesystem::path(args.positionals()[0]).filename().string());
+  nlohmann::json j = {{"tets_before", report.tets_before}, {"tets_after", report.tets_after}, {"vertices_before", report.vertices_before},
+                      {"vertices_after", report.vertices_after}, {"collapses", report.collapses}, {"runs", report.runs},
+                      {"refused_topology", report.refused_topology}, {"refused_geometry", report.refused_geometry},
+                      {"max_queue", report.max_queue}, {"seconds", report.seconds},
+                      {"collapses_per_second", report.seconds > 0 ? report.collapses / report.seconds : 0.0}};
+  if (args.has("--json")) std::cout << j.dump(2) << "\n";
+  else std::printf("%s: %llu -> %llu tets (%.1f%%), %llu collapses in %.2f s (%.0f/s), max queue %llu\n", args.get("--output").c_str(),
+                   static_cast<unsigned long long>(report.tets_before), static_cast<unsigned long long>(report.tets_after),
+                   100.0 * report.tets_after / std::max<uint64_t>(1, report.tets_before), static_cast<unsigned long long>(report.collapses),
+                   report.seconds, report.seconds > 0 ? report.collapses / report.seconds : 0.0, static_cast<unsigned long long>(report.max_queue));
+  return 0;
+}
+
 int run_verify(const std::vector<std::string>& raw) {
   Args args(raw, {"--json"}, {"--progress"});
   if (args.positionals().size() != 1) {
@@ -186,6 +255,7 @@ int main(int argc, char** argv) {
     if (command == "info") return run_info(args);
     if (command == "segment") return run_segment(args);
     if (command == "verify") return run_verify(args);
+    if (command == "simplify") return run_simplify(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
     return 2;
   } catch (const std::invalid_argument& e) {

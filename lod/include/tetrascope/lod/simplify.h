@@ -1,0 +1,45 @@
+// Tetrahedral simplification by full-edge collapses driven by quadric error metrics over
+// position and normalised attributes (dissertation §3.1.4, §4.1). Works on one mesh in memory
+// (a whole small mesh, or one segment of the multi-triangulation with its border locked).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tetrascope/storage/mesh.h"
+
+namespace tetrascope::lod {
+
+struct SimplifyOptions {
+  // Stop criteria: the first one reached ends the run. 0 disables a criterion; at least one
+  // of target_tets / max_error must be set.
+  uint64_t target_tets = 0;
+  double max_error = 0;                    // largest quadric error (normalised units) a collapse may have
+  std::vector<std::string> attributes;     // attributes in the quadrics; empty = all
+  double boundary_weight = 1.0;            // face quadrics on the mesh boundary (keeps the domain)
+  double feature_weight = 1.0;             // edge quadrics along sharp boundary edges (§4.1.2)
+  double feature_angle_degrees = 40.0;     // a boundary edge is sharp above this bend
+  double vertex_weight = 1e-3;             // vertex distribution quadrics (conditioning)
+  double min_quality = 0.02;               // a collapse may not push a tet's quality below this (or its old quality)
+  bool independent = true;                 // independent edge collapses in runs (§4.1.1); false = one global queue
+  uint32_t seed = 1;
+};
+
+constexpr uint32_t kMaxSimplifyAttributeChannels = 16;
+
+struct SimplifyReport {
+  uint64_t tets_before = 0, tets_after = 0, vertices_before = 0, vertices_after = 0;
+  uint64_t collapses = 0, refused_topology = 0, refused_geometry = 0, runs = 0;
+  uint64_t max_queue = 0;
+  double seconds = 0;
+};
+
+// Simplifies `mesh` in place (vertices compacted, tets positively oriented). Vertices with
+// locked[v] != 0 are never moved or removed, and their attributes stay bit-identical: an edge
+// from a locked vertex p to a free vertex q may collapse only onto p; an edge between two
+// locked vertices never collapses. `locked` may be empty. Throws std::invalid_argument for
+// bad options (unknown attribute, negative weights, no stop criterion).
+SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
+
+}  // namespace tetrascope::lod

@@ -1,0 +1,703 @@
+// Tetrahedral simplification by full-edge collapses, dissertation §3.1.3-3.1.4 and §4.1:
+// quadrics over position and normalised attributes (Garland and Zhou 2005), face quadrics on
+// the domain boundary, edge quadrics on sharp boundary edges (§4.1.2), vertex distribution
+// quadrics; the link condition with a virtual vertex for the boundary (Dey et al. 1999);
+// no flipped or collapsed tets; independent edge collapses in runs under a re-estimated
+// threshold (§4.1.1), or one global queue.
+#include "tetrascope/lod/simplify.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <random>
+#include <stdexcept>
+
+#include "tetrascope/lod/quadric.h"
+
+namespace tetrascope::lod {
+namespace {
+
+constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // outward for positive tets
+constexpr uint32_t kNone = 0xFFFFFFFFu;
+
+struct Channel {
+  size_t value;      // index into the per-vertex attribute values
+  double offset, scale;
+  bool vector;       // vector component: 0.5 * v * scale + 0.5
+};
+
+struct Candidate {
+  double cost;
+  std::array<double, 3> position;
+  int kind;  // 0 optimum, 1 at p, 2 at q, 3 midpoint
+};
+
+struct QueueEntry {
+  double cost;
+  uint32_t p, q, version_p, version_q;
+  bool operator>(const QueueEntry& o) const {
+    if (cost != o.cost) return cost > o.cost;
+    if (p != o.p) return p > o.p;
+    return q > o.q;
+  }
+};
+using MinQueue = std::priority_queue<QueueEntry, std::vector<QueueEntry>, std::greater<QueueEntry>>;
+
+double quality(const double* a, const double* b, const double* c, const double* e, double* volume) {
+  double u[3], v[3], w[3];
+  for (int k = 0; k < 3; ++k) {
+    u[k] = b[k] - a[k];
+    v[k] = c[k] - a[k];
+    w[k] = e[k] - a[k];
+  }
+  double det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+  *volume = det / 6;
+  const double* p[4] = {a, b, c, e};
+  double sum = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j)
+      for (int k = 0; k < 3; ++k) sum += (p[i][k] - p[j][k]) * (p[i][k] - p[j][k]);
+  double rms = std::sqrt(sum / 6);
+  return rms > 0 ? 6 * std::sqrt(2.0) * (*volume) / (rms * rms * rms) : 0;
+}
+
+class Simplifier {
+ public:
+  Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked);
+  SimplifyReport run();
+
+ private:
+  void normalised(uint32_t v, double* x) const;
+  void normalised_at(const double* position, const double* values, double* x) const;
+  std::vector<uint32_t> neighbours(uint32_t v) const;
+  bool best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>& out);
+  bool link_condition(uint32_t p, uint32_t q);
+  bool geometry_ok(uint32_t p, uint32_t q, const double* position);
+  void interpolate(uint32_t p, uint32_t q, const double* position, double* values) const;
+  bool try_collapse(uint32_t p, uint32_t q);
+  void push_edges_of(uint32_t v, MinQueue& queue, bool independent_only);
+  void push(uint32_t p, uint32_t q, MinQueue& queue);
+  void compact();
+  bool is_boundary_face(uint32_t a, uint32_t b, uint32_t c) const;
+  bool done() const { return (options_.target_tets && alive_tets_ <= options_.target_tets); }
+
+  storage::TetMesh& mesh_;
+  SimplifyOptions options_;
+  int d_ = 3;
+  size_t floats_ = 0;  // attribute values per vertex
+  std::vector<Channel> channels_;
+  double origin_[3] = {0, 0, 0}, extent_ = 1;
+  std::vector<double> position_, values_;
+  std::vector<uint32_t> tets_;
+  std::vector<uint8_t> tet_alive_, vertex_alive_, locked_, marked_;
+  std::vector<std::vector<uint32_t>> star_;
+  std::vector<uint32_t> version_;
+  QuadricSet quadrics_;
+  uint64_t alive_tets_ = 0;
+  SimplifyReport report_;
+  std::vector<Candidate> candidates_;
+};
+
+Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked)
+    : mesh_(mesh), options_(options), quadrics_(3, 0) {
+  const size_t n = mesh.vertex_count();
+  if (!locked.empty() && locked.size() != n) throw std::invalid_argument("locked flags must cover every vertex");
+  if (options.target_tets == 0 && options.max_error <= 0) throw std::invalid_argument("give a target tet count, a ratio or a maximal error");
+  if (options.boundary_weight < 0 || options.feature_weight < 0 || options.vertex_weight < 0 || !(options.min_quality >= 0 && options.min_quality < 1)) {
+    throw std::invalid_argument("weights must be >= 0 and the minimal quality in [0, 1)");
+  }
+  // per-vertex values of all attributes; channels for the quadrics
+  std::vector<size_t> first_value;
+  for (const auto& a : mesh.attributes) {
+    first_value.push_back(floats_);
+    floats_ += a.info.components;
+  }
+  values_.resize(n * floats_);
+  for (size_t a = 0, base = 0; a < mesh.attributes.size(); base += mesh.attributes[a].info.components, ++a) {
+    const uint32_t c = mesh.attributes[a].info.components;
+    for (size_t v = 0; v < n; ++v)
+      for (uint32_t k = 0; k < c; ++k) values_[v * floats_ + base + k] = mesh.attributes[a].values[v * c + k];
+  }
+  for (const std::string& name : options.attributes) {
+    if (!mesh.find_attribute(name)) throw std::invalid_argument("no attribute '" + name + "' in the mesh");
+  }
+  for (size_t a = 0; a < mesh.attributes.size(); ++a) {
+    const auto& attribute = mesh.attributes[a];
+    if (!options.attributes.empty() && std::find(options.attributes.begin(), options.attributes.end(), attribute.info.name) == options.attributes.end()) continue;
+    const uint32_t c = attribute.info.components;
+    if (channels_.size() + c > kMaxSimplifyAttributeChannels) {
+      if (options.attributes.empty()) break;  // all attributes: as many as fit
+      throw std::invalid_argument("too many attribute channels for the quadrics (at most " + std::to_string(kMaxSimplifyAttributeChannels) + ")");
+    }
+    if (c == 1) {  // scalars to [0, 1]
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (float v : attribute.values) {
+        if (std::isfinite(v)) {
+          lo = std::min<double>(lo, v);
+          hi = std::max<double>(hi, v);
+        }
+      }
+      channels_.push_back({first_value[a], std::isfinite(lo) ? lo : 0, hi > lo ? 1 / (hi - lo) : 0, false});
+    } else {  // vectors: the longest to length 1, then 0.5 v + 0.5 (§4.2.2)
+      double longest = 0;
+      for (size_t v = 0; v < n; ++v) {
+        double l2 = 0;
+        for (uint32_t k = 0; k < c; ++k) l2 += double(attribute.values[v * c + k]) * attribute.values[v * c + k];
+        if (std::isfinite(l2)) longest = std::max(longest, std::sqrt(l2));
+      }
+      for (uint32_t k = 0; k < c; ++k) channels_.push_back({first_value[a] + k, 0, longest > 0 ? 1 / longest : 0, true});
+    }
+  }
+  d_ = 3 + static_cast<int>(channels_.size());
+  // positions, normalised to the unit cube for the quadrics
+  position_.resize(3 * n);
+  for (size_t v = 0; v < n; ++v) {
+    position_[3 * v] = mesh.x[v];
+    position_[3 * v + 1] = mesh.y[v];
+    position_[3 * v + 2] = mesh.z[v];
+  }
+  storage::Bounds box = storage::compute_bounds(mesh);
+  extent_ = std::max({box.max[0] - box.min[0], box.max[1] - box.min[1], box.max[2] - box.min[2], 1e-30});
+  for (int k = 0; k < 3; ++k) origin_[k] = box.min[k];
+  tets_ = mesh.tets;
+  const size_t tet_count = tets_.size() / 4;
+  tet_alive_.assign(tet_count, 1);
+  alive_tets_ = tet_count;
+  vertex_alive_.assign(n, 1);
+  locked_ = locked.empty() ? std::vector<uint8_t>(n, 0) : locked;
+  marked_.assign(n, 0);
+  version_.assign(n, 0);
+  star_.assign(n, {});
+  for (uint32_t t = 0; t < tet_count; ++t)
+    for (int k = 0; k < 4; ++k) star_[tets_[4 * t + k]].push_back(t);
+  // quadrics
+  quadrics_ = QuadricSet(d_, n);
+  std::vector<double> q(quadric::stride(d_));
+  double total_volume = 0;
+  std::vector<double> point(4 * d_);
+  for (uint32_t t = 0; t < tet_count; ++t) {
+    const uint32_t* tet = &tets_[4 * t];
+    for (int k = 0; k < 4; ++k) normalised(tet[k], &point[k * d_]);
+    double volume;
+    quality(&point[0], &point[d_], &point[2 * d_], &point[3 * d_], &volume);
+    total_volume += std::fabs(volume);
+    const double* pts[4] = {&point[0], &point[d_], &point[2 * d_], &point[3 * d_]};
+    quadric::clear(q.data(), d_);
+    if (!quadric::subspace(q.data(), pts, 4, d_, std::fabs(volume))) continue;
+    for (int k = 0; k < 4; ++k) quadric::add(quadrics_.at(tet[k]), q.data(), d_);
+  }
+  const double length = std::cbrt(std::max(total_volume / std::max<size_t>(tet_count, 1), 1e-300));  // characteristic tet size
+  // boundary faces: face quadrics, and edge quadrics on sharp boundary edges
+  struct Face {
+    std::array<uint32_t, 3> key, oriented;
+  };
+  std::vector<Face> faces;
+  for (uint32_t t = 0; t < tet_count; ++t) {
+    for (int f = 0; f < 4; ++f) {
+      Face face;
+      for (int i = 0; i < 3; ++i) face.oriented[i] = tets_[4 * t + kFace[f][i]];
+      face.key = face.oriented;
+      std::sort(face.key.begin(), face.key.end());
+      faces.push_back(face);
+    }
+  }
+  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
+  std::vector<std::array<uint32_t, 3>> boundary;
+  for (size_t i = 0; i < faces.size();) {
+    size_t j = i + 1;
+    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    if (j - i == 1) boundary.push_back(faces[i].oriented);
+    i = j;
+  }
+  struct EdgeNormal {
+    uint32_t a, b;
+    double n[3];
+  };
+  std::vector<EdgeNormal> edge_normals;
+  for (const auto& f : boundary) {
+    double p[3][3];
+    for (int i = 0; i < 3; ++i) normalised_at(&position_[3 * size_t{f[i]}], nullptr, p[i]);
+    double u[3], v[3], nrm[3];
+    for (int k = 0; k < 3; ++k) {
+      u[k] = p[1][k] - p[0][k];
+      v[k] = p[2][k] - p[0][k];
+    }
+    nrm[0] = u[1] * v[2] - u[2] * v[1];
+    nrm[1] = u[2] * v[0] - u[0] * v[2];
+    nrm[2] = u[0] * v[1] - u[1] * v[0];
+    double twice_area = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+    if (twice_area <= 0) continue;
+    for (double& c : nrm) c /= twice_area;
+    if (options.boundary_weight > 0) {
+      double N[9], centre[3];
+      for (int i = 0; i < 3; ++i) {
+        centre[i] = (p[0][i] + p[1][i] + p[2][i]) / 3;
+        for (int j = 0; j < 3; ++j) N[3 * i + j] = nrm[i] * nrm[j];
+      }
+      quadric::clear(q.data(), d_);
+      quadric::position_only(q.data(), N, centre, d_, 0.5 * twice_area * length * options.boundary_weight);
+      for (uint32_t corner : f) quadric::add(quadrics_.at(corner), q.data(), d_);
+    }
+    for (int e = 0; e < 3; ++e) {
+      uint32_t a = f[e], c = f[(e + 1) % 3];
+      edge_normals.push_back({std::min(a, c), std::max(a, c), {nrm[0], nrm[1], nrm[2]}});
+    }
+  }
+  if (options.feature_weight > 0) {
+    std::sort(edge_normals.begin(), edge_normals.end(), [](const EdgeNormal& x, const EdgeNormal& y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+    const double cos_limit = std::cos(options.feature_angle_degrees * M_PI / 180);
+    for (size_t i = 0; i + 1 < edge_normals.size(); ++i) {
+      const EdgeNormal &x = edge_normals[i], &y = edge_normals[i + 1];
+      if (x.a != y.a || x.b != y.b) continue;
+      double cosine = x.n[0] * y.n[0] + x.n[1] * y.n[1] + x.n[2] * y.n[2];
+      if (cosine > cos_limit) continue;  // not sharp
+      double pa[3], pb[3], e[3], mid[3], len2 = 0;
+      normalised_at(&position_[3 * size_t{x.a}], nullptr, pa);
+      normalised_at(&position_[3 * size_t{x.b}], nullptr, pb);
+      for (int k = 0; k < 3; ++k) {
+        e[k] = pb[k] - pa[k];
+        mid[k] = 0.5 * (pa[k] + pb[k]);
+        len2 += e[k] * e[k];
+      }
+      if (len2 <= 0) continue;
+      double len = std::sqrt(len2), N[9];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) N[3 * r + c] = (r == c ? 1.0 : 0.0) - e[r] * e[c] / len2;
+      quadric::clear(q.data(), d_);
+      quadric::position_only(q.data(), N, mid, d_, len * length * length * options.feature_weight);
+      quadric::add(quadrics_.at(x.a), q.data(), d_);
+      quadric::add(quadrics_.at(x.b), q.data(), d_);
+    }
+  }
+  if (options.vertex_weight > 0) {
+    for (uint32_t v = 0; v < n; ++v) {
+      normalised(v, point.data());
+      const double* pts[1] = {point.data()};
+      quadric::subspace(quadrics_.at(v), pts, 1, d_, options.vertex_weight * length * length * length);
+    }
+  }
+  report_.tets_before = tet_count;
+  report_.vertices_before = n;
+}
+
+void Simplifier::normalised_at(const double* position, const double* values, double* x) const {
+  for (int k = 0; k < 3; ++k) x[k] = (position[k] - origin_[k]) / extent_;
+  if (!values) return;
+  for (size_t c = 0; c < channels_.size(); ++c) {
+    const Channel& ch = channels_[c];
+    double v = values[ch.value];
+    if (!std::isfinite(v)) v = ch.vector ? 0 : ch.offset;
+    x[3 + c] = ch.vector ? 0.5 * v * ch.scale + 0.5 : (v - ch.offset) * ch.scale;
+  }
+}
+
+void Simplifier::normalised(uint32_t v, double* x) const { normalised_at(&position_[3 * size_t{v}], floats_ ? &values_[v * floats_] : nullptr, x); }
+
+std::vector<uint32_t> Simplifier::neighbours(uint32_t v) const {
+  std::vector<uint32_t> out;
+  for (uint32_t t : star_[v])
+    for (int k = 0; k < 4; ++k)
+      if (tets_[4 * t + k] != v) out.push_back(tets_[4 * t + k]);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+bool Simplifier::best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>& out) {
+  out.clear();
+  if (locked_[p] && locked_[q]) return false;
+  double Q[quadric::stride(kMaxQuadricDimension)];
+  quadric::clear(Q, d_);
+  quadric::add(Q, quadrics_.at(p), d_);
+  quadric::add(Q, quadrics_.at(q), d_);
+  double xp[kMaxQuadricDimension], xq[kMaxQuadricDimension], x[kMaxQuadricDimension];
+  normalised(p, xp);
+  normalised(q, xq);
+  auto world = [&](const double* n) { return std::array<double, 3>{origin_[0] + n[0] * extent_, origin_[1] + n[1] * extent_, origin_[2] + n[2] * extent_}; };
+  if (locked_[p] || locked_[q]) {  // onto the locked end, which stays where it is
+    uint32_t keep = locked_[p] ? p : q;
+    out.push_back({quadric::evaluate(Q, keep == p ? xp : xq, d_), {position_[3 * keep], position_[3 * keep + 1], position_[3 * keep + 2]}, keep == p ? 1 : 2});
+    return true;
+  }
+  if (quadric::minimise(Q, d_, x)) out.push_back({quadric::evaluate(Q, x, d_), world(x), 0});
+  out.push_back({quadric::evaluate(Q, xp, d_), {position_[3 * p], position_[3 * p + 1], position_[3 * p + 2]}, 1});
+  out.push_back({quadric::evaluate(Q, xq, d_), {position_[3 * q], position_[3 * q + 1], position_[3 * q + 2]}, 2});
+  for (int i = 0; i < d_; ++i) x[i] = 0.5 * (xp[i] + xq[i]);
+  out.push_back({quadric::evaluate(Q, x, d_), world(x), 3});
+  std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+  return true;
+}
+
+bool Simplifier::is_boundary_face(uint32_t a, uint32_t b, uint32_t c) const {
+  int count = 0;
+  for (uint32_t t : star_[a]) {
+    const uint32_t* tet = &tets_[4 * t];
+    bool hb = false, hc = false;
+    for (int k = 0; k < 4; ++k) {
+      hb |= tet[k] == b;
+      hc |= tet[k] == c;
+    }
+    count += hb && hc;
+  }
+  return count == 1;
+}
+
+// Lk(p) ∩ Lk(q) = Lk(pq), with a virtual vertex joined to every boundary face (Dey et al.,
+// "Topology preserving edge contraction", 1999). Simplices of Lk(p) that contain q lie in
+// Lk(pq) anyway, so only the others are intersected.
+bool Simplifier::link_condition(uint32_t p, uint32_t q) {
+  using Simplex = std::array<uint32_t, 4>;  // {dimension, sorted vertices..., 0 padding}; virtual = kNone
+  auto closure = [](std::vector<Simplex>& out, std::array<uint32_t, 3> tri) {
+    std::sort(tri.begin(), tri.end());
+    out.push_back({2, tri[0], tri[1], tri[2]});
+    for (int i = 0; i < 3; ++i) {
+      out.push_back({0, tri[i], 0, 0});
+      for (int j = i + 1; j < 3; ++j) out.push_back({1, tri[i], tri[j], 0});
+    }
+  };
+  auto link = [&](uint32_t v, uint32_t other, std::vector<Simplex>& out, std::vector<Simplex>* edge_link) {
+    for (uint32_t t : star_[v]) {
+      const uint32_t* tet = &tets_[4 * t];
+      std::array<uint32_t, 3> rest{};
+      int n = 0;
+      bool has_other = false;
+      for (int k = 0; k < 4; ++k) {
+        if (tet[k] == v) continue;
+        has_other |= tet[k] == other;
+        rest[n++] = tet[k];
+      }
+      if (has_other) {
+        if (edge_link) {
+          std::array<uint32_t, 2> e{};
+          int m = 0;
+          for (uint32_t w : rest)
+            if (w != other) e[m++] = w;
+          std::sort(e.begin(), e.end());
+          edge_link->push_back({1, e[0], e[1], 0});
+          edge_link->push_back({0, e[0], 0, 0});
+          edge_link->push_back({0, e[1], 0, 0});
+        }
+      } else {
+        closure(out, rest);
+      }
+      for (int f = 0; f < 4; ++f) {  // boundary faces through v: virtual triangles
+        std::array<uint32_t, 3> face;
+        for (int i = 0; i < 3; ++i) face[i] = tet[kFace[f][i]];
+        if (std::find(face.begin(), face.end(), v) == face.end() || !is_boundary_face(face[0], face[1], face[2])) continue;
+        std::array<uint32_t, 3> virt{kNone, kNone, kNone};
+        int m = 0;
+        for (uint32_t w : face)
+          if (w != v) virt[m++] = w;
+        if (virt[0] == other || virt[1] == other) {
+          if (edge_link) {
+            uint32_t r = virt[0] == other ? virt[1] : virt[0];
+            edge_link->push_back({1, r, kNone, 0});
+            edge_link->push_back({0, r, 0, 0});
+            edge_link->push_back({0, kNone, 0, 0});
+          }
+        } else {
+          closure(out, virt);
+        }
+      }
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  };
+  std::vector<Simplex> link_p, link_q, link_pq, common;
+  link(p, q, link_p, &link_pq);
+  link(q, p, link_q, nullptr);
+  std::sort(link_pq.begin(), link_pq.end());
+  link_pq.erase(std::unique(link_pq.begin(), link_pq.end()), link_pq.end());
+  std::set_intersection(link_p.begin(), link_p.end(), link_q.begin(), link_q.end(), std::back_inserter(common));
+  for (const Simplex& s : common) {
+    if (!std::binary_search(link_pq.begin(), link_pq.end(), s)) return false;
+  }
+  return true;
+}
+
+bool Simplifier::geometry_ok(uint32_t p, uint32_t q, const double* position) {
+  for (uint32_t v : {p, q}) {
+    for (uint32_t t : star_[v]) {
+      const uint32_t* tet = &tets_[4 * t];
+      bool both = false;
+      for (int k = 0; k < 4; ++k) both |= tet[k] == (v == p ? q : p);
+      if (both) continue;  // removed by the collapse
+      const double* before[4];
+      const double* after[4];
+      for (int k = 0; k < 4; ++k) {
+        before[k] = &position_[3 * size_t{tet[k]}];
+        after[k] = (tet[k] == p || tet[k] == q) ? position : before[k];
+      }
+      double old_volume, new_volume;
+      double old_quality = quality(before[0], before[1], before[2], before[3], &old_volume);
+      double new_quality = quality(after[0], after[1], after[2], after[3], &new_volume);
+      if (old_quality <= 1e-12) {
+        if (new_volume < 0) return false;  // a degenerate tet may stay degenerate, never flip
+        continue;
+      }
+      if (new_volume <= 0) return false;
+      if (new_quality < options_.min_quality && new_quality < old_quality) return false;
+    }
+  }
+  return true;
+}
+
+void Simplifier::interpolate(uint32_t p, uint32_t q, const double* position, double* values) const {
+  // linear interpolation in the tet (of the current stars of p and q) that holds the point,
+  // or the one it is least outside of
+  double best = -std::numeric_limits<double>::infinity();
+  uint32_t best_tet = kNone;
+  double best_bary[4] = {1, 0, 0, 0};
+  for (uint32_t v : {p, q}) {
+    for (uint32_t t : star_[v]) {
+      const uint32_t* tet = &tets_[4 * t];
+      const double* P[4];
+      for (int k = 0; k < 4; ++k) P[k] = &position_[3 * size_t{tet[k]}];
+      double total;
+      quality(P[0], P[1], P[2], P[3], &total);
+      if (std::fabs(total) <= 0) continue;
+      double bary[4], lowest = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 4; ++k) {
+        const double* Q[4] = {P[0], P[1], P[2], P[3]};
+        Q[k] = position;
+        double part;
+        quality(Q[0], Q[1], Q[2], Q[3], &part);
+        bary[k] = part / total;
+        lowest = std::min(lowest, bary[k]);
+      }
+      if (lowest > best) {
+        best = lowest;
+        best_tet = t;
+        std::copy(bary, bary + 4, best_bary);
+      }
+      if (lowest >= 0) break;
+    }
+    if (best >= 0) break;
+  }
+  if (best_tet == kNone) {
+    for (size_t i = 0; i < floats_; ++i) values[i] = 0.5 * (values_[p * floats_ + i] + values_[q * floats_ + i]);
+    return;
+  }
+  double sum = 0;
+  for (double& b : best_bary) {
+    b = std::max(b, 0.0);
+    sum += b;
+  }
+  for (double& b : best_bary) b /= sum;
+  for (size_t i = 0; i < floats_; ++i) {
+    double v = 0;
+    for (int k = 0; k < 4; ++k) v += best_bary[k] * values_[tets_[4 * best_tet + k] * floats_ + i];
+    values[i] = v;
+  }
+}
+
+bool Simplifier::try_collapse(uint32_t p, uint32_t q) {
+  if (!best_candidates(p, q, candidates_)) return false;
+  if (options_.max_error > 0 && candidates_.front().cost > options_.max_error) return false;
+  if (!link_condition(p, q)) {
+    ++report_.refused_topology;
+    return false;
+  }
+  const Candidate* chosen = nullptr;
+  for (const Candidate& c : candidates_) {
+    if (geometry_ok(p, q, c.position.data())) {
+      chosen = &c;
+      break;
+    }
+  }
+  if (!chosen) {
+    ++report_.refused_geometry;
+    return false;
+  }
+  // keep the vertex the candidate sits on (a locked one stays bit-identical), else p
+  uint32_t keep = chosen->kind == 2 ? q : p, gone = keep == p ? q : p;
+  std::vector<double> values(floats_);
+  if (chosen->kind == 1 || chosen->kind == 2) {
+    for (size_t i = 0; i < floats_; ++i) values[i] = values_[keep * floats_ + i];
+  } else {
+    interpolate(p, q, chosen->position.data(), values.data());
+  }
+  // apply
+  for (int k = 0; k < 3; ++k) position_[3 * size_t{keep} + k] = chosen->position[k];
+  for (size_t i = 0; i < floats_; ++i) values_[keep * floats_ + i] = values[i];
+  quadric::add(quadrics_.at(keep), quadrics_.at(gone), d_);
+  for (uint32_t t : star_[gone]) {
+    uint32_t* tet = &tets_[4 * t];
+    bool has_keep = false;
+    for (int k = 0; k < 4; ++k) has_keep |= tet[k] == keep;
+    if (has_keep) {  // the tet around the edge disappears
+      tet_alive_[t] = 0;
+      --alive_tets_;
+      for (int k = 0; k < 4; ++k) {
+        if (tet[k] == gone) continue;
+        auto& s = star_[tet[k]];
+        s.erase(std::find(s.begin(), s.end(), t));
+      }
+    } else {
+      for (int k = 0; k < 4; ++k)
+        if (tet[k] == gone) tet[k] = keep;
+      star_[keep].push_back(t);
+    }
+  }
+  star_[gone].clear();
+  vertex_alive_[gone] = 0;
+  ++version_[keep];
+  ++version_[gone];
+  ++report_.collapses;
+  marked_[keep] = marked_[gone] = 1;
+  return true;
+}
+
+void Simplifier::push(uint32_t p, uint32_t q, MinQueue& queue) {
+  if (!best_candidates(p, q, candidates_)) return;
+  queue.push({candidates_.front().cost, p, q, version_[p], version_[q]});
+  report_.max_queue = std::max<uint64_t>(report_.max_queue, queue.size());
+}
+
+void Simplifier::push_edges_of(uint32_t v, MinQueue& queue, bool independent_only) {
+  if (independent_only) {  // edges in the link of v whose ends are both unmarked (§4.1.1)
+    std::vector<std::pair<uint32_t, uint32_t>> edges;
+    for (uint32_t t : star_[v]) {
+      uint32_t rest[3];
+      int n = 0;
+      for (int k = 0; k < 4; ++k)
+        if (tets_[4 * t + k] != v) rest[n++] = tets_[4 * t + k];
+      for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j) edges.push_back({std::min(rest[i], rest[j]), std::max(rest[i], rest[j])});
+    }
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    for (auto [a, b] : edges)
+      if (!marked_[a] && !marked_[b]) push(a, b, queue);
+  } else {
+    for (uint32_t w : neighbours(v)) push(std::min(v, w), std::max(v, w), queue);
+  }
+}
+
+SimplifyReport Simplifier::run() {
+  const auto start = std::chrono::steady_clock::now();
+  const uint32_t n = static_cast<uint32_t>(vertex_alive_.size());
+  std::mt19937 rng(options_.seed);
+  if (!options_.independent) {
+    MinQueue queue;
+    for (uint32_t v = 0; v < n; ++v)
+      for (uint32_t w : neighbours(v))
+        if (v < w) push(v, w, queue);
+    while (!queue.empty() && !done()) {
+      QueueEntry e = queue.top();
+      queue.pop();
+      if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
+      if (options_.max_error > 0 && e.cost > options_.max_error) break;
+      if (try_collapse(e.p, e.q)) {
+        uint32_t keep = vertex_alive_[e.p] ? e.p : e.q;
+        push_edges_of(keep, queue, false);
+      }
+    }
+  } else {
+    double threshold = 0;
+    uint64_t idle_runs = 0;
+    while (!done()) {
+      ++report_.runs;
+      std::fill(marked_.begin(), marked_.end(), 0);
+      // threshold: the mean cost of a few random edges, re-estimated every run (§4.1.1)
+      std::vector<uint32_t> alive;
+      for (uint32_t t = 0; t < tet_alive_.size(); ++t)
+        if (tet_alive_[t]) alive.push_back(t);
+      if (alive.empty()) break;
+      double sum = 0;
+      int samples = 0;
+      for (int s = 0; s < 64; ++s) {
+        uint32_t t = alive[rng() % alive.size()];
+        int i = static_cast<int>(rng() % 4), j = (i + 1 + static_cast<int>(rng() % 3)) % 4;
+        uint32_t a = tets_[4 * t + i], b = tets_[4 * t + j];
+        if (best_candidates(std::min(a, b), std::max(a, b), candidates_)) {
+          sum += candidates_.front().cost;
+          ++samples;
+        }
+      }
+      double estimate = samples ? sum / samples : 0;
+      threshold = std::max(estimate, threshold * (idle_runs > 0 ? 4.0 : 1.0));
+      if (threshold <= 0) threshold = std::numeric_limits<double>::min();
+      if (options_.max_error > 0) threshold = std::min(threshold, options_.max_error);
+      const uint64_t before = report_.collapses;
+      MinQueue queue;
+      std::vector<uint32_t> order(n);
+      for (uint32_t v = 0; v < n; ++v) order[v] = v;
+      std::shuffle(order.begin(), order.end(), rng);
+      for (uint32_t seed_vertex : order) {
+        if (done()) break;
+        if (!vertex_alive_[seed_vertex] || marked_[seed_vertex]) continue;
+        for (uint32_t w : neighbours(seed_vertex))
+          if (!marked_[w]) push(std::min(seed_vertex, w), std::max(seed_vertex, w), queue);
+        while (!queue.empty() && !done()) {
+          QueueEntry e = queue.top();
+          queue.pop();
+          if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || marked_[e.p] || marked_[e.q]) continue;
+          if (version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
+          if (e.cost > threshold) continue;
+          if (try_collapse(e.p, e.q)) push_edges_of(vertex_alive_[e.p] ? e.p : e.q, queue, true);
+        }
+        MinQueue().swap(queue);
+      }
+      if (report_.collapses == before) {
+        ++idle_runs;
+        if (options_.max_error > 0 && threshold >= options_.max_error) break;
+        if (idle_runs > 40) break;  // nothing collapses any more: the mesh is as coarse as it can get
+      } else {
+        idle_runs = 0;
+      }
+    }
+  }
+  compact();
+  report_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report_;
+}
+
+void Simplifier::compact() {
+  const size_t n = vertex_alive_.size();
+  std::vector<uint32_t> remap(n, kNone);
+  uint32_t next = 0;
+  for (size_t v = 0; v < n; ++v)
+    if (vertex_alive_[v] && !star_[v].empty()) remap[v] = next++;
+  storage::TetMesh out;
+  out.x.resize(next);
+  out.y.resize(next);
+  out.z.resize(next);
+  for (size_t v = 0; v < n; ++v) {
+    if (remap[v] == kNone) continue;
+    out.x[remap[v]] = static_cast<float>(position_[3 * v]);
+    out.y[remap[v]] = static_cast<float>(position_[3 * v + 1]);
+    out.z[remap[v]] = static_cast<float>(position_[3 * v + 2]);
+  }
+  for (size_t a = 0, base = 0; a < mesh_.attributes.size(); base += mesh_.attributes[a].info.components, ++a) {
+    const uint32_t c = mesh_.attributes[a].info.components;
+    storage::Attribute attribute{mesh_.attributes[a].info, std::vector<float>(size_t{next} * c)};
+    for (size_t v = 0; v < n; ++v) {
+      if (remap[v] == kNone) continue;
+      for (uint32_t k = 0; k < c; ++k) {
+        // a vertex that never moved keeps its exact original value
+        attribute.values[remap[v] * c + k] = static_cast<float>(values_[v * floats_ + base + k]);
+      }
+    }
+    out.attributes.push_back(std::move(attribute));
+  }
+  for (size_t t = 0; t < tet_alive_.size(); ++t) {
+    if (!tet_alive_[t]) continue;
+    for (int k = 0; k < 4; ++k) out.tets.push_back(remap[tets_[4 * t + k]]);
+  }
+  report_.tets_after = out.tet_count();
+  report_.vertices_after = out.vertex_count();
+  mesh_ = std::move(out);
+}
+
+}  // namespace
+
+SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
+  Simplifier simplifier(mesh, options, locked);
+  return simplifier.run();
+}
+
+}  // namespace tetrascope::lod
