@@ -14,6 +14,7 @@
 #include <queue>
 #include <random>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "tetrascope/lod/quadric.h"
 
@@ -78,6 +79,7 @@ class Simplifier {
   bool geometry_ok(uint32_t p, uint32_t q, const double* position);
   void interpolate(uint32_t p, uint32_t q, const double* position, double* values) const;
   bool try_collapse(uint32_t p, uint32_t q);
+  bool collapse(uint32_t p, uint32_t q);
   void push_edges_of(uint32_t v, MinQueue& queue, bool independent_only);
   void push(uint32_t p, uint32_t q, MinQueue& queue);
   void compact();
@@ -99,6 +101,7 @@ class Simplifier {
   uint64_t alive_tets_ = 0;
   SimplifyReport report_;
   std::vector<Candidate> candidates_;
+  std::unordered_map<uint64_t, uint64_t> refused_;  // edge -> versions of its ends when refused
 };
 
 Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked)
@@ -439,7 +442,7 @@ bool Simplifier::geometry_ok(uint32_t p, uint32_t q, const double* position) {
         continue;
       }
       if (new_volume <= 0) return false;
-      if (new_quality < options_.min_quality && new_quality < old_quality) return false;
+      if (new_quality < options_.min_quality && new_quality < 0.5 * old_quality) return false;
     }
   }
   return true;
@@ -495,6 +498,15 @@ void Simplifier::interpolate(uint32_t p, uint32_t q, const double* position, dou
 }
 
 bool Simplifier::try_collapse(uint32_t p, uint32_t q) {
+  // an edge refused once is not tried again until a collapse changes one of its ends
+  const uint64_t key = uint64_t{p} << 32 | q, stamp = uint64_t{version_[p]} << 32 | version_[q];
+  if (auto it = refused_.find(key); it != refused_.end() && it->second == stamp) return false;
+  const bool ok = collapse(p, q);
+  if (!ok) refused_[key] = stamp;
+  return ok;
+}
+
+bool Simplifier::collapse(uint32_t p, uint32_t q) {
   if (!best_candidates(p, q, candidates_)) return false;
   if (options_.max_error > 0 && candidates_.front().cost > options_.max_error) return false;
   if (!link_condition(p, q)) {

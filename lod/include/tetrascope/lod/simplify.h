@@ -21,7 +21,7 @@ struct SimplifyOptions {
   double feature_weight = 1.0;             // edge quadrics along sharp boundary edges (§4.1.2)
   double feature_angle_degrees = 40.0;     // a boundary edge is sharp above this bend
   double vertex_weight = 1e-3;             // vertex distribution quadrics (conditioning)
-  double min_quality = 0.02;               // a collapse may not push a tet's quality below this (or its old quality)
+  double min_quality = 0.02;               // a collapse may not push a tet's quality below this unless it keeps half its old quality
   bool independent = true;                 // independent edge collapses in runs (§4.1.1); false = one global queue
   uint32_t seed = 1;
 };

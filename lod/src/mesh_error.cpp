@@ -1,0 +1,371 @@
+// Field and domain error between two tet meshes over the same domain (dissertation §4.2.5):
+// the mean field error Ẽ_M^f (RMS over the original vertices, points outside the simplified
+// mesh projected to its boundary), the largest field error, and the symmetric Hausdorff and
+// mean distance between the two boundary surfaces, sampled.
+#include "tetrascope/lod/mesh_error.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace tetrascope::lod {
+namespace {
+
+using Vec = std::array<double, 3>;
+constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+
+Vec vertex(const storage::TetMesh& m, uint32_t v) { return {m.x[v], m.y[v], m.z[v]}; }
+Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec cross(const Vec& a, const Vec& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+
+// Items with bounding boxes in a uniform grid; queries visit the cells near a point.
+class BoxGrid {
+ public:
+  void build(const std::vector<std::array<Vec, 2>>& boxes) {
+    Vec lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
+    Vec hi{-lo[0], -lo[1], -lo[2]};
+    for (const auto& b : boxes)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], b[0][k]);
+        hi[k] = std::max(hi[k], b[1][k]);
+      }
+    lo_ = lo;
+    double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30});
+    int cells = std::max(1, static_cast<int>(std::cbrt(static_cast<double>(boxes.size()) / 2)));
+    cell_ = extent / cells * (1 + 1e-9);
+    for (int k = 0; k < 3; ++k) n_[k] = std::max(1, static_cast<int>((hi[k] - lo[k]) / cell_) + 1);
+    start_.assign(static_cast<size_t>(n_[0]) * n_[1] * n_[2] + 1, 0);
+    auto range = [&](const std::array<Vec, 2>& b, int lo_c[3], int hi_c[3]) {
+      for (int k = 0; k < 3; ++k) {
+        lo_c[k] = clamp_cell(k, b[0][k]);
+        hi_c[k] = clamp_cell(k, b[1][k]);
+      }
+    };
+    for (int pass = 0; pass < 2; ++pass) {
+      if (pass == 1) {
+        for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+        items_.resize(start_.back());
+      }
+      std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+      for (uint32_t i = 0; i < boxes.size(); ++i) {
+        int a[3], b[3];
+        range(boxes[i], a, b);
+        for (int z = a[2]; z <= b[2]; ++z)
+          for (int y = a[1]; y <= b[1]; ++y)
+            for (int x = a[0]; x <= b[0]; ++x) {
+              size_t c = index(x, y, z);
+              if (pass == 0) ++start_[c + 1];
+              else items_[fill[c]++] = i;
+            }
+      }
+    }
+  }
+  int clamp_cell(int k, double v) const { return std::clamp(static_cast<int>((v - lo_[k]) / cell_), 0, n_[k] - 1); }
+  size_t index(int x, int y, int z) const { return (static_cast<size_t>(z) * n_[1] + y) * n_[0] + x; }
+  double cell() const { return cell_; }
+  // Calls visit(item) for items in cells at Chebyshev ring r around the point's cell; false when r is past the grid.
+  template <typename Visit>
+  bool ring(const Vec& p, int r, Visit&& visit) const {
+    int c[3];
+    for (int k = 0; k < 3; ++k) c[k] = clamp_cell(k, p[k]);
+    bool any = false;
+    for (int z = c[2] - r; z <= c[2] + r; ++z) {
+      if (z < 0 || z >= n_[2]) continue;
+      for (int y = c[1] - r; y <= c[1] + r; ++y) {
+        if (y < 0 || y >= n_[1]) continue;
+        for (int x = c[0] - r; x <= c[0] + r; ++x) {
+          if (x < 0 || x >= n_[0]) continue;
+          if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != r) continue;
+          any = true;
+          size_t cell = index(x, y, z);
+          for (uint32_t i = start_[cell]; i < start_[cell + 1]; ++i) visit(items_[i]);
+        }
+      }
+    }
+    return any;
+  }
+
+ private:
+  Vec lo_{};
+  double cell_ = 1;
+  int n_[3] = {1, 1, 1};
+  std::vector<uint32_t> start_, items_;
+};
+
+// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5); returns
+// barycentric weights in w.
+Vec closest_on_triangle(const Vec& p, const Vec& a, const Vec& b, const Vec& c, double w[3]) {
+  Vec ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);
+  double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) { w[0] = 1; w[1] = w[2] = 0; return a; }
+  Vec bp = sub(p, b);
+  double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) { w[1] = 1; w[0] = w[2] = 0; return b; }
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    double v = d1 / (d1 - d3);
+    w[0] = 1 - v; w[1] = v; w[2] = 0;
+    return {a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]};
+  }
+  Vec cp = sub(p, c);
+  double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) { w[2] = 1; w[0] = w[1] = 0; return c; }
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    double v = d2 / (d2 - d6);
+    w[0] = 1 - v; w[1] = 0; w[2] = v;
+    return {a[0] + v * ac[0], a[1] + v * ac[1], a[2] + v * ac[2]};
+  }
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    double v = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    w[0] = 0; w[1] = 1 - v; w[2] = v;
+    return {b[0] + v * (c[0] - b[0]), b[1] + v * (c[1] - b[1]), b[2] + v * (c[2] - b[2])};
+  }
+  double denom = 1 / (va + vb + vc), v = vb * denom, u = vc * denom;
+  w[0] = 1 - v - u; w[1] = v; w[2] = u;
+  return {a[0] + ab[0] * v + ac[0] * u, a[1] + ab[1] * v + ac[1] * u, a[2] + ab[2] * v + ac[2] * u};
+}
+
+std::vector<std::array<uint32_t, 3>> boundary_triangles(const storage::TetMesh& m) {
+  std::vector<std::pair<std::array<uint32_t, 3>, std::array<uint32_t, 3>>> faces;
+  for (size_t t = 0; t < m.tet_count(); ++t) {
+    for (int f = 0; f < 4; ++f) {
+      std::array<uint32_t, 3> face{m.tets[4 * t + kFace[f][0]], m.tets[4 * t + kFace[f][1]], m.tets[4 * t + kFace[f][2]]}, key = face;
+      std::sort(key.begin(), key.end());
+      faces.push_back({key, face});
+    }
+  }
+  std::sort(faces.begin(), faces.end());
+  std::vector<std::array<uint32_t, 3>> out;
+  for (size_t i = 0; i < faces.size();) {
+    size_t j = i + 1;
+    while (j < faces.size() && faces[j].first == faces[i].first) ++j;
+    if (j - i == 1) out.push_back(faces[i].second);
+    i = j;
+  }
+  return out;
+}
+
+// Nearest points on a triangle surface.
+class Surface {
+ public:
+  Surface(const storage::TetMesh& m) : m_(m), triangles_(boundary_triangles(m)) {
+    std::vector<std::array<Vec, 2>> boxes;
+    for (const auto& t : triangles_) {
+      Vec lo = vertex(m, t[0]), hi = lo;
+      for (int i = 1; i < 3; ++i) {
+        Vec p = vertex(m, t[i]);
+        for (int k = 0; k < 3; ++k) {
+          lo[k] = std::min(lo[k], p[k]);
+          hi[k] = std::max(hi[k], p[k]);
+        }
+      }
+      boxes.push_back({lo, hi});
+    }
+    if (!boxes.empty()) grid_.build(boxes);
+  }
+  const std::vector<std::array<uint32_t, 3>>& triangles() const { return triangles_; }
+  // Distance to the surface; the nearest triangle and barycentric weights.
+  double nearest(const Vec& p, uint32_t* triangle, double w[3]) const {
+    double best = std::numeric_limits<double>::infinity();
+    for (int r = 0;; ++r) {
+      bool inside = grid_.ring(p, r, [&](uint32_t i) {
+        const auto& t = triangles_[i];
+        double weights[3];
+        Vec c = closest_on_triangle(p, vertex(m_, t[0]), vertex(m_, t[1]), vertex(m_, t[2]), weights);
+        Vec d = sub(c, p);
+        double dist = std::sqrt(dot(d, d));
+        if (dist < best) {
+          best = dist;
+          *triangle = i;
+          std::copy(weights, weights + 3, w);
+        }
+      });
+      // every unvisited item is at least r * cell away
+      if (best <= r * grid_.cell() || (!inside && r > 0 && std::isfinite(best))) break;
+      if (!inside && r > 1000000) break;
+    }
+    return best;
+  }
+
+ private:
+  const storage::TetMesh& m_;
+  std::vector<std::array<uint32_t, 3>> triangles_;
+  BoxGrid grid_;
+};
+
+struct Normaliser {  // per attribute channel: scalars to [0, 1], vectors by the longest, 0.5 v + 0.5
+  std::vector<double> offset, scale;
+  std::vector<bool> vector;
+};
+
+}  // namespace
+
+nlohmann::json MeshErrorReport::to_json() const {
+  nlohmann::json f = nlohmann::json::array();
+  for (const auto& e : fields) f.push_back({{"name", e.name}, {"components", e.components}, {"mean_field_error", e.mean}, {"max_field_error", e.max}});
+  return {{"fields", f}, {"mean_field_error", mean_all}, {"vertices", vertices}, {"outside_vertices", outside},
+          {"domain_error", {{"hausdorff", hausdorff}, {"mean", mean_distance}, {"hausdorff_relative", diagonal > 0 ? hausdorff / diagonal : 0},
+                            {"mean_relative", diagonal > 0 ? mean_distance / diagonal : 0}, {"samples", samples}}},
+          {"bounding_box_diagonal", diagonal}};
+}
+
+MeshErrorReport measure_error(const storage::TetMesh& original, const storage::TetMesh& simplified, uint32_t samples_per_surface) {
+  MeshErrorReport r;
+  r.vertices = original.vertex_count();
+  storage::Bounds box = storage::compute_bounds(original);
+  r.diagonal = std::sqrt(std::pow(box.max[0] - box.min[0], 2) + std::pow(box.max[1] - box.min[1], 2) + std::pow(box.max[2] - box.min[2], 2));
+  // attributes in both
+  struct Pair {
+    const storage::Attribute *a, *b;
+    std::vector<double> offset, scale;
+    bool vector;
+  };
+  std::vector<Pair> pairs;
+  for (const auto& a : original.attributes) {
+    const storage::Attribute* b = simplified.find_attribute(a.info.name);
+    if (!b || b->info.components != a.info.components) continue;
+    Pair p{&a, b, {}, {}, a.info.components > 1};
+    if (!p.vector) {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (float v : a.values)
+        if (std::isfinite(v)) { lo = std::min<double>(lo, v); hi = std::max<double>(hi, v); }
+      p.offset = {std::isfinite(lo) ? lo : 0};
+      p.scale = {hi > lo ? 1 / (hi - lo) : 0};
+    } else {
+      double longest = 0;
+      const uint32_t c = a.info.components;
+      for (size_t v = 0; v < original.vertex_count(); ++v) {
+        double l2 = 0;
+        for (uint32_t k = 0; k < c; ++k) l2 += double(a.values[v * c + k]) * a.values[v * c + k];
+        if (std::isfinite(l2)) longest = std::max(longest, std::sqrt(l2));
+      }
+      p.offset.assign(c, 0);
+      p.scale.assign(c, longest > 0 ? 0.5 / longest : 0);  // 0.5 v / longest (+0.5 cancels in differences)
+    }
+    pairs.push_back(p);
+    r.fields.push_back({a.info.name, a.info.components, 0, 0});
+  }
+  // locate the original vertices in the simplified tets
+  std::vector<std::array<Vec, 2>> boxes;
+  for (size_t t = 0; t < simplified.tet_count(); ++t) {
+    Vec lo = vertex(simplified, simplified.tets[4 * t]), hi = lo;
+    for (int k = 1; k < 4; ++k) {
+      Vec p = vertex(simplified, simplified.tets[4 * t + k]);
+      for (int i = 0; i < 3; ++i) {
+        lo[i] = std::min(lo[i], p[i]);
+        hi[i] = std::max(hi[i], p[i]);
+      }
+    }
+    boxes.push_back({lo, hi});
+  }
+  BoxGrid tets;
+  if (!boxes.empty()) tets.build(boxes);
+  Surface simplified_surface(simplified), original_surface(original);
+  std::vector<double> sum2(pairs.size(), 0.0);
+  double total2 = 0;
+  std::vector<double> estimate;
+  for (uint32_t v = 0; v < original.vertex_count(); ++v) {
+    const Vec p = vertex(original, v);
+    // barycentric location
+    uint32_t found = 0xFFFFFFFFu;
+    double bary[4] = {0, 0, 0, 0};
+    tets.ring(p, 0, [&](uint32_t t) {
+      if (found != 0xFFFFFFFFu) return;
+      const uint32_t* tet = &simplified.tets[4 * size_t{t}];
+      Vec a = vertex(simplified, tet[0]), b = vertex(simplified, tet[1]), c = vertex(simplified, tet[2]), d = vertex(simplified, tet[3]);
+      double total = dot(sub(b, a), cross(sub(c, a), sub(d, a)));
+      if (total == 0) return;
+      double w[4];
+      w[1] = dot(sub(p, a), cross(sub(c, a), sub(d, a))) / total;
+      w[2] = dot(sub(b, a), cross(sub(p, a), sub(d, a))) / total;
+      w[3] = dot(sub(b, a), cross(sub(c, a), sub(p, a))) / total;
+      w[0] = 1 - w[1] - w[2] - w[3];
+      const double eps = -1e-9;
+      if (w[0] >= eps && w[1] >= eps && w[2] >= eps && w[3] >= eps) {
+        found = t;
+        std::copy(w, w + 4, bary);
+      }
+    });
+    const uint32_t* corners;
+    int count;
+    uint32_t triangle_corners[3];
+    if (found != 0xFFFFFFFFu) {
+      corners = &simplified.tets[4 * size_t{found}];
+      count = 4;
+    } else {  // outside: the nearest point on the simplified boundary
+      ++r.outside;
+      uint32_t tri = 0;
+      double w[3] = {1, 0, 0};
+      simplified_surface.nearest(p, &tri, w);
+      for (int i = 0; i < 3; ++i) triangle_corners[i] = simplified_surface.triangles()[tri][i];
+      corners = triangle_corners;
+      count = 3;
+      bary[0] = w[0]; bary[1] = w[1]; bary[2] = w[2]; bary[3] = 0;
+    }
+    double vertex_total = 0;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      const Pair& pair = pairs[i];
+      const uint32_t c = pair.a->info.components;
+      double diff2 = 0;
+      for (uint32_t k = 0; k < c; ++k) {
+        double approx = 0;
+        for (int j = 0; j < count; ++j) approx += bary[j] * pair.b->values[size_t{corners[j]} * c + k];
+        double d = (double(pair.a->values[size_t{v} * c + k]) - approx) * pair.scale[k];
+        if (std::isfinite(d)) diff2 += d * d;
+      }
+      sum2[i] += diff2;
+      vertex_total += diff2;
+      r.fields[i].max = std::max(r.fields[i].max, std::sqrt(diff2));
+    }
+    total2 += vertex_total;
+  }
+  for (size_t i = 0; i < pairs.size(); ++i) r.fields[i].mean = std::sqrt(sum2[i] / std::max<uint64_t>(1, r.vertices));
+  r.mean_all = std::sqrt(total2 / std::max<uint64_t>(1, r.vertices));
+  // domain error: sample each boundary surface and measure the distance to the other
+  std::mt19937 rng(1);
+  double hausdorff = 0, distance_sum = 0;
+  uint64_t samples = 0;
+  auto sample = [&](const storage::TetMesh& from_mesh, const Surface& from, const Surface& to) {
+    const auto& tris = from.triangles();
+    if (tris.empty()) return;
+    std::vector<double> area(tris.size());
+    double total = 0;
+    for (size_t i = 0; i < tris.size(); ++i) {
+      Vec n = cross(sub(vertex(from_mesh, tris[i][1]), vertex(from_mesh, tris[i][0])), sub(vertex(from_mesh, tris[i][2]), vertex(from_mesh, tris[i][0])));
+      total += std::sqrt(dot(n, n));
+      area[i] = total;
+    }
+    std::uniform_real_distribution<double> unit(0, 1);
+    auto measure = [&](const Vec& p) {
+      uint32_t tri;
+      double w[3];
+      double d = to.nearest(p, &tri, w);
+      hausdorff = std::max(hausdorff, d);
+      distance_sum += d;
+      ++samples;
+    };
+    for (uint32_t s = 0; s < samples_per_surface; ++s) {
+      size_t i = std::lower_bound(area.begin(), area.end(), unit(rng) * total) - area.begin();
+      i = std::min(i, tris.size() - 1);
+      double u = unit(rng), v = unit(rng);
+      if (u + v > 1) { u = 1 - u; v = 1 - v; }
+      Vec a = vertex(from_mesh, tris[i][0]), b = vertex(from_mesh, tris[i][1]), c = vertex(from_mesh, tris[i][2]);
+      measure({a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1]), a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])});
+    }
+    for (const auto& t : tris)  // the surface's vertices, where extremes usually sit
+      for (uint32_t corner : t) measure(vertex(from_mesh, corner));
+  };
+  sample(original, original_surface, simplified_surface);
+  sample(simplified, simplified_surface, original_surface);
+  r.hausdorff = hausdorff;
+  r.mean_distance = samples ? distance_sum / samples : 0;
+  r.samples = samples;
+  return r;
+}
+
+}  // namespace tetrascope::lod
