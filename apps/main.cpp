@@ -34,7 +34,8 @@ constexpr const char* kUsage =
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
-    "                                [--full-queue] [--json]\n"
+    "                                [--full-queue] [--attribute-weight W] [--boundary-weight W] [--feature-weight W]\n"
+    "                                [--vertex-weight W] [--min-quality Q] [--json]\n"
     "                                quadric simplification of a whole mesh\n"
     "  error ORIGINAL SIMPLIFIED [--samples N] [--json]\n"
     "                                mean/max field error and domain error (§4.2.5)\n"
@@ -176,7 +177,8 @@ double real_number(const Args& args, const std::string& name) {
 }
 
 int run_simplify(const std::vector<std::string>& raw) {
-  Args args(raw, {"--full-queue", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed"});
+  Args args(raw, {"--full-queue", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed", "--boundary-weight",
+                                             "--feature-weight", "--vertex-weight", "--min-quality", "--attribute-weight"});
   int criteria = args.has("--ratio") + args.has("--tets") + args.has("--max-error");
   if (args.positionals().size() != 1 || !args.has("--output") || criteria == 0) {
     std::fprintf(stderr, "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--full-queue] [--json]\n");
@@ -208,6 +210,11 @@ int run_simplify(const std::vector<std::string>& raw) {
     }
   }
   options.independent = !args.has("--full-queue");
+  if (args.has("--attribute-weight")) options.attribute_weight = real_number(args, "--attribute-weight");
+  if (args.has("--boundary-weight")) options.boundary_weight = real_number(args, "--boundary-weight");
+  if (args.has("--feature-weight")) options.feature_weight = real_number(args, "--feature-weight");
+  if (args.has("--vertex-weight")) options.vertex_weight = real_number(args, "--vertex-weight");
+  if (args.has("--min-quality")) options.min_quality = real_number(args, "--min-quality");
   options.seed = args.number("--seed", 1);
   auto report = tetrascope::lod::simplify(mesh, options);
   tetrascope::storage::write_vtk(args.get("--output"), mesh, "tetrascope simplify of " + std::filesystem::path(args.positionals()[0]).filename().string());

@@ -34,6 +34,7 @@ struct Candidate {
   double cost;
   std::array<double, 3> position;
   int kind;  // 0 optimum, 1 at p, 2 at q, 3 midpoint
+  std::array<double, kMaxQuadricDimension> point{};  // the point in R^(3+A) (normalised)
 };
 
 struct QueueEntry {
@@ -109,7 +110,7 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
   const size_t n = mesh.vertex_count();
   if (!locked.empty() && locked.size() != n) throw std::invalid_argument("locked flags must cover every vertex");
   if (options.target_tets == 0 && options.max_error <= 0) throw std::invalid_argument("give a target tet count, a ratio or a maximal error");
-  if (options.boundary_weight < 0 || options.feature_weight < 0 || options.vertex_weight < 0 || !(options.min_quality >= 0 && options.min_quality < 1)) {
+  if (!(options.attribute_weight > 0) || options.boundary_weight < 0 || options.feature_weight < 0 || options.vertex_weight < 0 || !(options.min_quality >= 0 && options.min_quality < 1)) {
     throw std::invalid_argument("weights must be >= 0 and the minimal quality in [0, 1)");
   }
   // per-vertex values of all attributes; channels for the quadrics
@@ -143,7 +144,7 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
           hi = std::max<double>(hi, v);
         }
       }
-      channels_.push_back({first_value[a], std::isfinite(lo) ? lo : 0, hi > lo ? 1 / (hi - lo) : 0, false});
+      channels_.push_back({first_value[a], std::isfinite(lo) ? lo : 0, hi > lo ? options.attribute_weight / (hi - lo) : 0, false});
     } else {  // vectors: the longest to length 1, then 0.5 v + 0.5 (§4.2.2)
       double longest = 0;
       for (size_t v = 0; v < n; ++v) {
@@ -151,7 +152,7 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
         for (uint32_t k = 0; k < c; ++k) l2 += double(attribute.values[v * c + k]) * attribute.values[v * c + k];
         if (std::isfinite(l2)) longest = std::max(longest, std::sqrt(l2));
       }
-      for (uint32_t k = 0; k < c; ++k) channels_.push_back({first_value[a] + k, 0, longest > 0 ? 1 / longest : 0, true});
+      for (uint32_t k = 0; k < c; ++k) channels_.push_back({first_value[a] + k, 0, longest > 0 ? options.attribute_weight / longest : 0, true});
     }
   }
   d_ = 3 + static_cast<int>(channels_.size());
@@ -293,7 +294,7 @@ void Simplifier::normalised_at(const double* position, const double* values, dou
     const Channel& ch = channels_[c];
     double v = values[ch.value];
     if (!std::isfinite(v)) v = ch.vector ? 0 : ch.offset;
-    x[3 + c] = ch.vector ? 0.5 * v * ch.scale + 0.5 : (v - ch.offset) * ch.scale;
+    x[3 + c] = ch.vector ? 0.5 * v * ch.scale + 0.5 : (v - ch.offset) * ch.scale;  // the +0.5 shift only moves the origin
   }
 }
 
@@ -325,11 +326,15 @@ bool Simplifier::best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>&
     out.push_back({quadric::evaluate(Q, keep == p ? xp : xq, d_), {position_[3 * keep], position_[3 * keep + 1], position_[3 * keep + 2]}, keep == p ? 1 : 2});
     return true;
   }
-  if (quadric::minimise(Q, d_, x)) out.push_back({quadric::evaluate(Q, x, d_), world(x), 0});
+  if (quadric::minimise(Q, d_, x)) {
+    out.push_back({quadric::evaluate(Q, x, d_), world(x), 0});
+    std::copy(x, x + d_, out.back().point.begin());
+  }
   out.push_back({quadric::evaluate(Q, xp, d_), {position_[3 * p], position_[3 * p + 1], position_[3 * p + 2]}, 1});
   out.push_back({quadric::evaluate(Q, xq, d_), {position_[3 * q], position_[3 * q + 1], position_[3 * q + 2]}, 2});
   for (int i = 0; i < d_; ++i) x[i] = 0.5 * (xp[i] + xq[i]);
   out.push_back({quadric::evaluate(Q, x, d_), world(x), 3});
+  std::copy(x, x + d_, out.back().point.begin());
   std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
   return true;
 }
@@ -530,7 +535,15 @@ bool Simplifier::collapse(uint32_t p, uint32_t q) {
   if (chosen->kind == 1 || chosen->kind == 2) {
     for (size_t i = 0; i < floats_; ++i) values[i] = values_[keep * floats_ + i];
   } else {
+    // attributes outside the quadrics: interpolated at the new position; those in the
+    // quadrics: the values that minimise the quadric error (Garland and Zhou), which keeps
+    // the field error lower than interpolating in the already coarsened mesh
     interpolate(p, q, chosen->position.data(), values.data());
+    for (size_t c = 0; c < channels_.size(); ++c) {
+      const Channel& ch = channels_[c];
+      const double n = chosen->point[3 + c];
+      if (ch.scale > 0) values[ch.value] = ch.vector ? (n - 0.5) / (0.5 * ch.scale) : n / ch.scale + ch.offset;
+    }
   }
   // apply
   for (int k = 0; k < 3; ++k) position_[3 * size_t{keep} + k] = chosen->position[k];

@@ -1,0 +1,214 @@
+// The quadric simplifier: exact cases (a linear field simplifies with ~zero field error,
+// locked vertices stay bit-identical, a collapse that would flip a tet is refused), output
+// always conforming with positive volumes, planar boundary keeps its volume, hostile options
+// rejected. The error tool is checked against known answers.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <map>
+
+#include "fixture_writers.h"
+#include "test_paths.h"
+#include "tetrascope/lod/mesh_error.h"
+#include "tetrascope/lod/quadric.h"
+#include "tetrascope/lod/simplify.h"
+#include "tetrascope/storage/mesh_stream.h"
+
+namespace tetrascope::testing {
+namespace {
+
+constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+
+// A box of n^3 cubes, 6 tets each (Kuhn split: conforming), with f = 2x - y + 0.5z.
+storage::TetMesh linear_cube(int n, double jitter = 0) {
+  storage::TetMesh m;
+  auto at = [&](int i, int j, int k) { return static_cast<uint32_t>((k * (n + 1) + j) * (n + 1) + i); };
+  uint32_t seed = 12345;
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        auto wobble = [&](int c) {
+          seed = seed * 1664525u + 1013904223u;
+          bool inner = c > 0 && c < n;
+          return inner ? jitter * ((seed >> 8) / double(1 << 24) - 0.5) / n : 0.0;
+        };
+        m.x.push_back(static_cast<float>(double(i) / n + wobble(i)));
+        m.y.push_back(static_cast<float>(double(j) / n + wobble(j)));
+        m.z.push_back(static_cast<float>(double(k) / n + wobble(k)));
+      }
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        uint32_t c[8] = {at(i, j, k), at(i + 1, j, k), at(i + 1, j + 1, k), at(i, j + 1, k),
+                         at(i, j, k + 1), at(i + 1, j, k + 1), at(i + 1, j + 1, k + 1), at(i, j + 1, k + 1)};
+        const int kuhn[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6}, {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
+        for (auto& t : kuhn) {
+          uint32_t tet[4] = {c[t[0]], c[t[1]], c[t[2]], c[t[3]]};
+          if (storage::signed_volume(m, tet[0], tet[1], tet[2], tet[3]) < 0) std::swap(tet[2], tet[3]);
+          m.tets.insert(m.tets.end(), tet, tet + 4);
+        }
+      }
+  storage::Attribute f{{"f", 1}, {}};
+  for (size_t v = 0; v < m.vertex_count(); ++v) f.values.push_back(2 * m.x[v] - m.y[v] + 0.5f * m.z[v]);
+  m.attributes.push_back(f);
+  return m;
+}
+
+struct Check {
+  size_t nonmanifold_faces = 0, nonpositive = 0;
+  double volume = 0;
+};
+
+Check check(const storage::TetMesh& m) {
+  Check c;
+  std::map<std::array<uint32_t, 3>, int> faces;
+  for (size_t t = 0; t < m.tet_count(); ++t) {
+    const uint32_t* tet = &m.tets[4 * t];
+    double v = storage::signed_volume(m, tet[0], tet[1], tet[2], tet[3]);
+    c.volume += v;
+    if (v <= 0) ++c.nonpositive;
+    for (auto& f : kFace) {
+      std::array<uint32_t, 3> key{tet[f[0]], tet[f[1]], tet[f[2]]};
+      std::sort(key.begin(), key.end());
+      ++faces[key];
+    }
+  }
+  for (auto& [key, n] : faces) c.nonmanifold_faces += n > 2;
+  return c;
+}
+
+TEST(Quadric, FundamentalQuadricMeasuresDistanceToTheSubspace) {
+  const int d = 4;
+  double p[4][4] = {{0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+  for (auto& v : p) v[3] = 0.5 * v[0] + 0.2 * v[1] + 0.1 * v[2] + 0.3;
+  const double* pts[4] = {p[0], p[1], p[2], p[3]};
+  double q[32] = {};
+  ASSERT_TRUE(lod::quadric::subspace(q, pts, 4, d, 1.0));
+  for (auto& v : p) EXPECT_NEAR(lod::quadric::evaluate(q, v, d), 0, 1e-12);
+  double off[4] = {0.3, 0.3, 0.3, 0.5 * 0.3 + 0.2 * 0.3 + 0.1 * 0.3 + 0.3 + 0.1};
+  EXPECT_NEAR(lod::quadric::evaluate(q, off, d), 0.01 / (1 + 0.25 + 0.04 + 0.01), 1e-12);
+  // adding a vertex quadric at p1 makes the minimum p1
+  const double* one[1] = {p[1]};
+  lod::quadric::subspace(q, one, 1, d, 1e-3);
+  double x[4];
+  ASSERT_TRUE(lod::quadric::minimise(q, d, x));
+  for (int i = 0; i < d; ++i) EXPECT_NEAR(x[i], p[1][i], 1e-9);
+  // degenerate points give no quadric
+  const double* flat[3] = {p[0], p[0], p[1]};
+  EXPECT_FALSE(lod::quadric::subspace(q, flat, 3, d, 1.0));
+}
+
+TEST(Simplify, LinearFieldSimplifiesWithAlmostNoFieldError) {
+  storage::TetMesh original = linear_cube(6);
+  storage::TetMesh mesh = original;
+  lod::SimplifyOptions options;
+  options.target_tets = original.tet_count() / 4;
+  auto report = lod::simplify(mesh, options);
+  EXPECT_LE(mesh.tet_count(), options.target_tets + 6);
+  EXPECT_GT(report.collapses, 50u);
+  Check c = check(mesh);
+  EXPECT_EQ(c.nonmanifold_faces, 0u);
+  EXPECT_EQ(c.nonpositive, 0u);
+  EXPECT_NEAR(c.volume, 1.0, 1e-4) << "a box has a planar boundary: its volume stays";
+  auto error = lod::measure_error(original, mesh, 2000);
+  ASSERT_EQ(error.fields.size(), 1u);
+  EXPECT_LT(error.fields[0].mean, 1e-4);
+  EXPECT_LT(error.fields[0].max, 1e-3);
+  EXPECT_LT(error.hausdorff, 1e-4);
+}
+
+TEST(Simplify, LockedVerticesStayBitIdentical) {
+  storage::TetMesh mesh = linear_cube(5, 0.3);
+  // lock the plane x = 0 and one interior vertex
+  std::vector<uint8_t> locked(mesh.vertex_count(), 0);
+  std::vector<std::array<float, 4>> expected;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    if (mesh.x[v] == 0.0f || v == 100) {
+      locked[v] = 1;
+      expected.push_back({mesh.x[v], mesh.y[v], mesh.z[v], mesh.attributes[0].values[v]});
+    }
+  }
+  lod::SimplifyOptions options;
+  options.target_tets = mesh.tet_count() / 5;
+  lod::simplify(mesh, options, locked);
+  std::vector<std::array<float, 4>> after;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) after.push_back({mesh.x[v], mesh.y[v], mesh.z[v], mesh.attributes[0].values[v]});
+  for (const auto& e : expected) EXPECT_NE(std::find(after.begin(), after.end(), e), after.end()) << "a locked vertex moved or vanished";
+  Check c = check(mesh);
+  EXPECT_EQ(c.nonpositive, 0u);
+  EXPECT_EQ(c.nonmanifold_faces, 0u);
+}
+
+TEST(Simplify, CollapsesThatWouldFlipOrCrushTetsAreRefused) {
+  // A strongly jittered box: many candidate collapses would flip or crush a tet. They are
+  // refused (and counted), and no output tet has a non-positive volume.
+  storage::TetMesh mesh = linear_cube(6, 0.5);
+  Check before = check(mesh);
+  ASSERT_EQ(before.nonpositive, 0u);
+  ASSERT_NEAR(before.volume, 1.0, 1e-5) << "the jittered input must not be tangled";
+  lod::SimplifyOptions options;
+  options.target_tets = mesh.tet_count() / 20;
+  options.min_quality = 0.3;
+  auto report = lod::simplify(mesh, options);
+  EXPECT_GT(report.refused_geometry, 0u);
+  Check c = check(mesh);
+  EXPECT_EQ(c.nonpositive, 0u);
+  EXPECT_EQ(c.nonmanifold_faces, 0u);
+}
+
+TEST(Simplify, EverySharedDatasetStaysConforming) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to this checkout";
+  for (const char* name : {"disk_out_ref.vtk", "fea_bracket.vtk"}) {
+    storage::TetMesh mesh = storage::load_mesh(shared_data() / name);
+    const size_t before = mesh.tet_count();
+    lod::SimplifyOptions options;
+    options.target_tets = before / 10;
+    lod::simplify(mesh, options);
+    EXPECT_LE(mesh.tet_count(), before / 10 + 10) << name;
+    Check c = check(mesh);
+    EXPECT_EQ(c.nonmanifold_faces, 0u) << name;
+    EXPECT_EQ(c.nonpositive, 0u) << name;
+  }
+}
+
+TEST(Simplify, HostileOptionsAreRejected) {
+  storage::TetMesh mesh = linear_cube(2);
+  lod::SimplifyOptions none;
+  EXPECT_THROW(lod::simplify(mesh, none), std::invalid_argument);
+  lod::SimplifyOptions unknown;
+  unknown.target_tets = 5;
+  unknown.attributes = {"nope"};
+  EXPECT_THROW(lod::simplify(mesh, unknown), std::invalid_argument);
+  lod::SimplifyOptions negative;
+  negative.target_tets = 5;
+  negative.boundary_weight = -1;
+  EXPECT_THROW(lod::simplify(mesh, negative), std::invalid_argument);
+  lod::SimplifyOptions wrong_locks;
+  wrong_locks.target_tets = 5;
+  EXPECT_THROW(lod::simplify(mesh, wrong_locks, std::vector<uint8_t>(3, 0)), std::invalid_argument);
+}
+
+TEST(MeshError, IdenticalMeshesHaveNoErrorAndAShiftedFieldHasTheShift) {
+  storage::TetMesh a = linear_cube(3);
+  auto same = lod::measure_error(a, a, 500);
+  EXPECT_EQ(same.outside, 0u);
+  EXPECT_NEAR(same.mean_all, 0, 1e-12);
+  EXPECT_NEAR(same.hausdorff, 0, 1e-9);
+  storage::TetMesh b = a;
+  const auto& f = a.attributes[0].values;
+  const double range = *std::max_element(f.begin(), f.end()) - *std::min_element(f.begin(), f.end());
+  for (float& v : b.attributes[0].values) v += static_cast<float>(0.1 * range);
+  auto shifted = lod::measure_error(a, b, 500);
+  EXPECT_NEAR(shifted.fields[0].mean, 0.1, 1e-5);
+  EXPECT_NEAR(shifted.fields[0].max, 0.1, 1e-5);
+  // moving the whole mesh by 0.05 in x: the boundary surfaces are 0.05 apart at most
+  storage::TetMesh c = a;
+  for (float& x : c.x) x += 0.05f;
+  auto moved = lod::measure_error(a, c, 2000);
+  EXPECT_NEAR(moved.hausdorff, 0.05, 1e-5);
+  EXPECT_GT(moved.outside, 0u);
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
