@@ -204,6 +204,20 @@ void Cursor::skip_to_next_line() {
   }
 }
 
+bool Cursor::next_line_starts_with(std::string_view word) {
+  const uint64_t mark = offset(), mark_line = line_;
+  skip_to_next_line();
+  bool match = true;
+  for (char c : word) {
+    if (get() != static_cast<unsigned char>(c)) {
+      match = false;
+      break;
+    }
+  }
+  seek(mark, mark_line);
+  return match;
+}
+
 void Cursor::read(void* dst, size_t n, std::string_view what) {
   char* out = static_cast<char*>(dst);
   while (n > 0) {

@@ -64,6 +64,9 @@ class Cursor {
   // Skips spaces and tabs and then one line break, if any (used after binary headers).
   void skip_to_next_line();
   void skip_whitespace();
+  // Whether the line after the current one starts with `word`; moves nothing. Safe before
+  // binary data (reads only word.size() bytes, never a token).
+  bool next_line_starts_with(std::string_view word);
   bool at_end();
   // Next byte without consuming it; -1 at end.
   int peek();

@@ -181,20 +181,35 @@ void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, R
     if (token.empty()) return;
     std::string keyword = upper(token);
     if (keyword == "SCALARS") {
-      std::string name(cursor_.expect_token("scalar name"));
-      std::string type(cursor_.expect_token("scalar data type"));
-      // optional component count, then optional LOOKUP_TABLE name
+      // "SCALARS name type [components]" on one line, then (in practice always) a LOOKUP_TABLE
+      // line; binary data may follow either, so read lines, never a token past them
+      std::string_view header_text;
+      if (!cursor_.line_text(header_text)) cursor_.fail("file ends in a SCALARS header");
+      std::vector<std::string> words;
+      for (size_t at = 0; at < header_text.size();) {
+        size_t start = header_text.find_first_not_of(" \t\r", at);
+        if (start == std::string_view::npos) break;
+        size_t end = header_text.find_first_of(" \t\r", start);
+        words.emplace_back(header_text.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start));
+        at = end == std::string_view::npos ? header_text.size() : end;
+      }
+      if (words.size() < 2 || words.size() > 3) cursor_.fail("expected 'SCALARS name type [components]'");
+      const std::string name = words[0], type = words[1];
       uint32_t components = 1;
-      cursor_.skip_whitespace();
-      int c = cursor_.peek();
-      if (c >= '0' && c <= '9') components = cursor_.parse_int<uint32_t>("scalar component count");
+      if (words.size() == 3) {
+        uint64_t parsed = 0;
+        if (!parse_number(words[2], parsed)) cursor_.fail("expected a component count, got " + quote_text(words[2]));
+        components = static_cast<uint32_t>(std::min<uint64_t>(parsed, 1000));
+      }
       if (components < 1 || components > 4) cursor_.fail("SCALARS '" + name + "' has " + std::to_string(components) + " components, expected 1 to 4");
-      uint64_t mark = cursor_.offset(), mark_line = cursor_.line();
-      std::string_view next = cursor_.token();
-      if (upper(next) == "LOOKUP_TABLE") {
-        cursor_.expect_token("lookup table name");
+      if (cursor_.next_line_starts_with("LOOKUP_TABLE") || cursor_.next_line_starts_with("lookup_table")) {
+        cursor_.skip_to_next_line();
+        std::string_view table;
+        cursor_.line_text(table);
+        // skip_array starts at the next line: step back over the newline just read
+        cursor_.seek(cursor_.offset() - 1, cursor_.line() - 1);
       } else {
-        cursor_.seek(mark, mark_line);
+        cursor_.seek(cursor_.offset() - 1, cursor_.line() - 1);
       }
       ArrayLocation loc = skip_array(tuples * components, type, "SCALARS '" + name + "'");
       if (upper(type) != "BIT") add(name, components, loc);
@@ -271,8 +286,9 @@ MeshHeader VtkLegacyReader::index(ReadStats& stats) {
     } else if (keyword == "CELLS") {
       uint64_t a = cursor_.parse_int<uint64_t>("cell count");
       uint64_t b = cursor_.parse_int<uint64_t>("cell list size");
-      uint64_t mark = cursor_.offset(), mark_line = cursor_.line();
-      if (upper(cursor_.token()) == "OFFSETS") {
+      // binary cell data may follow at once: look at the next line's first bytes, never a token
+      if (cursor_.next_line_starts_with("OFFSETS")) {
+        cursor_.expect_token("OFFSETS");
         if (a == 0) cursor_.fail("CELLS offsets count must be at least 1");
         std::string otype(cursor_.expect_token("offset data type"));
         offsets_ = skip_array(a, otype, "OFFSETS");
@@ -281,7 +297,6 @@ MeshHeader VtkLegacyReader::index(ReadStats& stats) {
         connectivity_ = skip_array(b, ctype, "CONNECTIVITY");
         cell_count_ = a - 1;
       } else {
-        cursor_.seek(mark, mark_line);
         cells_ = skip_array(b, "int", "CELLS");
         cell_count_ = a;
         if (a > b) cursor_.fail("CELLS declares " + std::to_string(a) + " cells in a list of " + std::to_string(b) + " integers");

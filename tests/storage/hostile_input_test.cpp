@@ -3,6 +3,7 @@
 // an allocation driven by a claimed count. Run under ASan+UBSan in CI (preset "asan").
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <random>
 
 #include "fixture_writers.h"
@@ -200,6 +201,34 @@ TEST(HostileVtk, PointDataCountDisagreesWithPoints) {
   expect_error(MeshFormat::kVtkLegacy,
                kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 5\n",
                "POINT_DATA has 5 values but POINTS has 4");
+}
+TEST(HostileVtk, BinaryCellDataWithoutWhitespaceIsNotTokenised) {
+  // Regression: the reader looked for a 5.1 OFFSETS keyword by reading a token, which ran into
+  // binary cell data. Ids 0..3 as big-endian int32 hold no whitespace byte at all.
+  std::string vtk = "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n";
+  auto put32 = [&](uint32_t v) {
+    for (int k = 3; k >= 0; --k) vtk += static_cast<char>((v >> (8 * k)) & 0xFF);
+  };
+  const float points[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  for (float f : points) {
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    put32(u);
+  }
+  const int cells = 3000;
+  vtk += "\nCELLS " + std::to_string(cells) + " " + std::to_string(5 * cells) + "\n";
+  for (int c = 0; c < cells; ++c) {
+    put32(4);
+    for (uint32_t v : {0u, 1u, 2u, 3u}) put32(v);
+  }
+  vtk += "\nCELL_TYPES " + std::to_string(cells) + "\n";
+  for (int c = 0; c < cells; ++c) put32(10);
+  vtk += "\nPOINT_DATA 4\nSCALARS s float\nLOOKUP_TABLE default\n";
+  for (int i = 0; i < 4; ++i) put32(0x3F800000u);  // 1.0f: no whitespace bytes either
+  vtk += "\n";
+  EXPECT_EQ(try_read(MeshFormat::kVtkLegacy, "cells.vtk", vtk), "");
+  auto stream = storage::MeshStream::open_memory(MeshFormat::kVtkLegacy, "cells.vtk", vtk);
+  EXPECT_EQ(storage::load_stream(*stream).tet_count(), static_cast<size_t>(cells));
 }
 TEST(HostileVtk, NotAVolumeDataset) {
   expect_error(MeshFormat::kVtkLegacy, "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\n", "not a volume mesh");
