@@ -37,10 +37,10 @@ double evaluate(const double* q, const double* x, int d) {
   return value;
 }
 
-bool subspace(double* q, const double* const* points, int point_count, int d, double weight) {
+bool subspace(double* q, const double* const* points, int point_count, int d, double weight, double* measure) {
   double basis[3][kMaxQuadricDimension];
   int k = 0;
-  double scale = 0;
+  double scale = 0, product = 1;
   for (int e = 1; e < point_count; ++e) {
     double* u = basis[k];
     for (int i = 0; i < d; ++i) u[i] = points[e][i] - points[0][i];
@@ -55,10 +55,17 @@ bool subspace(double* q, const double* const* points, int point_count, int d, do
     double length2 = 0;
     for (int i = 0; i < d; ++i) length2 += u[i] * u[i];
     if (length2 <= 1e-20 * std::max(scale, 1e-300)) return false;  // degenerate
+    product *= std::sqrt(length2);
     double inv = 1 / std::sqrt(length2);
     for (int i = 0; i < d; ++i) u[i] *= inv;
     ++k;
   }
+  if (measure) {  // k-dimensional volume of the simplex in R^d
+    double factorial = 1;
+    for (int i = 2; i <= k; ++i) factorial *= i;
+    *measure = product / factorial;
+  }
+  if (weight == 0) return true;
   double p[kMaxQuadricDimension];
   for (int i = 0; i < d; ++i) {
     p[i] = 0;

@@ -190,7 +190,13 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
     total_volume += std::fabs(volume);
     const double* pts[4] = {&point[0], &point[d_], &point[2 * d_], &point[3 * d_]};
     quadric::clear(q.data(), d_);
-    if (!quadric::subspace(q.data(), pts, 4, d_, std::fabs(volume))) continue;
+    // Weight: the tet's volume in R^(3+A) squared over its volume in space, i.e. volume x
+    // (1 + |normalised gradient|^2): tets where the field changes fast count for more (as
+    // the 4-D normal of Vo et al. 2007 weighs them).
+    double hyper_volume = 0;
+    if (!quadric::subspace(q.data(), pts, 4, d_, 0.0, &hyper_volume) || std::fabs(volume) <= 0) continue;
+    const double weight = options_.gradient_weighting ? hyper_volume * hyper_volume / std::fabs(volume) : std::fabs(volume);
+    if (!quadric::subspace(q.data(), pts, 4, d_, weight)) continue;
     for (int k = 0; k < 4; ++k) quadric::add(quadrics_.at(tet[k]), q.data(), d_);
   }
   const double length = std::cbrt(std::max(total_volume / std::max<size_t>(tet_count, 1), 1e-300));  // characteristic tet size
@@ -236,14 +242,15 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
     if (twice_area <= 0) continue;
     for (double& c : nrm) c /= twice_area;
     if (options.boundary_weight > 0) {
-      double N[9], centre[3];
-      for (int i = 0; i < 3; ++i) {
-        centre[i] = (p[0][i] + p[1][i] + p[2][i]) / 3;
-        for (int j = 0; j < 3; ++j) N[3 * i + j] = nrm[i] * nrm[j];
-      }
+      // the boundary triangle's plane in R^(3+A) (Garland and Zhou's face quadrics): keeps
+      // both the domain and the field on it
+      double full[3][kMaxQuadricDimension];
+      for (int i = 0; i < 3; ++i) normalised(f[i], full[i]);
+      const double* corners[3] = {full[0], full[1], full[2]};
       quadric::clear(q.data(), d_);
-      quadric::position_only(q.data(), N, centre, d_, 0.5 * twice_area * length * options.boundary_weight);
-      for (uint32_t corner : f) quadric::add(quadrics_.at(corner), q.data(), d_);
+      if (quadric::subspace(q.data(), corners, 3, d_, 0.5 * twice_area * length * options.boundary_weight)) {
+        for (uint32_t corner : f) quadric::add(quadrics_.at(corner), q.data(), d_);
+      }
     }
     for (int e = 0; e < 3; ++e) {
       uint32_t a = f[e], c = f[(e + 1) % 3];

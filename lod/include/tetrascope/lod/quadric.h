@@ -38,7 +38,8 @@ double evaluate(const double* q, const double* x, int d);
 // Fundamental quadric of the affine subspace through `points[0]` spanned by the edge vectors
 // to the other points (k+1 points, k <= 3), anchored at their centroid: A = I - sum e_i e_i^T
 // over the Gram-Schmidt basis. Returns false (q untouched) when the points are degenerate.
-bool subspace(double* q, const double* const* points, int point_count, int d, double weight);
+// `measure`, when given, receives the simplex's k-volume in R^d (weight 0: measure only).
+bool subspace(double* q, const double* const* points, int point_count, int d, double weight, double* measure = nullptr);
 // A quadric that measures distance in the position block only: A = N (3x3), b = -N p, c = p^T N p.
 void position_only(double* q, const double N[9], const double p[3], int d, double weight);
 // Minimises q: solves A x = -b by Cholesky; false when A is too ill-conditioned.
