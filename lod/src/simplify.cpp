@@ -103,6 +103,8 @@ class Simplifier {
   SimplifyReport report_;
   std::vector<Candidate> candidates_;
   std::unordered_map<uint64_t, uint64_t> refused_;  // edge -> versions of its ends when refused
+  double cost_limit_ = std::numeric_limits<double>::infinity();  // a collapse may cost at most this
+  double deferred_cost_ = -1;  // set when a collapse was put off because its valid placement costs more
 };
 
 Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked)
@@ -513,8 +515,9 @@ bool Simplifier::try_collapse(uint32_t p, uint32_t q) {
   // an edge refused once is not tried again until a collapse changes one of its ends
   const uint64_t key = uint64_t{p} << 32 | q, stamp = uint64_t{version_[p]} << 32 | version_[q];
   if (auto it = refused_.find(key); it != refused_.end() && it->second == stamp) return false;
+  deferred_cost_ = -1;
   const bool ok = collapse(p, q);
-  if (!ok) refused_[key] = stamp;
+  if (!ok && deferred_cost_ < 0) refused_[key] = stamp;  // a deferred edge may come back
   return ok;
 }
 
@@ -534,6 +537,10 @@ bool Simplifier::collapse(uint32_t p, uint32_t q) {
   }
   if (!chosen) {
     ++report_.refused_geometry;
+    return false;
+  }
+  if (chosen->cost > cost_limit_) {  // the valid placement costs more than this edge was queued at
+    deferred_cost_ = chosen->cost;
     return false;
   }
   // keep the vertex the candidate sits on (a locked one stays bit-identical), else p
@@ -623,9 +630,14 @@ SimplifyReport Simplifier::run() {
       queue.pop();
       if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
       if (options_.max_error > 0 && e.cost > options_.max_error) break;
+      // collapse only at about the cost the edge was queued at; a dearer valid placement
+      // goes back into the queue at its real cost
+      cost_limit_ = e.cost + 1e-12 + 1e-9 * std::fabs(e.cost);
       if (try_collapse(e.p, e.q)) {
         uint32_t keep = vertex_alive_[e.p] ? e.p : e.q;
         push_edges_of(keep, queue, false);
+      } else if (deferred_cost_ >= 0) {
+        queue.push({deferred_cost_, e.p, e.q, e.version_p, e.version_q});
       }
     }
   } else {
@@ -670,6 +682,7 @@ SimplifyReport Simplifier::run() {
           if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || marked_[e.p] || marked_[e.q]) continue;
           if (version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
           if (e.cost > threshold) continue;
+          cost_limit_ = threshold;
           if (try_collapse(e.p, e.q)) push_edges_of(vertex_alive_[e.p] ? e.p : e.q, queue, true);
         }
         MinQueue().swap(queue);
