@@ -4,6 +4,8 @@
 // mean distance between the two boundary surfaces, sampled.
 #include "tetrascope/lod/mesh_error.h"
 
+#include "tet_faces.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,7 +16,6 @@ namespace tetrascope::lod {
 namespace {
 
 using Vec = std::array<double, 3>;
-constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
 Vec vertex(const storage::TetMesh& m, uint32_t v) { return {m.x[v], m.y[v], m.z[v]}; }
 Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -130,30 +131,10 @@ Vec closest_on_triangle(const Vec& p, const Vec& a, const Vec& b, const Vec& c, 
   return {a[0] + ab[0] * v + ac[0] * u, a[1] + ab[1] * v + ac[1] * u, a[2] + ab[2] * v + ac[2] * u};
 }
 
-std::vector<std::array<uint32_t, 3>> boundary_triangles(const storage::TetMesh& m) {
-  std::vector<std::pair<std::array<uint32_t, 3>, std::array<uint32_t, 3>>> faces;
-  for (size_t t = 0; t < m.tet_count(); ++t) {
-    for (int f = 0; f < 4; ++f) {
-      std::array<uint32_t, 3> face{m.tets[4 * t + kFace[f][0]], m.tets[4 * t + kFace[f][1]], m.tets[4 * t + kFace[f][2]]}, key = face;
-      std::sort(key.begin(), key.end());
-      faces.push_back({key, face});
-    }
-  }
-  std::sort(faces.begin(), faces.end());
-  std::vector<std::array<uint32_t, 3>> out;
-  for (size_t i = 0; i < faces.size();) {
-    size_t j = i + 1;
-    while (j < faces.size() && faces[j].first == faces[i].first) ++j;
-    if (j - i == 1) out.push_back(faces[i].second);
-    i = j;
-  }
-  return out;
-}
-
 // Nearest points on a triangle surface.
 class Surface {
  public:
-  Surface(const storage::TetMesh& m) : m_(m), triangles_(boundary_triangles(m)) {
+  Surface(const storage::TetMesh& m) : m_(m), triangles_(detail::boundary_faces(m.tets)) {
     std::vector<std::array<Vec, 2>> boxes;
     for (const auto& t : triangles_) {
       Vec lo = vertex(m, t[0]), hi = lo;

@@ -16,12 +16,13 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "tet_faces.h"
 #include "tetrascope/lod/quadric.h"
 
 namespace tetrascope::lod {
 namespace {
 
-constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // outward for positive tets
+constexpr auto& kFace = detail::kTetFace;
 constexpr uint32_t kNone = 0xFFFFFFFFu;
 
 struct Channel {
@@ -203,27 +204,7 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
   }
   const double length = std::cbrt(std::max(total_volume / std::max<size_t>(tet_count, 1), 1e-300));  // characteristic tet size
   // boundary faces: face quadrics, and edge quadrics on sharp boundary edges
-  struct Face {
-    std::array<uint32_t, 3> key, oriented;
-  };
-  std::vector<Face> faces;
-  for (uint32_t t = 0; t < tet_count; ++t) {
-    for (int f = 0; f < 4; ++f) {
-      Face face;
-      for (int i = 0; i < 3; ++i) face.oriented[i] = tets_[4 * t + kFace[f][i]];
-      face.key = face.oriented;
-      std::sort(face.key.begin(), face.key.end());
-      faces.push_back(face);
-    }
-  }
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
-  std::vector<std::array<uint32_t, 3>> boundary;
-  for (size_t i = 0; i < faces.size();) {
-    size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j - i == 1) boundary.push_back(faces[i].oriented);
-    i = j;
-  }
+  const std::vector<std::array<uint32_t, 3>> boundary = detail::boundary_faces(tets_);
   struct EdgeNormal {
     uint32_t a, b;
     double n[3];
