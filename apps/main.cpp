@@ -34,7 +34,7 @@ constexpr const char* kUsage =
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
-    "                                [--full-queue] [--attribute-weight W] [--boundary-weight W] [--feature-weight W]\n"
+    "                                [--independent] [--attribute-weight W] [--boundary-weight W] [--feature-weight W]\n"
     "                                [--vertex-weight W] [--min-quality Q] [--json]\n"
     "                                quadric simplification of a whole mesh\n"
     "  error ORIGINAL SIMPLIFIED [--samples N] [--json]\n"
@@ -177,11 +177,11 @@ double real_number(const Args& args, const std::string& name) {
 }
 
 int run_simplify(const std::vector<std::string>& raw) {
-  Args args(raw, {"--full-queue", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed", "--boundary-weight",
+  Args args(raw, {"--independent", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed", "--boundary-weight",
                                              "--feature-weight", "--vertex-weight", "--min-quality", "--attribute-weight"});
   int criteria = args.has("--ratio") + args.has("--tets") + args.has("--max-error");
   if (args.positionals().size() != 1 || !args.has("--output") || criteria == 0) {
-    std::fprintf(stderr, "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--full-queue] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--independent] [--json]\n");
     return 2;
   }
   tetrascope::storage::ReadStats stats;
@@ -209,7 +209,7 @@ int run_simplify(const std::vector<std::string>& raw) {
       at = comma + 1;
     }
   }
-  options.independent = !args.has("--full-queue");
+  options.independent = args.has("--independent");
   if (args.has("--attribute-weight")) options.attribute_weight = real_number(args, "--attribute-weight");
   if (args.has("--boundary-weight")) options.boundary_weight = real_number(args, "--boundary-weight");
   if (args.has("--feature-weight")) options.feature_weight = real_number(args, "--feature-weight");

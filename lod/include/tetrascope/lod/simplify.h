@@ -19,12 +19,12 @@ struct SimplifyOptions {
   std::vector<std::string> attributes;     // attributes in the quadrics; empty = all
   bool gradient_weighting = true;          // weigh tet quadrics by volume x (1 + |gradient|^2)
   double attribute_weight = 1.0;           // scale of the normalised attributes against positions (unit cube)
-  double boundary_weight = 10.0;            // face quadrics on the mesh boundary (keeps the domain and the field on it)            // face quadrics on the mesh boundary (keeps the domain)
+  double boundary_weight = 1000.0;          // face quadrics on the mesh boundary (keeps the domain and the field on it)            // face quadrics on the mesh boundary (keeps the domain)
   double feature_weight = 1.0;             // edge quadrics along sharp boundary edges (§4.1.2)
   double feature_angle_degrees = 40.0;     // a boundary edge is sharp above this bend
   double vertex_weight = 1e-3;             // vertex distribution quadrics (conditioning)
   double min_quality = 0.02;               // a collapse may not push a tet's quality below this unless it keeps half its old quality
-  bool independent = true;                 // independent edge collapses in runs (§4.1.1); false = one global queue
+  bool independent = false;                // independent edge collapses in runs (§4.1.1) instead of one global queue
   uint32_t seed = 1;
 };
 
