@@ -9,6 +9,7 @@
 #include <map>
 
 #include "fixture_writers.h"
+#include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/lod/mesh_error.h"
 #include "tetrascope/lod/quadric.h"
@@ -17,8 +18,6 @@
 
 namespace tetrascope::testing {
 namespace {
-
-constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
 // A box of n^3 cubes, 6 tets each (Kuhn split: conforming), with f = 2x - y + 0.5z.
 storage::TetMesh linear_cube(int n, double jitter = 0) {
@@ -61,21 +60,8 @@ struct Check {
 };
 
 Check check(const storage::TetMesh& m) {
-  Check c;
-  std::map<std::array<uint32_t, 3>, int> faces;
-  for (size_t t = 0; t < m.tet_count(); ++t) {
-    const uint32_t* tet = &m.tets[4 * t];
-    double v = storage::signed_volume(m, tet[0], tet[1], tet[2], tet[3]);
-    c.volume += v;
-    if (v <= 0) ++c.nonpositive;
-    for (auto& f : kFace) {
-      std::array<uint32_t, 3> key{tet[f[0]], tet[f[1]], tet[f[2]]};
-      std::sort(key.begin(), key.end());
-      ++faces[key];
-    }
-  }
-  for (auto& [key, n] : faces) c.nonmanifold_faces += n > 2;
-  return c;
+  const MeshCheck c = check_mesh(m);
+  return {c.faces_shared_by_more_than_two, c.nonpositive, c.volume};
 }
 
 TEST(Quadric, FundamentalQuadricMeasuresDistanceToTheSubspace) {

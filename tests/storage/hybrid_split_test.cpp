@@ -9,6 +9,7 @@
 #include <random>
 
 #include "fixture_writers.h"
+#include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/storage/mesh_stream.h"
 
@@ -113,23 +114,10 @@ struct Conformity {
 };
 
 Conformity check(const storage::TetMesh& mesh) {
-  Conformity r;
-  std::map<std::array<uint32_t, 3>, int> faces;
-  for (size_t t = 0; t < mesh.tet_count(); ++t) {
-    const uint32_t* v = &mesh.tets[4 * t];
-    double vol = storage::signed_volume(mesh, v[0], v[1], v[2], v[3]);
-    r.volume += vol;
-    if (vol <= 0) ++r.nonpositive;
-    const int f[4][3] = {{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}};
-    for (auto& face : f) {
-      std::array<uint32_t, 3> key{v[face[0]], v[face[1]], v[face[2]]};
-      std::sort(key.begin(), key.end());
-      ++faces[key];
-    }
-  }
+  const MeshCheck base = check_mesh(mesh);
+  Conformity r{base.faces_shared_by_more_than_two, 0, 0, base.volume, base.nonpositive};
   storage::Bounds b = storage::compute_bounds(mesh);
-  for (auto& [key, count] : faces) {
-    if (count > 2) ++r.faces_shared_by_more_than_two;
+  for (const auto& [key, count] : base.face_uses) {
     if (count != 1) continue;
     ++r.boundary_faces;
     bool on_box = false;
