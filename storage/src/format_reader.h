@@ -87,7 +87,6 @@ std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);
 
 enum class ScalarType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kInt64, kUInt64, kFloat32, kFloat64 };
 size_t scalar_size(ScalarType type);
-bool is_integer(ScalarType type);
 
 // Bytes of one encoded array, in order.
 class ByteStream {
@@ -236,6 +235,11 @@ class BufferedInts {
   std::unique_ptr<int64_t[]> buffer_;
   size_t capacity_ = 0, pos_ = 0, end_ = 0;
 };
+
+// Reads one cell of `node_count` vertex ids from `connectivity` and appends it, checking every
+// id against `vertex_count` and the type against its vertex count; `cell` numbers the errors.
+void append_cell(CellBatch& batch, BufferedInts& connectivity, int64_t node_count, int64_t type, uint64_t cell,
+                 uint64_t vertex_count, ValueStream& type_stream, std::vector<uint32_t>& scratch);
 
 // Appends up to `count` tetrahedra from the next `count` cells when they are all 4-vertex
 // tets with in-range indices; otherwise appends nothing and returns false, and the caller

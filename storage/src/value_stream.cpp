@@ -24,7 +24,6 @@ size_t scalar_size(ScalarType type) {
   return 1;
 }
 
-bool is_integer(ScalarType type) { return type != ScalarType::kFloat32 && type != ScalarType::kFloat64; }
 
 void check_fits(const Cursor& cursor, uint64_t count, uint64_t bytes_per_item, std::string_view what) {
   uint64_t left = cursor.remaining();
@@ -57,6 +56,24 @@ int volume_corner_count(int type, int node_count) {
       return 0;
     default: return -1;
   }
+}
+
+void append_cell(CellBatch& batch, BufferedInts& connectivity, int64_t node_count, int64_t type, uint64_t cell,
+                 uint64_t vertex_count, ValueStream& type_stream, std::vector<uint32_t>& scratch) {
+  scratch.resize(static_cast<size_t>(node_count));
+  for (int64_t k = 0; k < node_count; ++k) {
+    int64_t v = connectivity.next("cell connectivity");
+    if (v < 0 || static_cast<uint64_t>(v) >= vertex_count) {
+      connectivity.stream().fail("cell " + std::to_string(cell) + ": vertex id " + std::to_string(v) + " out of range (the mesh has " +
+                                 std::to_string(vertex_count) + " points)");
+    }
+    scratch[static_cast<size_t>(k)] = static_cast<uint32_t>(v);
+  }
+  if (type < 0 || type > 255 || volume_corner_count(static_cast<int>(type), static_cast<int>(std::min<int64_t>(node_count, 1 << 20))) < 0) {
+    type_stream.fail("cell " + std::to_string(cell) + ": unsupported cell type " + std::to_string(type) + " with " +
+                     std::to_string(node_count) + " vertices");
+  }
+  batch.push(static_cast<uint8_t>(type), scratch);
 }
 
 bool append_tet_run(std::span<const int64_t> types, std::span<const int64_t> connectivity, size_t stride,

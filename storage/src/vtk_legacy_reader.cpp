@@ -404,20 +404,7 @@ bool VtkLegacyReader::read_cells(CellBatch& batch, size_t max_cells) {
       previous_offset_ = next;
     }
     int64_t type = type_ints_.next("CELL_TYPES");
-    cell_nodes_.resize(static_cast<size_t>(n));
-    for (int64_t k = 0; k < n; ++k) {
-      int64_t v = cell_ints_.next("cell connectivity");
-      if (v < 0 || static_cast<uint64_t>(v) >= vertex_count) {
-        cell_stream_->fail("cell " + std::to_string(cells_read_) + ": vertex id " + std::to_string(v) +
-                           " out of range (the mesh has " + std::to_string(vertex_count) + " points)");
-      }
-      cell_nodes_[static_cast<size_t>(k)] = static_cast<uint32_t>(v);
-    }
-    if (type < 0 || type > 255 || volume_corner_count(static_cast<int>(type), static_cast<int>(std::min<int64_t>(n, 1 << 20))) < 0) {
-      type_stream_->fail("cell " + std::to_string(cells_read_) + ": unsupported cell type " + std::to_string(type) +
-                         " with " + std::to_string(n) + " vertices");
-    }
-    batch.push(static_cast<uint8_t>(type), cell_nodes_);
+    append_cell(batch, cell_ints_, n, type, cells_read_, vertex_count, *type_stream_, cell_nodes_);
     ++cells_read_;
     ++added;
   }

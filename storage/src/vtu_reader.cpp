@@ -446,34 +446,7 @@ bool VtuReader::read_cells(CellBatch& batch, size_t max_cells) {
     }
     previous_end_ = end;
     int64_t type = type_ints_.next("types");
-    if (type == kVtkTetra && n == 4) {  // the common case, checked without the general path
-      uint32_t tet[4];
-      for (int k = 0; k < 4; ++k) {
-        int64_t v = connectivity_ints_.next("connectivity");
-        if (static_cast<uint64_t>(v) >= vertex_count) {
-          connectivity_stream_->fail("cell " + std::to_string(cells_read_) + ": vertex id " + std::to_string(v) +
-                                     " out of range (the mesh has " + std::to_string(vertex_count) + " points)");
-        }
-        tet[k] = static_cast<uint32_t>(v);
-      }
-      batch.push(kVtkTetra, tet);
-      ++cells_read_;
-      ++added;
-      continue;
-    }
-    cell_nodes_.resize(static_cast<size_t>(n));
-    for (int64_t k = 0; k < n; ++k) {
-      int64_t v = connectivity_ints_.next("connectivity");
-      if (v < 0 || static_cast<uint64_t>(v) >= vertex_count) {
-        connectivity_stream_->fail("cell " + std::to_string(cells_read_) + ": vertex id " + std::to_string(v) +
-                                   " out of range (the mesh has " + std::to_string(vertex_count) + " points)");
-      }
-      cell_nodes_[static_cast<size_t>(k)] = static_cast<uint32_t>(v);
-    }
-    if (type < 0 || type > 255 || volume_corner_count(static_cast<int>(type), static_cast<int>(std::min<int64_t>(n, 1 << 20))) < 0) {
-      type_stream_->fail("cell " + std::to_string(cells_read_) + ": unsupported cell type " + std::to_string(type) + " with " + std::to_string(n) + " vertices");
-    }
-    batch.push(static_cast<uint8_t>(type), cell_nodes_);
+    append_cell(batch, connectivity_ints_, n, type, cells_read_, vertex_count, *type_stream_, cell_nodes_);
     ++cells_read_;
     ++added;
   }
