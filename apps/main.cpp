@@ -8,6 +8,7 @@
 #include <cstring>
 #include <iostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <unistd.h>
@@ -35,7 +36,7 @@ constexpr const char* kUsage =
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
     "                                [--independent] [--attribute-weight W] [--boundary-weight W] [--feature-weight W]\n"
-    "                                [--vertex-weight W] [--min-quality Q] [--json]\n"
+    "                                [--vertex-weight W] [--min-quality Q] [--threads N] [--json]\n"
     "                                quadric simplification of a whole mesh\n"
     "  error ORIGINAL SIMPLIFIED [--samples N] [--json]\n"
     "                                mean/max field error and domain error (§4.2.5)\n"
@@ -178,7 +179,7 @@ double real_number(const Args& args, const std::string& name) {
 
 int run_simplify(const std::vector<std::string>& raw) {
   Args args(raw, {"--independent", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed", "--boundary-weight",
-                                             "--feature-weight", "--vertex-weight", "--min-quality", "--attribute-weight"});
+                                             "--feature-weight", "--vertex-weight", "--min-quality", "--attribute-weight", "--threads"});
   int criteria = args.has("--ratio") + args.has("--tets") + args.has("--max-error");
   if (args.positionals().size() != 1 || !args.has("--output") || criteria == 0) {
     std::fprintf(stderr, "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--independent] [--json]\n");
@@ -216,12 +217,14 @@ int run_simplify(const std::vector<std::string>& raw) {
   if (args.has("--vertex-weight")) options.vertex_weight = real_number(args, "--vertex-weight");
   if (args.has("--min-quality")) options.min_quality = real_number(args, "--min-quality");
   options.seed = args.number("--seed", 1);
+  options.threads = static_cast<uint32_t>(args.number("--threads", std::max(1u, std::thread::hardware_concurrency())));
+  if (options.threads == 0 || options.threads > 64) throw std::invalid_argument("--threads must be in 1..64");
   auto report = tetrascope::lod::simplify(mesh, options);
   tetrascope::storage::write_vtk(args.get("--output"), mesh, "tetrascope simplify of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets_before", report.tets_before}, {"tets_after", report.tets_after}, {"vertices_before", report.vertices_before},
                       {"vertices_after", report.vertices_after}, {"collapses", report.collapses}, {"runs", report.runs},
                       {"refused_topology", report.refused_topology}, {"refused_geometry", report.refused_geometry},
-                      {"max_queue", report.max_queue}, {"seconds", report.seconds},
+                      {"max_queue", report.max_queue}, {"threads", report.threads}, {"seconds", report.seconds},
                       {"collapses_per_second", report.seconds > 0 ? report.collapses / report.seconds : 0.0}};
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %llu -> %llu tets (%.1f%%), %llu collapses in %.2f s (%.0f/s), max queue %llu\n", args.get("--output").c_str(),

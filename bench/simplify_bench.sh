@@ -25,22 +25,40 @@ for c in "${cases[@]}"; do
   name=$(basename "${mesh%.vtk}")
   for ratio in 0.1 0.02; do
     ours="$out/$name.$ratio.ours.vtk"; full="$out/$name.$ratio.independent.vtk"; theirs="$out/$name.$ratio.vtk.vtk"
+    one="$out/$name.$ratio.one.vtk"; same="$out/$name.$ratio.same.vtk"
     o=$(build/release/apps/tetrascope simplify "$mesh" -o "$ours" --ratio "$ratio" --attribute "$scalar" --json)
     f=$(build/release/apps/tetrascope simplify "$mesh" -o "$full" --ratio "$ratio" --attribute "$scalar" --independent --json)
     v=$(pvpython bench/vtk_decimate.py "$mesh" "$theirs" "$ratio" "$scalar" 2>/dev/null | tail -1)
     eo=$(build/release/apps/tetrascope error "$mesh" "$ours" --json)
     ef=$(build/release/apps/tetrascope error "$mesh" "$full" --json)
     ev=$(build/release/apps/tetrascope error "$mesh" "$theirs" --json)
-    rows+=("$(python3 - "$name" "$scalar" "$ratio" "$o" "$v" "$eo" "$ev" "$f" "$ef" <<'PY'
+    # one thread too where the default used both cores
+    s1='null'; e1='null'
+    if [[ $(echo "$o" | python3 -c 'import json,sys; print(json.load(sys.stdin)["threads"])') -gt 1 ]]; then
+      s1=$(build/release/apps/tetrascope simplify "$mesh" -o "$one" --ratio "$ratio" --attribute "$scalar" --threads 1 --json)
+      e1=$(build/release/apps/tetrascope error "$mesh" "$one" --json)
+    fi
+    # where VTK stops short of the target, ours again at VTK's tet count: the fair comparison
+    ss='null'; es='null'
+    vt=$(echo "$v" | python3 -c 'import json,sys; print(json.load(sys.stdin)["tets_after"])')
+    if python3 -c "import sys; sys.exit(0 if $vt > 1.02 * $ratio * $(echo "$o" | python3 -c 'import json,sys; print(json.load(sys.stdin)["tets_before"])') else 1)"; then
+      ss=$(build/release/apps/tetrascope simplify "$mesh" -o "$same" --tets "$vt" --attribute "$scalar" --json)
+      es=$(build/release/apps/tetrascope error "$mesh" "$same" --json)
+    fi
+    rows+=("$(python3 - "$name" "$scalar" "$ratio" "$o" "$v" "$eo" "$ev" "$f" "$ef" "$s1" "$e1" "$ss" "$es" <<'PY'
 import json, sys
-name, scalar, ratio, o, v, eo, ev, f, ef = sys.argv[1:10]
-o, v, eo, ev, f, ef = map(json.loads, (o, v, eo, ev, f, ef))
+name, scalar, ratio, o, v, eo, ev, f, ef, s1, e1, ss, es = sys.argv[1:14]
+o, v, eo, ev, f, ef, s1, e1, ss, es = map(json.loads, (o, v, eo, ev, f, ef, s1, e1, ss, es))
 def err(e):
     f = next(x for x in e["fields"] if x["name"] == scalar)
     return {"mean_field_error": f["mean_field_error"], "max_field_error": f["max_field_error"],
             "hausdorff_relative": e["domain_error"]["hausdorff_relative"], "mean_distance_relative": e["domain_error"]["mean_relative"]}
+def ours(run, e):
+    return dict(err(e), tets=run["tets_after"], seconds=run["seconds"], collapses_per_second=run["collapses_per_second"], threads=run["threads"])
 row = {"mesh": name, "scalar": scalar, "ratio": float(ratio), "tets": o["tets_before"],
-       "tetrascope": dict(err(eo), tets=o["tets_after"], seconds=o["seconds"], collapses_per_second=o["collapses_per_second"]),
+       "tetrascope": ours(o, eo),
+       "tetrascope_one_thread": ours(s1, e1) if s1 else None,
+       "tetrascope_at_vtk_count": ours(ss, es) if ss else None,
        "tetrascope_independent": dict(err(ef), tets=f["tets_after"], seconds=f["seconds"], collapses_per_second=f["collapses_per_second"]),
        "vtk": dict(err(ev), tets=v["tets_after"], seconds=v["seconds"],
                    collapses_per_second=(v["tets_before"] - v["tets_after"]) / 6.0 / v["seconds"])}
@@ -54,7 +72,7 @@ python3 - "${rows[@]}" <<'PY'
 import json, sys, datetime
 rows = [json.loads(r) for r in sys.argv[1:]]
 json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, 24 GB, Debian 12",
-           "note": "tetrascope: one thread, on one scalar, default options (one global queue) and --independent (independent edge collapses, §4.1.1); VTK: ParaView 5.11 vtkUnstructuredGridQuadricDecimation, defaults; seconds exclude file I/O for both; VTK's collapses/s estimated as removed tets / 6",
+           "note": "tetrascope: on one scalar, default options (one global queue; both cores on meshes of >= 200K tets, one thread below; tetrascope_one_thread: --threads 1) and --independent (independent edge collapses, §4.1.1, one thread); tetrascope_at_vtk_count: ours at VTK's tet count where VTK stops short of the target; VTK: ParaView 5.11 vtkUnstructuredGridQuadricDecimation, defaults; seconds exclude file I/O for both; VTK's collapses/s estimated as removed tets / 6",
            "rows": rows}, open("bench/results/simplify.json", "w"), indent=2)
 print(f"{'mesh':24} {'ratio':>5} {'tets':>7} | {'s ours':>6} {'s indep':>7} {'s VTK':>6} | {'Ef ours':>8} {'Ef indep':>8} {'Ef VTK':>8} | {'Hd ours':>7} {'Hd indep':>8} {'Hd VTK':>7}")
 for r in rows:

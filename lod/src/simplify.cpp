@@ -8,12 +8,14 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <queue>
 #include <random>
 #include <stdexcept>
+#include <thread>
 #include <unordered_map>
 
 #include "tet_faces.h"
@@ -22,8 +24,8 @@
 namespace tetrascope::lod {
 namespace {
 
-constexpr auto& kFace = detail::kTetFace;
 constexpr uint32_t kNone = 0xFFFFFFFFu;
+constexpr uint8_t kNoRegion = 0xFF;
 
 struct Channel {
   size_t value;      // index into the per-vertex attribute values
@@ -76,17 +78,43 @@ class Simplifier {
   void normalised(uint32_t v, double* x) const;
   void normalised_at(const double* position, const double* values, double* x) const;
   std::vector<uint32_t> neighbours(uint32_t v) const;
-  bool best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>& out);
-  bool link_condition(uint32_t p, uint32_t q);
+  bool best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>& out) const;
+  struct LinkSets {
+    std::vector<uint32_t> vertices;
+    std::vector<uint64_t> edges;
+    std::vector<std::array<uint32_t, 3>> triangles;
+  };
+  // What one thread of collapses owns: its queue's scratch, counters and stop rule. Workers
+  // run at once on disjoint regions (see run_regions), so they never touch the same vertex.
+  struct Worker {
+    uint8_t region = 0;
+    uint64_t remove_limit = 0;  // stop after removing this many tets (0: no limit of its own)
+    uint64_t removed = 0;
+    SimplifyReport counts;
+    std::vector<Candidate> candidates;
+    LinkSets link_p, link_q, link_pq;  // scratch of link_condition
+    std::vector<uint64_t> scratch_edges;
+    bool remember_refused = false;
+    std::unordered_map<uint64_t, uint64_t> refused;  // edge -> versions of its ends when refused
+    double cost_limit = std::numeric_limits<double>::infinity();  // a collapse may cost at most this
+    double deferred_cost = -1;  // set when a collapse was put off because its valid placement costs more
+  };
+  void link_of(Worker& w, uint32_t v, uint32_t other, LinkSets& link, LinkSets* edge_link);
+  bool link_condition(Worker& w, uint32_t p, uint32_t q);
   bool geometry_ok(uint32_t p, uint32_t q, const double* position);
   void interpolate(uint32_t p, uint32_t q, const double* position, double* values) const;
-  bool try_collapse(uint32_t p, uint32_t q);
-  bool collapse(uint32_t p, uint32_t q);
-  void push_edges_of(uint32_t v, MinQueue& queue, bool independent_only);
-  void push(uint32_t p, uint32_t q, MinQueue& queue);
+  bool try_collapse(Worker& w, uint32_t p, uint32_t q);
+  bool collapse(Worker& w, uint32_t p, uint32_t q);
+  void push_edges_of(Worker& w, uint32_t v, MinQueue& queue, bool independent_only);
+  void push(Worker& w, uint32_t p, uint32_t q, MinQueue& queue);
   void compact();
-  bool is_boundary_face(uint32_t a, uint32_t b, uint32_t c) const;
-  bool done() const { return (options_.target_tets && alive_tets_ <= options_.target_tets); }
+  bool done(const Worker& w) const {
+    return (options_.target_tets && alive_tets_.load(std::memory_order_relaxed) <= options_.target_tets) || (w.remove_limit && w.removed >= w.remove_limit);
+  }
+  void run_queue(Worker& w);
+  void run_regions(int threads);
+  void run_independent(Worker& w);
+  void merge_counts(const Worker& w);
 
   storage::TetMesh& mesh_;
   SimplifyOptions options_;
@@ -100,12 +128,9 @@ class Simplifier {
   std::vector<std::vector<uint32_t>> star_;
   std::vector<uint32_t> version_;
   QuadricSet quadrics_;
-  uint64_t alive_tets_ = 0;
+  std::atomic<uint64_t> alive_tets_{0};
   SimplifyReport report_;
-  std::vector<Candidate> candidates_;
-  std::unordered_map<uint64_t, uint64_t> refused_;  // edge -> versions of its ends when refused
-  double cost_limit_ = std::numeric_limits<double>::infinity();  // a collapse may cost at most this
-  double deferred_cost_ = -1;  // set when a collapse was put off because its valid placement costs more
+  std::vector<uint8_t> region_;  // per vertex: the worker that may collapse its edges, or kNoRegion
 };
 
 Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked)
@@ -300,9 +325,10 @@ std::vector<uint32_t> Simplifier::neighbours(uint32_t v) const {
   return out;
 }
 
-bool Simplifier::best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>& out) {
+bool Simplifier::best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>& out) const {
   out.clear();
   if (locked_[p] && locked_[q]) return false;
+  const bool fix_p = locked_[p], fix_q = locked_[q];
   double Q[quadric::stride(kMaxQuadricDimension)];
   quadric::clear(Q, d_);
   quadric::add(Q, quadrics_.at(p), d_);
@@ -311,8 +337,8 @@ bool Simplifier::best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>&
   normalised(p, xp);
   normalised(q, xq);
   auto world = [&](const double* n) { return std::array<double, 3>{origin_[0] + n[0] * extent_, origin_[1] + n[1] * extent_, origin_[2] + n[2] * extent_}; };
-  if (locked_[p] || locked_[q]) {  // onto the locked end, which stays where it is
-    uint32_t keep = locked_[p] ? p : q;
+  if (fix_p || fix_q) {  // onto the locked end, which stays where it is
+    uint32_t keep = fix_p ? p : q;
     out.push_back({quadric::evaluate(Q, keep == p ? xp : xq, d_), {position_[3 * keep], position_[3 * keep + 1], position_[3 * keep + 2]}, keep == p ? 1 : 2});
     return true;
   }
@@ -329,91 +355,104 @@ bool Simplifier::best_candidates(uint32_t p, uint32_t q, std::vector<Candidate>&
   return true;
 }
 
-bool Simplifier::is_boundary_face(uint32_t a, uint32_t b, uint32_t c) const {
-  int count = 0;
-  for (uint32_t t : star_[a]) {
+// Lk(p) ∩ Lk(q) = Lk(pq), with a virtual vertex * joined to every boundary face (Dey et al.,
+// "Topology preserving edge contraction", 1999). Simplices of Lk(p) that contain q are left
+// out of the intersection: a vertex or edge reached only through them lies in Lk(pq) anyway.
+// The link is kept as three sorted sets of integer keys (vertices, edges, triangles).
+void Simplifier::link_of(Worker& w, uint32_t v, uint32_t other, LinkSets& link, LinkSets* edge_link) {
+  link.vertices.clear();
+  link.edges.clear();
+  link.triangles.clear();
+  w.scratch_edges.clear();
+  auto edge = [](uint32_t a, uint32_t b) { return a < b ? uint64_t{a} << 32 | b : uint64_t{b} << 32 | a; };
+  for (uint32_t t : star_[v]) {
     const uint32_t* tet = &tets_[4 * t];
-    bool hb = false, hc = false;
+    std::array<uint32_t, 3> rest{};
+    int n = 0;
+    bool has_other = false;
     for (int k = 0; k < 4; ++k) {
-      hb |= tet[k] == b;
-      hc |= tet[k] == c;
+      if (tet[k] == v) continue;
+      has_other |= tet[k] == other;
+      rest[n++] = tet[k];
     }
-    count += hb && hc;
+    std::sort(rest.begin(), rest.end());
+    if (has_other) {
+      if (edge_link) {
+        uint32_t e[2], m = 0;
+        for (uint32_t u : rest)
+          if (u != other) e[m++] = u;
+        edge_link->edges.push_back(edge(e[0], e[1]));
+        edge_link->vertices.push_back(e[0]);
+        edge_link->vertices.push_back(e[1]);
+      }
+    } else {
+      link.triangles.push_back(rest);
+    }
+    for (int i = 0; i < 3; ++i) {
+      if (rest[i] != other) link.vertices.push_back(rest[i]);
+      for (int j = i + 1; j < 3; ++j) w.scratch_edges.push_back(edge(rest[i], rest[j]));
+    }
   }
-  return count == 1;
+  // every face through v is v + an edge of an opposite triangle; it lies on the boundary
+  // when that edge is opposite v in one tet only
+  std::sort(w.scratch_edges.begin(), w.scratch_edges.end());
+  bool boundary = false;
+  for (size_t i = 0; i < w.scratch_edges.size();) {
+    size_t j = i + 1;
+    while (j < w.scratch_edges.size() && w.scratch_edges[j] == w.scratch_edges[i]) ++j;
+    const uint32_t a = static_cast<uint32_t>(w.scratch_edges[i] >> 32), b = static_cast<uint32_t>(w.scratch_edges[i]);
+    if (a != other && b != other) link.edges.push_back(w.scratch_edges[i]);
+    if (j - i == 1) {  // boundary face (v, a, b): virtual triangle (a, b, *)
+      boundary = true;
+      if (a != other) link.edges.push_back(edge(a, kNone));
+      if (b != other) link.edges.push_back(edge(b, kNone));
+      if (a != other && b != other) {
+        link.triangles.push_back({a, b, kNone});
+      } else if (edge_link) {  // boundary face through the edge: (r, *) in Lk(pq)
+        const uint32_t r = a == other ? b : a;
+        edge_link->edges.push_back(edge(r, kNone));
+        edge_link->vertices.push_back(r);
+        edge_link->vertices.push_back(kNone);
+      }
+    }
+    i = j;
+  }
+  if (boundary) link.vertices.push_back(kNone);
+  auto unique_sorted = [](auto& x) {
+    std::sort(x.begin(), x.end());
+    x.erase(std::unique(x.begin(), x.end()), x.end());
+  };
+  unique_sorted(link.vertices);
+  unique_sorted(link.edges);
+  unique_sorted(link.triangles);
 }
 
-// Lk(p) ∩ Lk(q) = Lk(pq), with a virtual vertex joined to every boundary face (Dey et al.,
-// "Topology preserving edge contraction", 1999). Simplices of Lk(p) that contain q lie in
-// Lk(pq) anyway, so only the others are intersected.
-bool Simplifier::link_condition(uint32_t p, uint32_t q) {
-  using Simplex = std::array<uint32_t, 4>;  // {dimension, sorted vertices..., 0 padding}; virtual = kNone
-  auto closure = [](std::vector<Simplex>& out, std::array<uint32_t, 3> tri) {
-    std::sort(tri.begin(), tri.end());
-    out.push_back({2, tri[0], tri[1], tri[2]});
-    for (int i = 0; i < 3; ++i) {
-      out.push_back({0, tri[i], 0, 0});
-      for (int j = i + 1; j < 3; ++j) out.push_back({1, tri[i], tri[j], 0});
-    }
-  };
-  auto link = [&](uint32_t v, uint32_t other, std::vector<Simplex>& out, std::vector<Simplex>* edge_link) {
-    for (uint32_t t : star_[v]) {
-      const uint32_t* tet = &tets_[4 * t];
-      std::array<uint32_t, 3> rest{};
-      int n = 0;
-      bool has_other = false;
-      for (int k = 0; k < 4; ++k) {
-        if (tet[k] == v) continue;
-        has_other |= tet[k] == other;
-        rest[n++] = tet[k];
-      }
-      if (has_other) {
-        if (edge_link) {
-          std::array<uint32_t, 2> e{};
-          int m = 0;
-          for (uint32_t w : rest)
-            if (w != other) e[m++] = w;
-          std::sort(e.begin(), e.end());
-          edge_link->push_back({1, e[0], e[1], 0});
-          edge_link->push_back({0, e[0], 0, 0});
-          edge_link->push_back({0, e[1], 0, 0});
-        }
+bool Simplifier::link_condition(Worker& w, uint32_t p, uint32_t q) {
+  LinkSets& pq = w.link_pq;
+  pq.vertices.clear();
+  pq.edges.clear();
+  link_of(w, p, q, w.link_p, &pq);
+  link_of(w, q, p, w.link_q, nullptr);
+  std::sort(pq.vertices.begin(), pq.vertices.end());
+  std::sort(pq.edges.begin(), pq.edges.end());
+  // every common simplex must lie in Lk(pq); Lk(pq) holds no triangles
+  auto contained = [](const auto& a, const auto& b, const auto& allowed) {
+    for (size_t i = 0, j = 0; i < a.size() && j < b.size();) {
+      if (a[i] < b[j]) {
+        ++i;
+      } else if (b[j] < a[i]) {
+        ++j;
       } else {
-        closure(out, rest);
-      }
-      for (int f = 0; f < 4; ++f) {  // boundary faces through v: virtual triangles
-        std::array<uint32_t, 3> face;
-        for (int i = 0; i < 3; ++i) face[i] = tet[kFace[f][i]];
-        if (std::find(face.begin(), face.end(), v) == face.end() || !is_boundary_face(face[0], face[1], face[2])) continue;
-        std::array<uint32_t, 3> virt{kNone, kNone, kNone};
-        int m = 0;
-        for (uint32_t w : face)
-          if (w != v) virt[m++] = w;
-        if (virt[0] == other || virt[1] == other) {
-          if (edge_link) {
-            uint32_t r = virt[0] == other ? virt[1] : virt[0];
-            edge_link->push_back({1, r, kNone, 0});
-            edge_link->push_back({0, r, 0, 0});
-            edge_link->push_back({0, kNone, 0, 0});
-          }
-        } else {
-          closure(out, virt);
-        }
+        if (!std::binary_search(allowed.begin(), allowed.end(), a[i])) return false;
+        ++i;
+        ++j;
       }
     }
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return true;
   };
-  std::vector<Simplex> link_p, link_q, link_pq, common;
-  link(p, q, link_p, &link_pq);
-  link(q, p, link_q, nullptr);
-  std::sort(link_pq.begin(), link_pq.end());
-  link_pq.erase(std::unique(link_pq.begin(), link_pq.end()), link_pq.end());
-  std::set_intersection(link_p.begin(), link_p.end(), link_q.begin(), link_q.end(), std::back_inserter(common));
-  for (const Simplex& s : common) {
-    if (!std::binary_search(link_pq.begin(), link_pq.end(), s)) return false;
-  }
-  return true;
+  static const std::vector<std::array<uint32_t, 3>> kNoTriangles;
+  return contained(w.link_p.vertices, w.link_q.vertices, pq.vertices) && contained(w.link_p.edges, w.link_q.edges, pq.edges) &&
+         contained(w.link_p.triangles, w.link_q.triangles, kNoTriangles);
 }
 
 bool Simplifier::geometry_ok(uint32_t p, uint32_t q, const double* position) {
@@ -430,8 +469,9 @@ bool Simplifier::geometry_ok(uint32_t p, uint32_t q, const double* position) {
         after[k] = (tet[k] == p || tet[k] == q) ? position : before[k];
       }
       double old_volume, new_volume;
-      double old_quality = quality(before[0], before[1], before[2], before[3], &old_volume);
       double new_quality = quality(after[0], after[1], after[2], after[3], &new_volume);
+      if (new_volume > 0 && new_quality >= options_.min_quality) continue;  // fine whatever it was before
+      double old_quality = quality(before[0], before[1], before[2], before[3], &old_volume);
       if (old_quality <= 1e-12) {
         if (new_volume < 0) return false;  // a degenerate tet may stay degenerate, never flip
         continue;
@@ -492,36 +532,38 @@ void Simplifier::interpolate(uint32_t p, uint32_t q, const double* position, dou
   }
 }
 
-bool Simplifier::try_collapse(uint32_t p, uint32_t q) {
-  // an edge refused once is not tried again until a collapse changes one of its ends
+bool Simplifier::try_collapse(Worker& w, uint32_t p, uint32_t q) {
+  w.deferred_cost = -1;
+  if (!w.remember_refused) return collapse(w, p, q);
+  // an edge refused once is not tried again until a collapse changes one of its ends (the
+  // independent runs seed the same edges again; the global queue never does)
   const uint64_t key = uint64_t{p} << 32 | q, stamp = uint64_t{version_[p]} << 32 | version_[q];
-  if (auto it = refused_.find(key); it != refused_.end() && it->second == stamp) return false;
-  deferred_cost_ = -1;
-  const bool ok = collapse(p, q);
-  if (!ok && deferred_cost_ < 0) refused_[key] = stamp;  // a deferred edge may come back
+  if (auto it = w.refused.find(key); it != w.refused.end() && it->second == stamp) return false;
+  const bool ok = collapse(w, p, q);
+  if (!ok && w.deferred_cost < 0) w.refused[key] = stamp;  // a deferred edge may come back
   return ok;
 }
 
-bool Simplifier::collapse(uint32_t p, uint32_t q) {
-  if (!best_candidates(p, q, candidates_)) return false;
-  if (options_.max_error > 0 && candidates_.front().cost > options_.max_error) return false;
-  if (!link_condition(p, q)) {
-    ++report_.refused_topology;
+bool Simplifier::collapse(Worker& w, uint32_t p, uint32_t q) {
+  if (!best_candidates(p, q, w.candidates)) return false;
+  if (options_.max_error > 0 && w.candidates.front().cost > options_.max_error) return false;
+  if (!link_condition(w, p, q)) {
+    ++w.counts.refused_topology;
     return false;
   }
   const Candidate* chosen = nullptr;
-  for (const Candidate& c : candidates_) {
+  for (const Candidate& c : w.candidates) {
     if (geometry_ok(p, q, c.position.data())) {
       chosen = &c;
       break;
     }
   }
   if (!chosen) {
-    ++report_.refused_geometry;
+    ++w.counts.refused_geometry;
     return false;
   }
-  if (chosen->cost > cost_limit_) {  // the valid placement costs more than this edge was queued at
-    deferred_cost_ = chosen->cost;
+  if (chosen->cost > w.cost_limit) {  // the valid placement costs more than this edge was queued at
+    w.deferred_cost = chosen->cost;
     return false;
   }
   // keep the vertex the candidate sits on (a locked one stays bit-identical), else p
@@ -550,7 +592,8 @@ bool Simplifier::collapse(uint32_t p, uint32_t q) {
     for (int k = 0; k < 4; ++k) has_keep |= tet[k] == keep;
     if (has_keep) {  // the tet around the edge disappears
       tet_alive_[t] = 0;
-      --alive_tets_;
+      alive_tets_.fetch_sub(1, std::memory_order_relaxed);
+      ++w.removed;
       for (int k = 0; k < 4; ++k) {
         if (tet[k] == gone) continue;
         auto& s = star_[tet[k]];
@@ -566,18 +609,19 @@ bool Simplifier::collapse(uint32_t p, uint32_t q) {
   vertex_alive_[gone] = 0;
   ++version_[keep];
   ++version_[gone];
-  ++report_.collapses;
+  ++w.counts.collapses;
   marked_[keep] = marked_[gone] = 1;
   return true;
 }
 
-void Simplifier::push(uint32_t p, uint32_t q, MinQueue& queue) {
-  if (!best_candidates(p, q, candidates_)) return;
-  queue.push({candidates_.front().cost, p, q, version_[p], version_[q]});
-  report_.max_queue = std::max<uint64_t>(report_.max_queue, queue.size());
+void Simplifier::push(Worker& w, uint32_t p, uint32_t q, MinQueue& queue) {
+  if (region_[p] != w.region || region_[q] != w.region) return;  // another worker's, or frozen for now
+  if (!best_candidates(p, q, w.candidates)) return;
+  queue.push({w.candidates.front().cost, p, q, version_[p], version_[q]});
+  w.counts.max_queue = std::max<uint64_t>(w.counts.max_queue, queue.size());
 }
 
-void Simplifier::push_edges_of(uint32_t v, MinQueue& queue, bool independent_only) {
+void Simplifier::push_edges_of(Worker& w, uint32_t v, MinQueue& queue, bool independent_only) {
   if (independent_only) {  // edges in the link of v whose ends are both unmarked (§4.1.1)
     std::vector<std::pair<uint32_t, uint32_t>> edges;
     for (uint32_t t : star_[v]) {
@@ -591,92 +635,185 @@ void Simplifier::push_edges_of(uint32_t v, MinQueue& queue, bool independent_onl
     std::sort(edges.begin(), edges.end());
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
     for (auto [a, b] : edges)
-      if (!marked_[a] && !marked_[b]) push(a, b, queue);
+      if (!marked_[a] && !marked_[b]) push(w, a, b, queue);
   } else {
-    for (uint32_t w : neighbours(v)) push(std::min(v, w), std::max(v, w), queue);
+    for (uint32_t u : neighbours(v)) push(w, std::min(v, u), std::max(v, u), queue);
+  }
+}
+
+// One global queue over the edges whose ends are both in the worker's region: the cheapest
+// edge first, until the target, the error limit or the worker's own removal limit.
+void Simplifier::run_queue(Worker& w) {
+  const uint32_t n = static_cast<uint32_t>(vertex_alive_.size());
+  MinQueue queue;
+  for (uint32_t v = 0; v < n; ++v) {
+    if (!vertex_alive_[v] || region_[v] != w.region) continue;
+    for (uint32_t u : neighbours(v))
+      if (v < u) push(w, v, u, queue);
+  }
+  while (!queue.empty() && !done(w)) {
+    QueueEntry e = queue.top();
+    queue.pop();
+    if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
+    if (options_.max_error > 0 && e.cost > options_.max_error) break;
+    // collapse only at about the cost the edge was queued at; a dearer valid placement
+    // goes back into the queue at its real cost
+    w.cost_limit = e.cost + 1e-12 + 1e-9 * std::fabs(e.cost);
+    if (try_collapse(w, e.p, e.q)) {
+      uint32_t keep = vertex_alive_[e.p] ? e.p : e.q;
+      push_edges_of(w, keep, queue, false);
+    } else if (w.deferred_cost >= 0) {
+      queue.push({w.deferred_cost, e.p, e.q, e.version_p, e.version_q});
+    }
+  }
+}
+
+// Both cores on one mesh: the vertices are split at the median along the longest axis; a
+// vertex with a neighbour on the other side is frozen. A collapse only changes the tets
+// around its two ends and the stars of their neighbours, and a worker's edges have both
+// ends away from the cut, so the workers touch disjoint vertices and tets: no locks, and the
+// result does not depend on timing. Each worker removes its share of the tets less a margin;
+// then one queue over the whole mesh (cut included) finishes the job.
+void Simplifier::run_regions(int threads) {
+  const uint32_t n = static_cast<uint32_t>(vertex_alive_.size());
+  storage::Bounds box = storage::compute_bounds(mesh_);
+  int axis = 0;
+  for (int k = 1; k < 3; ++k)
+    if (box.max[k] - box.min[k] > box.max[axis] - box.min[axis]) axis = k;
+  std::vector<std::pair<double, uint32_t>> order(n);
+  for (uint32_t v = 0; v < n; ++v) order[v] = {position_[3 * size_t{v} + axis], v};
+  std::sort(order.begin(), order.end());
+  for (uint32_t i = 0; i < n; ++i) region_[order[i].second] = static_cast<uint8_t>(uint64_t{i} * threads / n);
+  std::vector<uint8_t> side = region_;
+  for (uint32_t v = 0; v < n; ++v)
+    for (uint32_t u : neighbours(v))
+      if (side[u] != side[v]) region_[v] = kNoRegion;
+  std::vector<uint64_t> tets_in(threads, 0);
+  for (uint32_t t = 0; t < tet_alive_.size(); ++t) {
+    uint8_t r = region_[tets_[4 * t]];
+    bool inside = r != kNoRegion;
+    for (int k = 1; k < 4; ++k) inside &= region_[tets_[4 * t + k]] == r;
+    if (inside) ++tets_in[r];
+  }
+  const uint64_t total = alive_tets_.load();
+  const uint64_t to_remove = options_.target_tets && options_.target_tets < total ? total - options_.target_tets : 0;
+  std::vector<Worker> workers(threads);
+  for (int r = 0; r < threads; ++r) {
+    workers[r].region = static_cast<uint8_t>(r);
+    // each region's share of the removals, less a margin left to the final pass across the cut
+    workers[r].remove_limit = to_remove ? std::max<uint64_t>(1, static_cast<uint64_t>(0.97 * double(to_remove) * double(tets_in[r]) / double(total))) : 0;
+  }
+  std::vector<std::thread> pool;
+  std::vector<std::exception_ptr> errors(threads);
+  for (int r = 1; r < threads; ++r)
+    pool.emplace_back([&, r] {
+      try {
+        run_queue(workers[r]);
+      } catch (...) {
+        errors[r] = std::current_exception();
+      }
+    });
+  try {
+    run_queue(workers[0]);
+  } catch (...) {
+    errors[0] = std::current_exception();
+  }
+  for (auto& t : pool) t.join();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  for (const Worker& w : workers) merge_counts(w);
+  std::fill(region_.begin(), region_.end(), 0);
+  Worker last;
+  run_queue(last);
+  merge_counts(last);
+}
+
+void Simplifier::merge_counts(const Worker& w) {
+  report_.collapses += w.counts.collapses;
+  report_.refused_topology += w.counts.refused_topology;
+  report_.refused_geometry += w.counts.refused_geometry;
+  report_.runs += w.counts.runs;
+  report_.max_queue = std::max(report_.max_queue, w.counts.max_queue);
+}
+
+void Simplifier::run_independent(Worker& w) {
+  const uint32_t n = static_cast<uint32_t>(vertex_alive_.size());
+  std::mt19937 rng(options_.seed);
+  w.remember_refused = true;
+  double threshold = 0;
+  uint64_t idle_runs = 0;
+  while (!done(w)) {
+    ++w.counts.runs;
+    std::fill(marked_.begin(), marked_.end(), 0);
+    // threshold: the mean cost of a few random edges, re-estimated every run (§4.1.1)
+    std::vector<uint32_t> alive;
+    for (uint32_t t = 0; t < tet_alive_.size(); ++t)
+      if (tet_alive_[t]) alive.push_back(t);
+    if (alive.empty()) break;
+    double sum = 0;
+    int samples = 0;
+    for (int s = 0; s < 64; ++s) {
+      uint32_t t = alive[rng() % alive.size()];
+      int i = static_cast<int>(rng() % 4), j = (i + 1 + static_cast<int>(rng() % 3)) % 4;
+      uint32_t a = tets_[4 * t + i], b = tets_[4 * t + j];
+      if (best_candidates(std::min(a, b), std::max(a, b), w.candidates)) {
+        sum += w.candidates.front().cost;
+        ++samples;
+      }
+    }
+    double estimate = samples ? sum / samples : 0;
+    threshold = std::max(estimate, threshold * (idle_runs > 0 ? 4.0 : 1.0));
+    if (threshold <= 0) threshold = std::numeric_limits<double>::min();
+    if (options_.max_error > 0) threshold = std::min(threshold, options_.max_error);
+    const uint64_t before = w.counts.collapses;
+    MinQueue queue;
+    std::vector<uint32_t> order(n);
+    for (uint32_t v = 0; v < n; ++v) order[v] = v;
+    std::shuffle(order.begin(), order.end(), rng);
+    for (uint32_t seed_vertex : order) {
+      if (done(w)) break;
+      if (!vertex_alive_[seed_vertex] || marked_[seed_vertex]) continue;
+      for (uint32_t u : neighbours(seed_vertex))
+        if (!marked_[u]) push(w, std::min(seed_vertex, u), std::max(seed_vertex, u), queue);
+      while (!queue.empty() && !done(w)) {
+        QueueEntry e = queue.top();
+        queue.pop();
+        if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || marked_[e.p] || marked_[e.q]) continue;
+        if (version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
+        if (e.cost > threshold) continue;
+        w.cost_limit = threshold;
+        if (try_collapse(w, e.p, e.q)) push_edges_of(w, vertex_alive_[e.p] ? e.p : e.q, queue, true);
+      }
+      MinQueue().swap(queue);
+    }
+    if (w.counts.collapses == before) {
+      ++idle_runs;
+      if (options_.max_error > 0 && threshold >= options_.max_error) break;
+      if (idle_runs > 40) break;  // nothing collapses any more: the mesh is as coarse as it can get
+    } else {
+      idle_runs = 0;
+    }
   }
 }
 
 SimplifyReport Simplifier::run() {
   const auto start = std::chrono::steady_clock::now();
-  const uint32_t n = static_cast<uint32_t>(vertex_alive_.size());
-  std::mt19937 rng(options_.seed);
-  if (!options_.independent) {
-    MinQueue queue;
-    for (uint32_t v = 0; v < n; ++v)
-      for (uint32_t w : neighbours(v))
-        if (v < w) push(v, w, queue);
-    while (!queue.empty() && !done()) {
-      QueueEntry e = queue.top();
-      queue.pop();
-      if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
-      if (options_.max_error > 0 && e.cost > options_.max_error) break;
-      // collapse only at about the cost the edge was queued at; a dearer valid placement
-      // goes back into the queue at its real cost
-      cost_limit_ = e.cost + 1e-12 + 1e-9 * std::fabs(e.cost);
-      if (try_collapse(e.p, e.q)) {
-        uint32_t keep = vertex_alive_[e.p] ? e.p : e.q;
-        push_edges_of(keep, queue, false);
-      } else if (deferred_cost_ >= 0) {
-        queue.push({deferred_cost_, e.p, e.q, e.version_p, e.version_q});
-      }
-    }
+  region_.assign(vertex_alive_.size(), 0);
+  // regions pay off only when each holds many tets; small meshes (and the MT's segments,
+  // which it simplifies in parallel itself) take one thread
+  const int threads = options_.independent ? 1 : static_cast<int>(std::min<uint64_t>(std::max(options_.threads, 1u), alive_tets_.load() / std::max<uint64_t>(options_.min_tets_per_thread, 1)));
+  if (options_.independent) {
+    Worker w;
+    run_independent(w);
+    merge_counts(w);
+  } else if (threads > 1) {
+    run_regions(threads);
   } else {
-    double threshold = 0;
-    uint64_t idle_runs = 0;
-    while (!done()) {
-      ++report_.runs;
-      std::fill(marked_.begin(), marked_.end(), 0);
-      // threshold: the mean cost of a few random edges, re-estimated every run (§4.1.1)
-      std::vector<uint32_t> alive;
-      for (uint32_t t = 0; t < tet_alive_.size(); ++t)
-        if (tet_alive_[t]) alive.push_back(t);
-      if (alive.empty()) break;
-      double sum = 0;
-      int samples = 0;
-      for (int s = 0; s < 64; ++s) {
-        uint32_t t = alive[rng() % alive.size()];
-        int i = static_cast<int>(rng() % 4), j = (i + 1 + static_cast<int>(rng() % 3)) % 4;
-        uint32_t a = tets_[4 * t + i], b = tets_[4 * t + j];
-        if (best_candidates(std::min(a, b), std::max(a, b), candidates_)) {
-          sum += candidates_.front().cost;
-          ++samples;
-        }
-      }
-      double estimate = samples ? sum / samples : 0;
-      threshold = std::max(estimate, threshold * (idle_runs > 0 ? 4.0 : 1.0));
-      if (threshold <= 0) threshold = std::numeric_limits<double>::min();
-      if (options_.max_error > 0) threshold = std::min(threshold, options_.max_error);
-      const uint64_t before = report_.collapses;
-      MinQueue queue;
-      std::vector<uint32_t> order(n);
-      for (uint32_t v = 0; v < n; ++v) order[v] = v;
-      std::shuffle(order.begin(), order.end(), rng);
-      for (uint32_t seed_vertex : order) {
-        if (done()) break;
-        if (!vertex_alive_[seed_vertex] || marked_[seed_vertex]) continue;
-        for (uint32_t w : neighbours(seed_vertex))
-          if (!marked_[w]) push(std::min(seed_vertex, w), std::max(seed_vertex, w), queue);
-        while (!queue.empty() && !done()) {
-          QueueEntry e = queue.top();
-          queue.pop();
-          if (!vertex_alive_[e.p] || !vertex_alive_[e.q] || marked_[e.p] || marked_[e.q]) continue;
-          if (version_[e.p] != e.version_p || version_[e.q] != e.version_q) continue;
-          if (e.cost > threshold) continue;
-          cost_limit_ = threshold;
-          if (try_collapse(e.p, e.q)) push_edges_of(vertex_alive_[e.p] ? e.p : e.q, queue, true);
-        }
-        MinQueue().swap(queue);
-      }
-      if (report_.collapses == before) {
-        ++idle_runs;
-        if (options_.max_error > 0 && threshold >= options_.max_error) break;
-        if (idle_runs > 40) break;  // nothing collapses any more: the mesh is as coarse as it can get
-      } else {
-        idle_runs = 0;
-      }
-    }
+    Worker w;
+    run_queue(w);
+    merge_counts(w);
   }
+  report_.threads = std::max(threads, 1);
   compact();
   report_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report_;

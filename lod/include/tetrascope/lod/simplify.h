@@ -19,12 +19,14 @@ struct SimplifyOptions {
   std::vector<std::string> attributes;     // attributes in the quadrics; empty = all
   bool gradient_weighting = true;          // weigh tet quadrics by volume x (1 + |gradient|^2)
   double attribute_weight = 1.0;           // scale of the normalised attributes against positions (unit cube)
-  double boundary_weight = 1000.0;          // face quadrics on the mesh boundary (keeps the domain and the field on it)            // face quadrics on the mesh boundary (keeps the domain)
+  double boundary_weight = 1000.0;         // face quadrics on the mesh boundary (keeps the domain and the field on it)
   double feature_weight = 1.0;             // edge quadrics along sharp boundary edges (§4.1.2)
   double feature_angle_degrees = 40.0;     // a boundary edge is sharp above this bend
   double vertex_weight = 1e-3;             // vertex distribution quadrics (conditioning)
   double min_quality = 0.02;               // a collapse may not push a tet's quality below this unless it keeps half its old quality
   bool independent = false;                // independent edge collapses in runs (§4.1.1) instead of one global queue
+  uint32_t threads = 1;                    // global queue only: up to this many regions simplified at once
+  uint64_t min_tets_per_thread = 100000;   // ... each holding at least this many tets (fewer: fewer threads)
   uint32_t seed = 1;
 };
 
@@ -34,6 +36,7 @@ struct SimplifyReport {
   uint64_t tets_before = 0, tets_after = 0, vertices_before = 0, vertices_after = 0;
   uint64_t collapses = 0, refused_topology = 0, refused_geometry = 0, runs = 0;
   uint64_t max_queue = 0;
+  int threads = 1;  // threads used
   double seconds = 0;
 };
 
