@@ -1,11 +1,13 @@
 // The one tetrascope executable; each subcommand lives in the library that owns it and
 // this file only parses arguments and maps errors to exit codes.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
 #include <cstring>
+#include <fstream>
 #include <iostream>
 #include <string>
 #include <thread>
@@ -13,7 +15,9 @@
 
 #include <unistd.h>
 
+#include "tetrascope/lod/cut.h"
 #include "tetrascope/lod/mesh_error.h"
+#include "tetrascope/lod/multires.h"
 #include "tetrascope/lod/segmentation.h"
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/vtk_writer.h"
@@ -32,6 +36,11 @@ constexpr const char* kUsage =
     "  segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S]\n"
     "                                [--force] [--progress bar|json|none] [--json]\n"
     "                                out-of-core segmentation (stage 1 of preprocess)\n"
+    "  preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N]\n"
+    "                                [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n"
+    "                                multiresolution store: segments, levels, DAG, error histograms (§6.3)\n"
+    "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--iso v1,v2] [--json]\n"
+    "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
@@ -107,8 +116,33 @@ int print_store_info(const std::string& path, bool json) {
   j["files"]["manifest.json"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "manifest.json", ec);
   j["vertices"] = m.vertex_count;
   j["tetrahedra"] = m.tet_count;
+  auto dag = tetrascope::lod::open_dag(*store);
+  if (dag) {
+    j["files"]["dag.bin"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "dag.bin", ec);
+    j["vertices"] = m.json["multiresolution"]["input"]["vertices"];
+    j["tetrahedra"] = m.json["multiresolution"]["input"]["tetrahedra"];
+    j["stored_vertices"] = m.vertex_count;
+    j["stored_tetrahedra"] = m.tet_count;
+  }
   if (json) {
     std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  if (dag) {
+    const auto& mr = m.json["multiresolution"];
+    std::printf("store       %s (format %u, multiresolution)\n", path.c_str(), m.version);
+    std::printf("source      %s (sha256 %.16s...)\n", m.source_file.c_str(), m.source_sha256.c_str());
+    std::printf("input       %llu vertices, %llu tetrahedra\n", mr["input"]["vertices"].get<unsigned long long>(), mr["input"]["tetrahedra"].get<unsigned long long>());
+    std::printf("levels      %u (0 = the input), %u segments, %u patches, histograms of %u bins\n", dag->level_count(), dag->node_count(), dag->patch_count(), dag->bins());
+    for (const auto& l : mr["levels"])
+      std::printf("  level %-3u %6u segments %10llu tets %9llu vertices %7u patches to the level above\n", l["level"].get<unsigned>(), l["segments"].get<unsigned>(),
+                  l["tets"].get<unsigned long long>(), l["vertices"].get<unsigned long long>(), l["patches"].get<unsigned>());
+    std::printf("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", m.bounds.min[0], m.bounds.max[0], m.bounds.min[1], m.bounds.max[1], m.bounds.min[2], m.bounds.max[2]);
+    for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
+    const double input_tets = mr["input"]["tetrahedra"].get<double>();
+    const double bytes = j["files"]["segments.bin"]["bytes"].get<double>() + j["files"]["dag.bin"]["bytes"].get<double>();
+    std::printf("files       segments.bin %.1f MB, dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
+                j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
     return 0;
   }
   std::printf("store       %s (format %u)\n", path.c_str(), m.version);
@@ -258,6 +292,100 @@ int run_error(const std::vector<std::string>& raw) {
   return 0;
 }
 
+int run_preprocess(const std::vector<std::string>& raw) {
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress"});
+  if (args.positionals().size() != 1 || !args.has("--output")) {
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
+    return 2;
+  }
+  tetrascope::lod::PreprocessOptions options;
+  options.base_tets = args.number("--base-tets", static_cast<uint32_t>(options.base_tets));
+  options.segment_tets = args.number("--segment-tets", options.segment_tets);
+  if (args.has("--level-ratio")) options.level_ratio = real_number(args, "--level-ratio");
+  options.histogram_bins = args.number("--bins", options.histogram_bins);
+  options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
+  options.seed = static_cast<int>(args.number("--seed", 1));
+  options.replace = args.has("--force");
+  tetrascope::storage::Progress progress(progress_mode(args), {{"read", 0.1}, {"partition", 0.05}, {"simplify", 0.75}, {"write", 0.1}});
+  auto report = tetrascope::lod::preprocess(args.positionals()[0], args.get("--output"), options, &progress);
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+  } else {
+    std::printf("%s: %llu tets -> %zu levels, %u segments, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
+                args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.segments, report.patches,
+                static_cast<unsigned long long>(report.levels.back().tets), report.store_bytes / 1e6, double(report.store_bytes) / report.input_tets, report.seconds,
+                report.input_tets / report.seconds);
+  }
+  return 0;
+}
+
+int run_cut(const std::vector<std::string>& raw) {
+  Args args(raw, {"--json"}, {"--output", "--budget", "--camera", "--size", "--tf", "--iso", "--attribute"});
+  if (args.positionals().size() != 1 || !args.has("--output") || !args.has("--budget")) {
+    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--json]\n");
+    return 2;
+  }
+  auto store = tetrascope::storage::Store::open(args.positionals()[0]);
+  auto dag = tetrascope::lod::open_dag(*store);
+  if (!dag) throw std::invalid_argument(args.positionals()[0] + " is a single-level store (made by segment); run tetrascope preprocess for a multiresolution store");
+  const uint64_t budget = args.number("--budget", 0);
+  if (budget == 0) throw std::invalid_argument("--budget must be at least 1");
+  tetrascope::lod::TransferFunction tf;
+  if (args.has("--tf")) {
+    std::ifstream in(args.get("--tf"));
+    if (!in) throw std::invalid_argument("--tf: cannot read " + args.get("--tf"));
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(in);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument("--tf: " + args.get("--tf") + " is not JSON: " + e.what());
+    }
+    tf = tetrascope::lod::TransferFunction::from_json(j);
+  }
+  if (args.has("--attribute")) tf.attribute = args.get("--attribute");
+  tetrascope::lod::CutCriteria criteria = tetrascope::lod::criteria_for(*store, *dag, tf);
+  if (args.has("--iso")) {
+    const auto& a = store->manifest().attributes.at(criteria.channel);
+    const double lo = a.components == 1 ? a.min : 0, span = a.max > lo ? a.max - lo : 1;
+    std::string list = args.get("--iso");
+    for (size_t at = 0; at <= list.size();) {
+      size_t comma = list.find(',', at);
+      if (comma == std::string::npos) comma = list.size();
+      std::string item = list.substr(at, comma - at);
+      size_t used = 0;
+      double v = std::stod(item, &used);
+      if (used != item.size()) throw std::invalid_argument("--iso expects numbers");
+      criteria.isovalues.push_back((v - lo) / span);
+      at = comma + 1;
+    }
+  }
+  if (args.has("--camera")) {
+    tetrascope::lod::Camera camera = tetrascope::lod::parse_camera(args.get("--camera"), store->manifest().bounds);
+    if (args.has("--size")) {
+      unsigned w = 0, h = 0;
+      if (std::sscanf(args.get("--size").c_str(), "%ux%u", &w, &h) != 2 || w == 0 || h == 0) throw std::invalid_argument("--size expects WxH");
+      camera.aspect = double(w) / h;
+    }
+    const auto& b = store->manifest().bounds;
+    const double diagonal = std::sqrt(std::pow(b.max[0] - b.min[0], 2) + std::pow(b.max[1] - b.min[1], 2) + std::pow(b.max[2] - b.min[2], 2));
+    criteria.frustum = tetrascope::lod::view_frustum(camera, 0, 1e3 * diagonal + 1e3);
+  }
+  tetrascope::lod::Cut cut(*dag);
+  const auto start = std::chrono::steady_clock::now();
+  auto changes = cut.update(criteria, budget);
+  const double update_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  tetrascope::storage::SegmentCache cache(*store, 1ull << 30);
+  auto mesh = tetrascope::lod::assemble_cut(*store, cache, cut, false);
+  tetrascope::storage::write_vtk(args.get("--output"), mesh.mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
+  nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
+                      {"refinements", changes.refinements}, {"forced_refinements", changes.forced_refinements}, {"coarsenings", changes.coarsenings},
+                      {"budget_limited", changes.budget_limited}, {"update_ms", update_ms}};
+  if (args.has("--json")) std::cout << j.dump(2) << "\n";
+  else std::printf("%s: %zu tets, %zu vertices from %zu patches (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.mesh.tet_count(),
+                   mesh.mesh.vertex_count(), mesh.patches.size(), static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
+  return 0;
+}
+
 int run_verify(const std::vector<std::string>& raw) {
   Args args(raw, {"--json"}, {"--progress"});
   if (args.positionals().size() != 1) {
@@ -266,6 +394,17 @@ int run_verify(const std::vector<std::string>& raw) {
   }
   tetrascope::storage::Progress progress(progress_mode(args), {{"check segments", 1.0}});
   auto report = tetrascope::storage::verify_store(args.positionals()[0], &progress);
+  if (report.ok) {  // a multiresolution store: the DAG too
+    try {
+      auto store = tetrascope::storage::Store::open(args.positionals()[0]);
+      if (auto dag = tetrascope::lod::open_dag(*store)) {
+        for (auto& p : tetrascope::lod::verify_dag(*store, *dag)) report.problems.push_back(p);
+      }
+    } catch (const std::exception& e) {
+      report.problems.push_back(e.what());
+    }
+    report.ok = report.problems.empty();
+  }
   if (args.has("--json")) {
     std::cout << report.to_json().dump(2) << "\n";
   } else if (report.ok) {
@@ -292,6 +431,8 @@ int main(int argc, char** argv) {
     if (command == "info") return run_info(args);
     if (command == "segment") return run_segment(args);
     if (command == "verify") return run_verify(args);
+    if (command == "preprocess") return run_preprocess(args);
+    if (command == "cut") return run_cut(args);
     if (command == "simplify") return run_simplify(args);
     if (command == "error") return run_error(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);

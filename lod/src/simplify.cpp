@@ -164,18 +164,27 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
       if (options.attributes.empty()) break;  // all attributes: as many as fit
       throw std::invalid_argument("too many attribute channels for the quadrics (at most " + std::to_string(kMaxSimplifyAttributeChannels) + ")");
     }
+    if (!options.attribute_ranges.empty() && options.attribute_ranges.size() != mesh.attributes.size()) {
+      throw std::invalid_argument("attribute_ranges must give one range per attribute");
+    }
+    const bool given = !options.attribute_ranges.empty();
     if (c == 1) {  // scalars to [0, 1]
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      for (float v : attribute.values) {
-        if (std::isfinite(v)) {
-          lo = std::min<double>(lo, v);
-          hi = std::max<double>(hi, v);
+      if (given) {
+        lo = options.attribute_ranges[a][0];
+        hi = options.attribute_ranges[a][1];
+      } else {
+        for (float v : attribute.values) {
+          if (std::isfinite(v)) {
+            lo = std::min<double>(lo, v);
+            hi = std::max<double>(hi, v);
+          }
         }
       }
       channels_.push_back({first_value[a], std::isfinite(lo) ? lo : 0, hi > lo ? options.attribute_weight / (hi - lo) : 0, false});
     } else {  // vectors: the longest to length 1, then 0.5 v + 0.5 (§4.2.2)
-      double longest = 0;
-      for (size_t v = 0; v < n; ++v) {
+      double longest = given ? options.attribute_ranges[a][1] : 0;
+      for (size_t v = 0; v < n && !given; ++v) {
         double l2 = 0;
         for (uint32_t k = 0; k < c; ++k) l2 += double(attribute.values[v * c + k]) * attribute.values[v * c + k];
         if (std::isfinite(l2)) longest = std::max(longest, std::sqrt(l2));
@@ -191,7 +200,7 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
     position_[3 * v + 1] = mesh.y[v];
     position_[3 * v + 2] = mesh.z[v];
   }
-  storage::Bounds box = storage::compute_bounds(mesh);
+  storage::Bounds box = options.frame ? *options.frame : storage::compute_bounds(mesh);
   extent_ = std::max({box.max[0] - box.min[0], box.max[1] - box.min[1], box.max[2] - box.min[2], 1e-30});
   for (int k = 0; k < 3; ++k) origin_[k] = box.min[k];
   tets_ = mesh.tets;
@@ -851,6 +860,9 @@ void Simplifier::compact() {
     if (!tet_alive_[t]) continue;
     for (int k = 0; k < 4; ++k) out.tets.push_back(remap[tets_[4 * t + k]]);
   }
+  report_.source_vertex.assign(next, 0);
+  for (size_t v = 0; v < n; ++v)
+    if (remap[v] != kNone) report_.source_vertex[remap[v]] = static_cast<uint32_t>(v);
   report_.tets_after = out.tet_count();
   report_.vertices_after = out.vertex_count();
   mesh_ = std::move(out);

@@ -3,7 +3,9 @@
 // (a whole small mesh, or one segment of the multi-triangulation with its border locked).
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +30,12 @@ struct SimplifyOptions {
   uint32_t threads = 1;                    // global queue only: up to this many regions simplified at once
   uint64_t min_tets_per_thread = 100000;   // ... each holding at least this many tets (fewer: fewer threads)
   uint32_t seed = 1;
+  // Normalisation frame. By default positions are normalised by the mesh's own box and
+  // attributes by their own ranges; the multi-triangulation passes the whole mesh's, so that
+  // every segment weighs errors alike. attribute_ranges: per mesh attribute, [lo, hi] of the
+  // value (scalars) or [0, longest] (vectors); empty = the mesh's own.
+  std::optional<storage::Bounds> frame;
+  std::vector<std::array<double, 2>> attribute_ranges;
 };
 
 constexpr uint32_t kMaxSimplifyAttributeChannels = 16;
@@ -37,6 +45,7 @@ struct SimplifyReport {
   uint64_t collapses = 0, refused_topology = 0, refused_geometry = 0, runs = 0;
   uint64_t max_queue = 0;
   int threads = 1;  // threads used
+  std::vector<uint32_t> source_vertex;  // per output vertex: the input vertex it continues (it may have moved)
   double seconds = 0;
 };
 

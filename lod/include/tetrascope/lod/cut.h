@@ -1,0 +1,104 @@
+// The runtime cut through the multi-triangulation (dissertation §6.3.4).
+//
+// A cut is kept as the set of refined segments, closed upwards (a refined segment's parents
+// are refined; the root always is). The active patches are the arcs from a refined ceiling
+// to an unrefined floor: every root-to-leaf path holds exactly one, so the patches tile the
+// domain and form one conforming mesh. Refining a segment whose parents are not all refined
+// first refines them (forced refinements); a segment coarsens when none of its children is
+// refined (all its outgoing patches are active).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "tetrascope/lod/multires.h"
+#include "tetrascope/lod/view.h"
+#include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/store.h"
+
+namespace tetrascope::lod {
+
+// What the cut optimises for. The error of a segment is E = V · Σ_n H(n) C(n) (§6.3.4): H its
+// field-error histogram of `channel`, C the opacity of the transfer function per value slot
+// (empty: 1 everywhere), V = 0 outside the frustum. With isovalues (normalised, [0, 1]) the
+// spatial-error histogram around each isovalue is used instead.
+struct CutCriteria {
+  uint32_t channel = 0;
+  std::vector<float> opacity;    // per histogram bin
+  std::vector<double> isovalues;
+  std::optional<Frustum> frustum;
+};
+
+struct CutChanges {
+  std::vector<uint32_t> added, removed;  // patches
+  uint64_t tets = 0;                     // after the update
+  uint32_t refinements = 0, forced_refinements = 0, coarsenings = 0;
+  bool budget_limited = false;  // a wanted refinement did not fit the budget
+};
+
+class Cut {
+ public:
+  explicit Cut(const Dag& dag);  // the coarsest cut: the root patches
+
+  // Coarsens invisible and cheapest segments until the budget holds, then refines the
+  // segments of largest error while the refinement (forced ones included) fits; then trades
+  // the cheapest refined segment for a dearer unrefined one while that lowers the error.
+  CutChanges update(const CutCriteria& criteria, uint64_t budget);
+
+  // Single steps (tests, tools). refine() refines the node and the parents it needs, if the
+  // result stays within `budget` (0: no limit); returns false and changes nothing otherwise.
+  bool refine(uint32_t node, uint64_t budget = 0, CutChanges* changes = nullptr);
+  bool coarsen(uint32_t node, CutChanges* changes = nullptr);
+  bool can_coarsen(uint32_t node) const { return refined_[node] && refined_children_[node] == 0; }
+  bool refined(uint32_t node) const { return refined_[node] != 0; }
+  // tets the refinement of `node` would add, forced refinements included
+  int64_t refinement_cost(uint32_t node) const;
+  void refine_all();  // the finest cut: the input mesh
+
+  bool active(uint32_t patch) const;
+  std::vector<uint32_t> active_patches() const;
+  uint64_t tet_count() const { return tets_; }
+  // Segments a viewer should keep loaded: those with an active patch and their neighbours in
+  // the DAG (parents and children), which the next refinements or coarsenings will need.
+  std::vector<uint32_t> resident_segments() const;
+  const Dag& dag() const { return dag_; }
+
+ private:
+  void apply_refine(uint32_t node, CutChanges* changes);
+  void apply_coarsen(uint32_t node, CutChanges* changes);
+  void note(uint32_t patch);
+  bool displayed(uint32_t node) const;  // every parent refined: all its tets are shown
+  const Dag& dag_;
+  std::vector<uint8_t> refined_;
+  std::vector<uint32_t> refined_children_, unrefined_parents_;
+  std::vector<int64_t> gain_;  // tets added by refining the node: children's patches - its own
+  uint64_t tets_ = 0;
+  std::vector<uint32_t> flips_;           // patches whose state changed during an update
+  std::vector<uint8_t> flipped_, was_active_;
+  // cached Σ H·C per node for the last criteria
+  std::vector<double> weight_;
+  std::vector<float> weight_opacity_;
+  std::vector<double> weight_isovalues_;
+  uint32_t weight_channel_ = 0xFFFFFFFFu;
+};
+
+// The mesh of a cut, assembled from the active patches' segments (through the cache):
+// vertices deduplicated by global id, tets in patch order, and face adjacency across
+// patches (the role of the 0-segment of §6.2.3): opposites[4 t + f] = 4 t' + f' or
+// storage::store::kMeshBoundary.
+struct CutMesh {
+  storage::TetMesh mesh;
+  std::vector<uint32_t> global_ids;  // per vertex
+  std::vector<uint32_t> opposites;
+  std::vector<uint32_t> patch_first_tet;  // per active patch (in active_patches() order)
+  std::vector<uint32_t> patches;
+};
+CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true);
+
+// The criteria of a transfer function over a store's attribute (the manifest's range maps
+// the function's values onto the histogram bins).
+CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf);
+
+}  // namespace tetrascope::lod

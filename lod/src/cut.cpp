@@ -1,0 +1,368 @@
+// The runtime cut of dissertation §6.3.4: refine and coarsen queues ordered by the
+// histogram error weighted with the transfer function, under a tet budget.
+#include "tetrascope/lod/cut.h"
+
+#include <algorithm>
+#include <cmath>
+#include <queue>
+#include <unordered_map>
+
+#include "tet_faces.h"
+
+namespace tetrascope::lod {
+
+using dag::kRoot;
+
+Cut::Cut(const Dag& dag) : dag_(dag) {
+  const uint32_t n = dag.node_count();
+  refined_.assign(n, 0);
+  refined_children_.assign(n, 0);
+  unrefined_parents_.assign(n, 0);
+  gain_.assign(n, 0);
+  flipped_.assign(dag.patch_count(), 0);
+  was_active_.assign(dag.patch_count(), 0);
+  for (uint32_t v = 0; v < n; ++v) {
+    int64_t children = 0;
+    for (const auto& p : dag.child_patches(v)) children += p.tet_count;
+    gain_[v] = children - dag.node(v).tet_count;
+    for (uint32_t p : dag.parent_patches(v))
+      if (dag.patch(p).ceiling != kRoot) ++unrefined_parents_[v];
+  }
+  for (uint32_t p = 0; p < dag.root_patch_count(); ++p) tets_ += dag.patch(p).tet_count;
+}
+
+bool Cut::displayed(uint32_t node) const { return !refined_[node] && unrefined_parents_[node] == 0; }
+
+bool Cut::active(uint32_t patch) const {
+  const dag::Patch& p = dag_.patch(patch);
+  return (p.ceiling == kRoot || refined_[p.ceiling]) && !refined_[p.floor];
+}
+
+std::vector<uint32_t> Cut::active_patches() const {
+  std::vector<uint32_t> out;
+  for (uint32_t p = 0; p < dag_.patch_count(); ++p)
+    if (active(p)) out.push_back(p);
+  return out;
+}
+
+void Cut::note(uint32_t patch) {
+  if (!flipped_[patch]) {
+    flipped_[patch] = 1;
+    was_active_[patch] = !active(patch);  // called after the change
+    flips_.push_back(patch);
+  }
+}
+
+void Cut::apply_refine(uint32_t node, CutChanges* changes) {
+  refined_[node] = 1;
+  tets_ = static_cast<uint64_t>(static_cast<int64_t>(tets_) + gain_[node]);
+  for (uint32_t p : dag_.parent_patches(node)) {
+    note(p);
+    if (dag_.patch(p).ceiling != kRoot) ++refined_children_[dag_.patch(p).ceiling];
+  }
+  const dag::Node& n = dag_.node(node);
+  for (uint32_t p = n.first_child; p < n.first_child + n.child_count; ++p) {
+    note(p);
+    --unrefined_parents_[dag_.patch(p).floor];
+  }
+  if (changes) ++changes->refinements;
+}
+
+void Cut::apply_coarsen(uint32_t node, CutChanges* changes) {
+  refined_[node] = 0;
+  tets_ = static_cast<uint64_t>(static_cast<int64_t>(tets_) - gain_[node]);
+  for (uint32_t p : dag_.parent_patches(node)) {
+    note(p);
+    if (dag_.patch(p).ceiling != kRoot) --refined_children_[dag_.patch(p).ceiling];
+  }
+  const dag::Node& n = dag_.node(node);
+  for (uint32_t p = n.first_child; p < n.first_child + n.child_count; ++p) {
+    note(p);
+    ++unrefined_parents_[dag_.patch(p).floor];
+  }
+  if (changes) ++changes->coarsenings;
+}
+
+// The unrefined ancestors a refinement of `node` needs, coarsest first, node last.
+namespace {
+template <class Refined>
+std::vector<uint32_t> needed_refinements(const Dag& dag, uint32_t node, Refined&& refined) {
+  std::vector<uint32_t> need{node}, stack{node};
+  std::unordered_map<uint32_t, bool> seen{{node, true}};
+  while (!stack.empty()) {
+    uint32_t v = stack.back();
+    stack.pop_back();
+    for (uint32_t p : dag.parent_patches(v)) {
+      const uint32_t c = dag.patch(p).ceiling;
+      if (c == kRoot || refined(c) || seen.count(c)) continue;
+      seen[c] = true;
+      need.push_back(c);
+      stack.push_back(c);
+    }
+  }
+  // parents have higher levels: refine the highest level first
+  std::stable_sort(need.begin(), need.end(), [&](uint32_t a, uint32_t b) { return dag.node(a).level > dag.node(b).level; });
+  return need;
+}
+}  // namespace
+
+int64_t Cut::refinement_cost(uint32_t node) const {
+  if (refined_[node] || dag_.node(node).child_count == 0) return 0;
+  int64_t cost = 0;
+  for (uint32_t v : needed_refinements(dag_, node, [&](uint32_t c) { return refined_[c] != 0; })) cost += gain_[v];
+  return cost;
+}
+
+bool Cut::refine(uint32_t node, uint64_t budget, CutChanges* changes) {
+  if (refined_[node] || dag_.node(node).child_count == 0) return false;
+  auto need = needed_refinements(dag_, node, [&](uint32_t c) { return refined_[c] != 0; });
+  int64_t cost = 0;
+  for (uint32_t v : need) cost += gain_[v];
+  if (budget && static_cast<int64_t>(tets_) + cost > static_cast<int64_t>(budget)) return false;
+  for (uint32_t v : need) apply_refine(v, changes);
+  if (changes) changes->forced_refinements += static_cast<uint32_t>(need.size() - 1);
+  return true;
+}
+
+bool Cut::coarsen(uint32_t node, CutChanges* changes) {
+  if (!can_coarsen(node)) return false;
+  apply_coarsen(node, changes);
+  return true;
+}
+
+void Cut::refine_all() {
+  // coarsest first: every parent is refined before its children
+  std::vector<uint32_t> order(dag_.node_count());
+  for (uint32_t v = 0; v < order.size(); ++v) order[v] = v;
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return dag_.node(a).level > dag_.node(b).level; });
+  for (uint32_t v : order)
+    if (!refined_[v] && dag_.node(v).child_count > 0) apply_refine(v, nullptr);
+  for (uint32_t p : flips_) flipped_[p] = 0;
+  flips_.clear();
+}
+
+std::vector<uint32_t> Cut::resident_segments() const {
+  std::vector<uint8_t> keep(dag_.node_count(), 0);
+  for (uint32_t p = 0; p < dag_.patch_count(); ++p) {
+    if (!active(p)) continue;
+    const dag::Patch& q = dag_.patch(p);
+    keep[q.floor] = 1;
+    if (q.ceiling != kRoot) keep[q.ceiling] = 1;
+    for (const auto& c : dag_.child_patches(q.floor)) keep[c.floor] = 1;
+  }
+  std::vector<uint32_t> out;
+  for (uint32_t v = 0; v < keep.size(); ++v)
+    if (keep[v]) out.push_back(v);
+  return out;
+}
+
+CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
+  CutChanges changes;
+  const uint32_t n = dag_.node_count();
+  // Σ H·C per node, cached while the transfer function and isovalues stay the same
+  if (weight_.size() != n || weight_channel_ != criteria.channel || weight_opacity_ != criteria.opacity || weight_isovalues_ != criteria.isovalues) {
+    weight_.assign(n, 0);
+    const uint32_t bins = dag_.bins();
+    if (criteria.channel < dag_.channel_count()) {
+      for (uint32_t v = 0; v < n; ++v) {
+        double sum = 0;
+        if (!criteria.isovalues.empty()) {
+          auto h = dag_.spatial_histogram(v, criteria.channel);
+          for (double iso : criteria.isovalues) {
+            const int bin = std::clamp(static_cast<int>(iso * bins), 0, static_cast<int>(bins) - 1);
+            for (int b = std::max(0, bin - 1); b <= std::min<int>(bins - 1, bin + 1); ++b) sum = std::max<double>(sum, h[b]);
+          }
+        } else {
+          auto h = dag_.field_histogram(v, criteria.channel);
+          for (uint32_t b = 0; b < bins; ++b) sum += double(h[b]) * (criteria.opacity.size() == bins ? criteria.opacity[b] : 1.0f);
+        }
+        weight_[v] = sum;
+      }
+    } else {
+      for (uint32_t v = 0; v < n; ++v) weight_[v] = 1.0 / (1 + dag_.node(v).level) + 1e-9 * dag_.node(v).tet_count;  // no attributes: by level
+    }
+    weight_channel_ = criteria.channel;
+    weight_opacity_ = criteria.opacity;
+    weight_isovalues_ = criteria.isovalues;
+  }
+  auto error = [&](uint32_t v) {
+    if (criteria.frustum && !criteria.frustum->intersects(dag_.node(v).bounds)) return 0.0;
+    return weight_[v];
+  };
+  std::vector<double> e(n);
+  for (uint32_t v = 0; v < n; ++v) e[v] = error(v);
+  using Item = std::pair<double, uint32_t>;
+  // 1. coarsen: everything invisible, then the cheapest until the budget holds
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> coarse;
+  for (uint32_t v = 0; v < n; ++v)
+    if (can_coarsen(v)) coarse.push({e[v], v});
+  while (!coarse.empty()) {
+    auto [err, v] = coarse.top();
+    if (!(err <= 0 || tets_ > budget)) break;
+    coarse.pop();
+    if (!can_coarsen(v)) continue;
+    apply_coarsen(v, &changes);
+    for (uint32_t p : dag_.parent_patches(v)) {
+      const uint32_t c = dag_.patch(p).ceiling;
+      if (c != kRoot && can_coarsen(c)) coarse.push({e[c], c});
+    }
+  }
+  // 2. refine the largest errors while they fit
+  std::priority_queue<Item> fine;
+  for (uint32_t v = 0; v < n; ++v)
+    if (displayed(v) && dag_.node(v).child_count > 0 && e[v] > 0) fine.push({e[v], v});
+  uint32_t misses = 0;
+  while (!fine.empty() && misses < 16) {
+    auto [err, v] = fine.top();
+    fine.pop();
+    if (refined_[v]) continue;
+    if (!refine(v, budget, &changes)) {
+      changes.budget_limited = true;
+      ++misses;
+      continue;
+    }
+    for (const auto& c : dag_.child_patches(v))
+      if (displayed(c.floor) && dag_.node(c.floor).child_count > 0 && e[c.floor] > 0) fine.push({e[c.floor], c.floor});
+  }
+  // 3. trade: coarsen the cheapest refined segment when that lets a dearer one refine
+  for (int round = 0; round < 32; ++round) {
+    double best = 0;
+    uint32_t want = dag::kRoot;
+    for (uint32_t v = 0; v < n; ++v)
+      if (displayed(v) && dag_.node(v).child_count > 0 && e[v] > best) {
+        best = e[v];
+        want = v;
+      }
+    if (want == dag::kRoot) break;
+    const int64_t cost = refinement_cost(want);
+    if (static_cast<int64_t>(tets_) + cost <= static_cast<int64_t>(budget)) {
+      refine(want, budget, &changes);
+      continue;
+    }
+    double cheapest = best;
+    uint32_t give = dag::kRoot;
+    for (uint32_t v = 0; v < n; ++v) {
+      if (!can_coarsen(v) || !(e[v] < cheapest) || gain_[v] <= 0) continue;
+      bool parent = false;  // giving up a parent of the wanted segment gains nothing
+      for (uint32_t p : dag_.parent_patches(want)) parent |= dag_.patch(p).ceiling == v;
+      if (parent) continue;
+      cheapest = e[v];
+      give = v;
+    }
+    if (give == dag::kRoot || static_cast<int64_t>(tets_) - gain_[give] + cost > static_cast<int64_t>(budget)) break;
+    apply_coarsen(give, &changes);
+    if (!refine(want, budget, &changes)) {  // the coarsening made the wanted one dearer: undo
+      apply_refine(give, &changes);
+      break;
+    }
+  }
+  // what changed, as patches
+  for (uint32_t p : flips_) {
+    const bool now = active(p);
+    if (now != static_cast<bool>(was_active_[p])) (now ? changes.added : changes.removed).push_back(p);
+    flipped_[p] = 0;
+  }
+  flips_.clear();
+  std::sort(changes.added.begin(), changes.added.end());
+  std::sort(changes.removed.begin(), changes.removed.end());
+  changes.tets = tets_;
+  return changes;
+}
+
+CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf) {
+  CutCriteria c;
+  const auto& attributes = store.manifest().attributes;
+  uint32_t channel = 0;
+  for (; channel < attributes.size(); ++channel)
+    if (attributes[channel].name == tf.attribute) break;
+  if (channel == attributes.size()) {
+    if (!tf.attribute.empty()) throw std::invalid_argument("transfer function: no attribute '" + tf.attribute + "' in the store");
+    channel = 0;
+  }
+  c.channel = channel;
+  if (channel >= dag.channel_count()) return c;
+  const double lo = attributes[channel].components == 1 ? attributes[channel].min : 0, hi = attributes[channel].max;
+  TransferFunction f = tf;
+  if (!f.range) f.range = std::array<double, 2>{lo, hi > lo ? hi : lo + 1};
+  c.opacity.resize(dag.bins());
+  for (uint32_t b = 0; b < dag.bins(); ++b) {
+    const double value = lo + (b + 0.5) / dag.bins() * (hi - lo);
+    c.opacity[b] = static_cast<float>(f.alpha(value));
+  }
+  return c;
+}
+
+CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency) {
+  using storage::store::kMeshBoundary;
+  using storage::store::kSegmentBorder;
+  const Dag& dag = cut.dag();
+  CutMesh out;
+  out.patches = cut.active_patches();
+  const auto& attributes = store.manifest().attributes;
+  for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components}, {}});
+  std::unordered_map<uint32_t, uint32_t> vertex_of;
+  struct Open {
+    uint32_t v[3], face;
+  };
+  std::vector<Open> open;
+  for (uint32_t p : out.patches) {
+    const dag::Patch& patch = dag.patch(p);
+    auto segment = cache.get(patch.floor);
+    const storage::SegmentView& s = segment->view();
+    const uint32_t first = static_cast<uint32_t>(out.mesh.tet_count());
+    out.patch_first_tet.push_back(first);
+    std::vector<uint32_t> local(s.vertex_count, 0xFFFFFFFFu);
+    for (uint32_t t = patch.tet_begin; t < patch.tet_begin + patch.tet_count; ++t) {
+      for (int k = 0; k < 4; ++k) {
+        const uint32_t l = s.tets[4 * size_t{t} + k];
+        if (local[l] == 0xFFFFFFFFu) {
+          const uint32_t g = s.global_ids[l];
+          auto [it, inserted] = vertex_of.try_emplace(g, static_cast<uint32_t>(out.mesh.x.size()));
+          if (inserted) {
+            out.mesh.x.push_back(s.x[l]);
+            out.mesh.y.push_back(s.y[l]);
+            out.mesh.z.push_back(s.z[l]);
+            out.global_ids.push_back(g);
+            size_t offset = 0;
+            for (size_t a = 0; a < attributes.size(); ++a) {
+              const uint32_t c = attributes[a].components;
+              for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(s.attributes[size_t{s.vertex_count} * offset + size_t{l} * c + q]);
+              offset += c;
+            }
+          }
+          local[l] = it->second;
+        }
+        out.mesh.tets.push_back(local[l]);
+      }
+    }
+    if (!adjacency) continue;
+    out.opposites.resize(out.mesh.tets.size(), kMeshBoundary);
+    for (uint32_t t = patch.tet_begin; t < patch.tet_begin + patch.tet_count; ++t) {
+      for (uint32_t f = 0; f < 4; ++f) {
+        const uint32_t o = s.opposites[4 * size_t{t} + f];
+        const uint32_t here = (first + t - patch.tet_begin) * 4 + f;
+        if (o != kMeshBoundary && o != kSegmentBorder && o / 4 >= patch.tet_begin && o / 4 < patch.tet_begin + patch.tet_count) {
+          out.opposites[here] = (first + o / 4 - patch.tet_begin) * 4 + o % 4;
+        } else if (o != kMeshBoundary) {  // another patch's face, or another segment's
+          Open face{{}, here};
+          for (int i = 0; i < 3; ++i) face.v[i] = out.global_ids[out.mesh.tets[4 * size_t{here / 4} + detail::kTetFace[f][i]]];
+          std::sort(face.v, face.v + 3);
+          open.push_back(face);
+        }
+      }
+    }
+  }
+  if (adjacency) {
+    std::sort(open.begin(), open.end(), [](const Open& a, const Open& b) { return std::tie(a.v[0], a.v[1], a.v[2], a.face) < std::tie(b.v[0], b.v[1], b.v[2], b.face); });
+    for (size_t i = 0; i + 1 < open.size(); ++i) {
+      if (std::equal(open[i].v, open[i].v + 3, open[i + 1].v)) {
+        out.opposites[open[i].face] = open[i + 1].face;
+        out.opposites[open[i + 1].face] = open[i].face;
+        ++i;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace tetrascope::lod
