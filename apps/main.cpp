@@ -62,7 +62,7 @@ class Args {
       if (a.size() > 1 && a[0] == '-') {
         std::string name = a == "-o" ? "--output" : a;
         if (std::find(flags.begin(), flags.end(), name) != flags.end()) {
-          values_[name] = "1";
+          values_.insert_or_assign(name, std::string(1, '1'));
         } else if (std::find(valued.begin(), valued.end(), name) != valued.end()) {
           if (i + 1 >= args.size()) throw std::invalid_argument(name + " needs a value");
           values_[name] = args[++i];

@@ -266,7 +266,25 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   std::sort(changes.added.begin(), changes.added.end());
   std::sort(changes.removed.begin(), changes.removed.end());
   changes.tets = tets_;
+  changes.over_budget = tets_ > budget;
   return changes;
+}
+
+size_t ResidentSegments::update(const Cut& cut, storage::SegmentCache& cache) {
+  const std::vector<uint32_t> want = cut.resident_segments();
+  std::unordered_map<uint32_t, std::shared_ptr<const storage::MappedSegment>> next;
+  size_t added = 0;
+  for (uint32_t s : want) {
+    auto it = pinned_.find(s);
+    if (it != pinned_.end()) {
+      next.emplace(s, std::move(it->second));
+    } else {
+      next.emplace(s, cache.get(s));
+      ++added;
+    }
+  }
+  pinned_.swap(next);
+  return added;
 }
 
 CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf) {

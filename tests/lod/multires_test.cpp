@@ -184,9 +184,17 @@ TEST(Multires, UpdateHonoursTheBudgetAndReportsWhatChanged) {
     std::vector<uint32_t> now = cut.active_patches();
     EXPECT_EQ(std::vector<uint32_t>(active.begin(), active.end()), now) << "changes do not add up to the new cut";
   }
-  // a generous budget refines (the errors are not all zero)
+  // a generous budget refines (the errors are not all zero); the segments it needs stay mapped
   cut.update(criteria, 45000);
   EXPECT_GT(cut.tet_count(), coarsest);
+  storage::SegmentCache cache(*store, 1);  // a tiny budget: only pinned segments stay mapped
+  lod::ResidentSegments resident;
+  EXPECT_GT(resident.update(cut, cache), 0u);
+  for (uint32_t p : cut.active_patches()) EXPECT_TRUE(resident.holds(dag->patch(p).floor));
+  EXPECT_TRUE(cut.update(criteria, 1).over_budget) << "below the coarsest cut the budget cannot hold, and that is reported";
+  resident.update(cut, cache);
+  for (uint32_t p : cut.active_patches()) EXPECT_TRUE(resident.holds(dag->patch(p).floor));
+  EXPECT_LT(resident.size(), dag->node_count());
   // nothing in view: nothing refines
   lod::CutCriteria away = criteria;
   lod::Camera camera = lod::parse_camera("azimuth=0,elevation=0", store->manifest().bounds);

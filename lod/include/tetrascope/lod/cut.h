@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "tetrascope/lod/multires.h"
@@ -36,6 +37,7 @@ struct CutChanges {
   uint64_t tets = 0;                     // after the update
   uint32_t refinements = 0, forced_refinements = 0, coarsenings = 0;
   bool budget_limited = false;  // a wanted refinement did not fit the budget
+  bool over_budget = false;     // even the coarsest cut has more tets than the budget
 };
 
 class Cut {
@@ -82,6 +84,21 @@ class Cut {
   std::vector<float> weight_opacity_;
   std::vector<double> weight_isovalues_;
   uint32_t weight_channel_ = 0xFFFFFFFFu;
+};
+
+// Keeps the segments a cut needs mapped (Cut::resident_segments) and lets the others go
+// back to the cache's LRU: a segment is released only when none of its patches is active or
+// next to the cut (§6.3.4 caching).
+class ResidentSegments {
+ public:
+  // Maps what the cut needs now (through the cache), unpins the rest; returns how many
+  // segments were newly pinned.
+  size_t update(const Cut& cut, storage::SegmentCache& cache);
+  size_t size() const { return pinned_.size(); }
+  bool holds(uint32_t segment) const { return pinned_.count(segment) != 0; }
+
+ private:
+  std::unordered_map<uint32_t, std::shared_ptr<const storage::MappedSegment>> pinned_;
 };
 
 // The mesh of a cut, assembled from the active patches' segments (through the cache):
