@@ -19,6 +19,7 @@
 #include "tetrascope/lod/mesh_error.h"
 #include "tetrascope/lod/multires.h"
 #include "tetrascope/lod/segmentation.h"
+#include "tetrascope/renderer/render.h"
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/vtk_writer.h"
 #include "tetrascope/storage/mesh_error.h"
@@ -41,6 +42,9 @@ constexpr const char* kUsage =
     "                                multiresolution store: segments, levels, DAG, error histograms (§6.3)\n"
     "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--iso v1,v2] [--json]\n"
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
+    "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
+    "                                [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
+    "                                [--orbit N] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
@@ -292,6 +296,36 @@ int run_error(const std::vector<std::string>& raw) {
   return 0;
 }
 
+std::vector<double> number_list(const std::string& option, const std::string& list) {
+  std::vector<double> out;
+  for (size_t at = 0; at <= list.size();) {
+    size_t comma = list.find(',', at);
+    if (comma == std::string::npos) comma = list.size();
+    const std::string item = list.substr(at, comma - at);
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != item.size() || item.empty() || !std::isfinite(v)) throw std::invalid_argument(option + " expects numbers separated by commas, got '" + item + "'");
+    out.push_back(v);
+    at = comma + 1;
+  }
+  return out;
+}
+
+tetrascope::lod::TransferFunction read_tf(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("--tf: cannot read " + path);
+  try {
+    return tetrascope::lod::TransferFunction::from_json(nlohmann::json::parse(in));
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument("--tf: " + path + " is not JSON: " + e.what());
+  }
+}
+
 int run_preprocess(const std::vector<std::string>& raw) {
   Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
@@ -331,33 +365,13 @@ int run_cut(const std::vector<std::string>& raw) {
   const uint64_t budget = args.number("--budget", 0);
   if (budget == 0) throw std::invalid_argument("--budget must be at least 1");
   tetrascope::lod::TransferFunction tf;
-  if (args.has("--tf")) {
-    std::ifstream in(args.get("--tf"));
-    if (!in) throw std::invalid_argument("--tf: cannot read " + args.get("--tf"));
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(in);
-    } catch (const std::exception& e) {
-      throw std::invalid_argument("--tf: " + args.get("--tf") + " is not JSON: " + e.what());
-    }
-    tf = tetrascope::lod::TransferFunction::from_json(j);
-  }
+  if (args.has("--tf")) tf = read_tf(args.get("--tf"));
   if (args.has("--attribute")) tf.attribute = args.get("--attribute");
   tetrascope::lod::CutCriteria criteria = tetrascope::lod::criteria_for(*store, *dag, tf);
   if (args.has("--iso")) {
     const auto& a = store->manifest().attributes.at(criteria.channel);
     const double lo = a.components == 1 ? a.min : 0, span = a.max > lo ? a.max - lo : 1;
-    std::string list = args.get("--iso");
-    for (size_t at = 0; at <= list.size();) {
-      size_t comma = list.find(',', at);
-      if (comma == std::string::npos) comma = list.size();
-      std::string item = list.substr(at, comma - at);
-      size_t used = 0;
-      double v = std::stod(item, &used);
-      if (used != item.size()) throw std::invalid_argument("--iso expects numbers");
-      criteria.isovalues.push_back((v - lo) / span);
-      at = comma + 1;
-    }
+    for (double v : number_list("--iso", args.get("--iso"))) criteria.isovalues.push_back((v - lo) / span);
   }
   if (args.has("--camera")) {
     tetrascope::lod::Camera camera = tetrascope::lod::parse_camera(args.get("--camera"), store->manifest().bounds);
@@ -383,6 +397,116 @@ int run_cut(const std::vector<std::string>& raw) {
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %zu tets, %zu vertices from %zu patches (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.mesh.tet_count(),
                    mesh.mesh.vertex_count(), mesh.patches.size(), static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
+  return 0;
+}
+
+int run_render(const std::vector<std::string>& raw) {
+  namespace r = tetrascope::renderer;
+  Args args(raw, {"--json", "--wireframe", "--box"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance"});
+  if (args.positionals().size() != 1 || !args.has("--output")) {
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n");
+    return 2;
+  }
+  r::RenderSettings settings;
+  const std::string mode = args.get("--mode", "dvr");
+  settings.dvr = settings.iso = settings.surface = false;
+  for (size_t at = 0; at <= mode.size();) {
+    size_t plus = mode.find('+', at);
+    if (plus == std::string::npos) plus = mode.size();
+    const std::string m = mode.substr(at, plus - at);
+    if (m == "dvr") settings.dvr = true;
+    else if (m == "iso") settings.iso = true;
+    else if (m == "surface") settings.surface = true;
+    else throw std::invalid_argument("--mode: unknown mode '" + m + "' (dvr, iso, surface, or combinations such as dvr+iso)");
+    at = plus + 1;
+  }
+  settings.wireframe = args.has("--wireframe");
+  settings.box = args.has("--box");
+  if (args.has("--tf")) settings.tf = read_tf(args.get("--tf"));
+  if (args.has("--attribute")) settings.tf.attribute = args.get("--attribute");
+  if (args.has("--size")) {
+    unsigned w = 0, h = 0;
+    char tail = 0;
+    if (std::sscanf(args.get("--size").c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 1 || h < 1 || w > 8192 || h > 8192) throw std::invalid_argument("--size expects WxH, each 1..8192");
+    settings.width = w;
+    settings.height = h;
+  }
+  const int quality = static_cast<int>(args.number("--quality", 90));
+  if (quality < 1 || quality > 100) throw std::invalid_argument("--quality must be 1 to 100");
+  if (args.has("--unit-distance")) settings.unit_distance = real_number(args, "--unit-distance");
+  // the mesh: a file, or the cut of a multiresolution store for this view
+  const std::string input = args.positionals()[0];
+  tetrascope::storage::TetMesh mesh;
+  std::string source = input;
+  if (std::filesystem::is_directory(input)) {
+    auto store = tetrascope::storage::Store::open(input);
+    auto dag = tetrascope::lod::open_dag(*store);
+    if (!dag) throw std::invalid_argument(input + " is a single-level store; render the mesh file or preprocess it");
+    const uint64_t budget = args.number("--budget", 1000000);
+    auto criteria = tetrascope::lod::criteria_for(*store, *dag, settings.tf);
+    tetrascope::lod::Camera camera = args.has("--camera") ? tetrascope::lod::parse_camera(args.get("--camera"), store->manifest().bounds)
+                                                          : tetrascope::lod::default_camera(store->manifest().bounds);
+    camera.aspect = double(settings.width) / settings.height;
+    criteria.frustum = tetrascope::lod::view_frustum(camera, 0, 1e30);
+    tetrascope::lod::Cut cut(*dag);
+    cut.update(criteria, budget);
+    tetrascope::storage::SegmentCache cache(*store, 1ull << 30);
+    mesh = std::move(tetrascope::lod::assemble_cut(*store, cache, cut, false).mesh);
+  } else {
+    if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
+    mesh = tetrascope::storage::load_mesh(input);
+  }
+  const r::SceneMesh scene = r::SceneMesh::from(mesh, settings.tf.attribute);
+  settings.tf.attribute = scene.attribute;
+  if (args.has("--iso")) settings.isovalues = number_list("--iso", args.get("--iso"));
+  else if (settings.iso) settings.isovalues = {0.5 * (scene.value_min + scene.value_max)};
+  settings.camera = args.has("--camera") ? tetrascope::lod::parse_camera(args.get("--camera"), scene.bounds) : tetrascope::lod::default_camera(scene.bounds);
+  settings.camera.aspect = double(settings.width) / settings.height;
+  auto renderer = r::Renderer::create();
+  renderer->set_mesh(scene);
+  const uint32_t orbit = args.number("--orbit", 0);
+  std::vector<r::FrameTimings> frames;
+  r::Image image;
+  const std::string output = args.get("--output");
+  const bool jpeg = output.size() > 4 && (output.substr(output.size() - 4) == ".jpg" || output.substr(output.size() - 5) == ".jpeg");
+  for (uint32_t f = 0; f < std::max(1u, orbit); ++f) {
+    r::RenderSettings frame = settings;
+    if (orbit) {
+      const double azimuth = 30 + 360.0 * f / orbit;
+      frame.camera = tetrascope::lod::parse_camera("azimuth=" + std::to_string(azimuth) + ",elevation=20", scene.bounds);
+      frame.camera.aspect = settings.camera.aspect;
+    }
+    r::FrameTimings t;
+    image = renderer->render(frame, &t);
+    const auto encode_start = std::chrono::steady_clock::now();
+    auto bytes = jpeg ? r::encode_jpeg(image, quality) : r::encode_png(image);
+    t.encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - encode_start).count();
+    t.total_ms += t.encode_ms;
+    frames.push_back(t);
+    if (orbit && !args.has("--json"))
+      std::printf("frame %3u  sort %7.2f  draw %8.2f  readback %6.2f  encode %6.2f  total %8.2f ms  (%llu tets drawn, %llu skipped)\n", f, t.sort_ms, t.draw_ms,
+                  t.readback_ms, t.encode_ms, t.total_ms, static_cast<unsigned long long>(t.tets_drawn), static_cast<unsigned long long>(t.tets_skipped));
+  }
+  r::write_image(output, image, quality);
+  auto median = [&](auto field) {
+    std::vector<double> v;
+    for (const auto& t : frames) v.push_back(field(t));
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  nlohmann::json j = {{"output", output}, {"width", settings.width}, {"height", settings.height}, {"mode", mode}, {"renderer", renderer->description()},
+                      {"tets", mesh.tet_count()}, {"tets_drawn", frames.back().tets_drawn}, {"tets_skipped", frames.back().tets_skipped},
+                      {"iso_triangles", frames.back().iso_triangles}, {"frames", frames.size()},
+                      {"median_ms", median([](const r::FrameTimings& t) { return t.total_ms; })},
+                      {"median_sort_ms", median([](const r::FrameTimings& t) { return t.sort_ms; })},
+                      {"median_draw_ms", median([](const r::FrameTimings& t) { return t.draw_ms; })},
+                      {"median_readback_ms", median([](const r::FrameTimings& t) { return t.readback_ms; })},
+                      {"median_encode_ms", median([](const r::FrameTimings& t) { return t.encode_ms; })},
+                      {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
+                                  {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
+  if (args.has("--json")) std::cout << j.dump() << "\n";
+  else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", output.c_str(), settings.width, settings.height, mode.c_str(), mesh.tet_count(),
+                   scene.attribute.c_str(), j["median_ms"].get<double>());
   return 0;
 }
 
@@ -433,6 +557,7 @@ int main(int argc, char** argv) {
     if (command == "verify") return run_verify(args);
     if (command == "preprocess") return run_preprocess(args);
     if (command == "cut") return run_cut(args);
+    if (command == "render") return run_render(args);
     if (command == "simplify") return run_simplify(args);
     if (command == "error") return run_error(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
@@ -440,6 +565,9 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "tetrascope %s: %s\n", command.c_str(), e.what());
     return 2;
+  } catch (const tetrascope::renderer::RenderError& e) {
+    std::fprintf(stderr, "tetrascope %s: rendering: %s\n", command.c_str(), e.what());
+    return 1;
   } catch (const tetrascope::storage::MeshError& e) {
     std::fprintf(stderr, "tetrascope %s: %s\n", command.c_str(), e.what());
     return 1;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 
 #include "tet_faces.h"
 #include "tetrascope/lod/multires.h"
@@ -182,7 +183,18 @@ std::vector<std::string> verify_dag(const storage::Store& store, const Dag& dag,
     if (node.child_count == 0) continue;
     std::vector<std::pair<uint32_t, std::pair<uint32_t, uint32_t>>> own{{n, {0, node.tet_count}}}, children;
     for (const auto& p : dag.child_patches(n)) children.push_back({p.floor, {p.tet_begin, p.tet_count}});
-    if (boundary(own) != boundary(children)) problem("segment " + std::to_string(n) + " (level " + std::to_string(node.level) + "): its boundary differs from its child patches' (refining it would break the mesh)");
+    const auto mine = boundary(own), theirs = boundary(children);
+    if (mine != theirs) {
+      std::vector<Face> only_mine, only_theirs;
+      std::set_difference(mine.begin(), mine.end(), theirs.begin(), theirs.end(), std::back_inserter(only_mine));
+      std::set_difference(theirs.begin(), theirs.end(), mine.begin(), mine.end(), std::back_inserter(only_theirs));
+      auto first = [](const std::vector<Face>& f) {
+        return f.empty() ? std::string("-") : std::to_string(f[0][0]) + "," + std::to_string(f[0][1]) + "," + std::to_string(f[0][2]);
+      };
+      problem("segment " + std::to_string(n) + " (level " + std::to_string(node.level) + "): its boundary differs from its child patches' (refining it would break the mesh): " +
+              std::to_string(only_mine.size()) + " faces only in it (first " + first(only_mine) + "), " + std::to_string(only_theirs.size()) +
+              " only in the children (first " + first(only_theirs) + ")");
+    }
     for (const auto& p : dag.child_patches(n))
       for (uint32_t c = 0; c < dag.channel_count(); ++c)
         for (uint32_t b = 0; b < dag.bins(); ++b)

@@ -101,6 +101,7 @@ class Simplifier {
   };
   void link_of(Worker& w, uint32_t v, uint32_t other, LinkSets& link, LinkSets* edge_link);
   bool link_condition(Worker& w, uint32_t p, uint32_t q);
+  bool creates_locked_boundary_face(Worker& w, uint32_t keep, uint32_t gone);
   bool geometry_ok(uint32_t p, uint32_t q, const double* position);
   void interpolate(uint32_t p, uint32_t q, const double* position, double* values) const;
   bool try_collapse(Worker& w, uint32_t p, uint32_t q);
@@ -436,6 +437,32 @@ void Simplifier::link_of(Worker& w, uint32_t v, uint32_t other, LinkSets& link, 
   unique_sorted(link.triangles);
 }
 
+// Would collapsing `gone` onto the locked `keep` turn a boundary face (gone, x, y) with x and y
+// locked into a boundary face of locked vertices only? Locked vertices are the borders the
+// multi-triangulation shares with neighbouring segments; a neighbour may create the same face
+// from its side, and the two segments would then close a gap of the domain between them.
+bool Simplifier::creates_locked_boundary_face(Worker& w, uint32_t keep, uint32_t gone) {
+  auto& edges = w.scratch_edges;
+  edges.clear();
+  for (uint32_t t : star_[gone]) {
+    const uint32_t* tet = &tets_[4 * t];
+    uint32_t rest[3], n = 0;
+    for (int k = 0; k < 4; ++k)
+      if (tet[k] != gone) rest[n++] = tet[k];
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j) edges.push_back(rest[i] < rest[j] ? uint64_t{rest[i]} << 32 | rest[j] : uint64_t{rest[j]} << 32 | rest[i]);
+  }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    const uint32_t a = static_cast<uint32_t>(edges[i] >> 32), b = static_cast<uint32_t>(edges[i]);
+    if (j - i == 1 && a != keep && b != keep && locked_[a] && locked_[b]) return true;
+    i = j;
+  }
+  return false;
+}
+
 bool Simplifier::link_condition(Worker& w, uint32_t p, uint32_t q) {
   LinkSets& pq = w.link_pq;
   pq.vertices.clear();
@@ -577,6 +604,10 @@ bool Simplifier::collapse(Worker& w, uint32_t p, uint32_t q) {
   }
   // keep the vertex the candidate sits on (a locked one stays bit-identical), else p
   uint32_t keep = chosen->kind == 2 ? q : p, gone = keep == p ? q : p;
+  if (locked_[keep] && creates_locked_boundary_face(w, keep, gone)) {
+    ++w.counts.refused_topology;
+    return false;
+  }
   std::vector<double> values(floats_);
   if (chosen->kind == 1 || chosen->kind == 2) {
     for (size_t i = 0; i < floats_; ++i) values[i] = values_[keep * floats_ + i];

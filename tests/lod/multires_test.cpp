@@ -272,6 +272,33 @@ TEST(Multires, HistogramsAreMonotoneAndBoundTheMeasuredError) {
   EXPECT_TRUE(problems.empty()) << (problems.empty() ? "" : problems[0]);
 }
 
+TEST(Multires, EverySharedDatasetPreprocessesAndVerifies) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to this checkout";
+  std::vector<std::filesystem::path> meshes;
+  for (const auto& entry : std::filesystem::directory_iterator(shared_data()))
+    if (entry.path().extension() == ".vtk") meshes.push_back(entry.path());
+  for (const char* f : {"formats/freefem_leman_published.vtu", "formats/onera_m6_coarse.msh", "formats/disk_out_ref.node", "formats/nasa_bluntfin.off"})
+    meshes.push_back(shared_data() / f);
+  std::sort(meshes.begin(), meshes.end());
+  ASSERT_GE(meshes.size(), 11u);
+  const auto dir = scratch_dir("multires-shared");
+  for (const auto& mesh : meshes) {
+    lod::PreprocessOptions options;
+    options.segment_tets = 8000;
+    options.base_tets = 20000;
+    auto report = lod::preprocess(mesh, dir / mesh.filename(), options);
+    EXPECT_GE(report.levels.size(), 2u) << mesh;
+    auto verified = storage::verify_store(dir / mesh.filename());
+    EXPECT_TRUE(verified.ok) << mesh << ": " << (verified.problems.empty() ? "" : verified.problems[0]);
+    auto store = storage::Store::open(dir / mesh.filename());
+    auto dag = lod::open_dag(*store);
+    ASSERT_TRUE(dag) << mesh;
+    auto problems = lod::verify_dag(*store, *dag);
+    EXPECT_TRUE(problems.empty()) << mesh << ": " << (problems.empty() ? "" : problems[0]);
+    std::filesystem::remove_all(dir / mesh.filename());
+  }
+}
+
 TEST(Multires, DamagedDagIsRefused) {
   const Built& b = built("sample");
   const auto copy = scratch_dir("multires-damaged") / "store";

@@ -1,0 +1,113 @@
+// Headless rendering of tet meshes (issue 6): an EGL context without a display (Mesa
+// llvmpipe here, NVIDIA EGL on GPU hosts), rendering into a framebuffer object.
+//
+// Modes:
+//  - dvr: direct volume rendering by cell projection - every tet's front faces are drawn in
+//    back-to-front order (radix sort of centroid depths); each fragment intersects its view
+//    ray with the tet's planes to find the exact segment through it (front value, back
+//    value, length) and looks up a pre-integrated transfer function table (Engel et al.
+//    2001) over (front, back, length);
+//  - iso: marching tetrahedra for one or more isovalues, lit, opaque;
+//  - surface: the mesh boundary coloured by the attribute, lit, with silhouette edges
+//    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine.
+// The colour legend is not drawn into the image: `render --json` and the server send it as
+// data (colormap, range, attribute), for the client to draw.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "tetrascope/lod/view.h"
+#include "tetrascope/storage/mesh.h"
+
+namespace tetrascope::renderer {
+
+class RenderError : public std::runtime_error {
+ public:
+  explicit RenderError(const std::string& message) : std::runtime_error(message) {}
+};
+
+struct Image {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba;  // top row first
+};
+
+struct RenderSettings {
+  bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
+  lod::Camera camera;
+  uint32_t width = 512, height = 512;
+  lod::TransferFunction tf;          // attribute, range, colormap, opacity
+  double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
+  std::vector<double> isovalues;     // attribute units
+  std::array<float, 3> background{0.1f, 0.1f, 0.12f};
+};
+
+struct FrameTimings {
+  double sort_ms = 0, draw_ms = 0, readback_ms = 0, encode_ms = 0, total_ms = 0;
+  uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
+};
+
+// A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude
+// for vectors), tets, boundary faces.
+struct SceneMesh {
+  std::vector<float> xyz;      // interleaved
+  std::vector<float> value;    // attribute value per vertex, attribute units
+  std::vector<uint32_t> tets;
+  std::vector<std::array<uint32_t, 3>> boundary;  // outward
+  storage::Bounds bounds;
+  double diagonal = 1, max_edge = 0;
+  std::string attribute;
+  double value_min = 0, value_max = 1;
+  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute);  // throws std::invalid_argument
+};
+
+// Colormaps: viridis, plasma, cool-warm, grayscale; `colors` of the transfer function JSON
+// ([[value, r, g, b], ...], 0..1) overrides them.
+std::array<float, 3> colormap(const std::string& name, double t);
+bool known_colormap(const std::string& name);
+
+// Pre-integrated table over (front, back, length): RGBA premultiplied, front-to-back composed,
+// front and back in [0, 1] over the transfer function's range, length in [0, max_length].
+struct PreintegrationTable {
+  uint32_t n = 0, lengths = 0;
+  double max_length = 0;
+  std::vector<float> rgba;  // [length][back][front][4]
+};
+PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n = 128,
+                                 uint32_t lengths = 32);
+
+// Colour and opacity of one ray segment through a tet, integrated exactly (fine steps): the
+// reference the table approximates.
+std::array<double, 4> integrate_segment(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
+                                        double length);
+
+class Renderer {
+ public:
+  // Opens an EGL display (a device, else Mesa's surfaceless platform) and an OpenGL 4.5 core
+  // context. Throws RenderError saying what is missing when none can be had.
+  static std::unique_ptr<Renderer> create();
+  virtual ~Renderer() = default;
+  virtual std::string description() const = 0;  // GL vendor, renderer, version
+  virtual void set_mesh(const SceneMesh& mesh) = 0;
+  virtual Image render(const RenderSettings& settings, FrameTimings* timings = nullptr) = 0;
+};
+
+// CPU reference: rays through every pixel, tets intersected exactly, segments composed front
+// to back with integrate_segment. Small meshes only (tests, PSNR).
+Image reference_render(const SceneMesh& mesh, const RenderSettings& settings);
+
+double psnr(const Image& a, const Image& b);  // dB over RGB
+std::vector<uint8_t> encode_jpeg(const Image& image, int quality);
+std::vector<uint8_t> encode_png(const Image& image);
+// Writes .png or .jpg/.jpeg by the extension (atomically: temp name, then rename).
+void write_image(const std::string& path, const Image& image, int quality);
+
+// Marching tetrahedra: triangles (xyz per corner, 9 floats a triangle) where the values cross
+// `isovalue`, oriented towards increasing values.
+std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue);
+
+}  // namespace tetrascope::renderer

@@ -1,0 +1,110 @@
+// Camera geometry shared by the GL renderer and the CPU reference: the same pixel centres,
+// rays and projection, so that the two agree pixel for pixel.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "tetrascope/lod/view.h"
+
+namespace tetrascope::renderer {
+
+using V3 = std::array<double, 3>;
+inline V3 sub(const V3& a, const V3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+inline V3 cross(const V3& a, const V3& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+inline double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline V3 normalise(const V3& a) {
+  const double l = std::sqrt(dot(a, a));
+  return l > 0 ? V3{a[0] / l, a[1] / l, a[2] / l} : V3{0, 0, 1};
+}
+
+struct Frame {
+  V3 eye, forward, right, up;
+  double tan_half = 0.27, aspect = 1, half_height = 1;  // half_height: orthographic
+  bool ortho = false;
+  uint32_t width = 1, height = 1;
+};
+
+inline Frame camera_frame(const lod::Camera& c, uint32_t width, uint32_t height) {
+  Frame f;
+  f.eye = c.eye;
+  f.forward = normalise(sub(c.target, c.eye));
+  f.right = normalise(cross(f.forward, c.up));
+  f.up = cross(f.right, f.forward);
+  f.tan_half = std::tan(c.fov_degrees * M_PI / 360);
+  f.aspect = double(width) / std::max(1u, height);
+  f.ortho = c.orthographic;
+  f.half_height = c.ortho_height / 2;
+  f.width = width;
+  f.height = height;
+  return f;
+}
+
+// The ray through the centre of pixel (x, y), row 0 at the top.
+inline void ray(const Frame& f, int x, int y, V3* origin, V3* direction) {
+  const double u = 2 * (x + 0.5) / f.width - 1, v = 1 - 2 * (y + 0.5) / f.height;
+  if (f.ortho) {
+    for (int k = 0; k < 3; ++k) (*origin)[k] = f.eye[k] + u * f.half_height * f.aspect * f.right[k] + v * f.half_height * f.up[k];
+    *direction = f.forward;
+    return;
+  }
+  *origin = f.eye;
+  V3 d;
+  for (int k = 0; k < 3; ++k) d[k] = f.forward[k] + u * f.tan_half * f.aspect * f.right[k] + v * f.tan_half * f.up[k];
+  *direction = normalise(d);
+}
+
+// Pixel coordinates (x right, y down, pixel centres at integers) of a point; false when it
+// is behind the eye.
+inline bool project(const Frame& f, const V3& p, double* px, double* py) {
+  const V3 q = sub(p, f.eye);
+  const double x = dot(q, f.right), y = dot(q, f.up), z = dot(q, f.forward);
+  double u, v;
+  if (f.ortho) {
+    u = x / (f.half_height * f.aspect);
+    v = y / f.half_height;
+  } else {
+    if (z <= 1e-12) {
+      *px = *py = 0;
+      return false;
+    }
+    u = x / (z * f.tan_half * f.aspect);
+    v = y / (z * f.tan_half);
+  }
+  *px = (u + 1) * f.width / 2 - 0.5;
+  *py = (1 - v) * f.height / 2 - 0.5;
+  return true;
+}
+
+// Column-major 4x4 matrices for GL.
+inline std::array<float, 16> view_projection(const Frame& f, double near_plane, double far_plane) {
+  // view: rows right, up, -forward
+  double view[16] = {f.right[0], f.up[0], -f.forward[0], 0, f.right[1], f.up[1], -f.forward[1], 0, f.right[2], f.up[2], -f.forward[2], 0,
+                     -dot(f.right, f.eye), -dot(f.up, f.eye), dot(f.forward, f.eye), 1};
+  double proj[16] = {};
+  if (f.ortho) {
+    const double h = f.half_height, w = h * f.aspect;
+    proj[0] = 1 / w;
+    proj[5] = 1 / h;
+    proj[10] = -2 / (far_plane - near_plane);
+    proj[14] = -(far_plane + near_plane) / (far_plane - near_plane);
+    proj[15] = 1;
+  } else {
+    proj[0] = 1 / (f.tan_half * f.aspect);
+    proj[5] = 1 / f.tan_half;
+    proj[10] = -(far_plane + near_plane) / (far_plane - near_plane);
+    proj[11] = -1;
+    proj[14] = -2 * far_plane * near_plane / (far_plane - near_plane);
+  }
+  std::array<float, 16> out{};
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += proj[k * 4 + r] * view[c * 4 + k];
+      out[c * 4 + r] = static_cast<float>(s);
+    }
+  return out;
+}
+
+}  // namespace tetrascope::renderer

@@ -1,0 +1,107 @@
+// The CPU reference renderer: for every pixel, the exact segments its ray cuts through the
+// tets, sorted by depth and composed front to back with integrate_segment - the same
+// transfer function integrated finely, with no table and no per-tet sort.
+#include <algorithm>
+#include <cmath>
+
+#include "camera_math.h"
+#include "tetrascope/renderer/render.h"
+
+namespace tetrascope::renderer {
+
+Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
+  const uint32_t W = settings.width, H = settings.height;
+  const Frame frame = camera_frame(settings.camera, W, H);
+  double lo = mesh.value_min, hi = mesh.value_max;
+  if (settings.tf.range) {
+    lo = (*settings.tf.range)[0];
+    hi = (*settings.tf.range)[1];
+  }
+  if (!(hi > lo)) hi = lo + 1;
+  const double unit = settings.unit_distance > 0 ? settings.unit_distance : mesh.diagonal / 100;
+  struct Segment {
+    float t_in, t_out, s_in, s_out;
+  };
+  std::vector<std::vector<Segment>> pixels(size_t{W} * H);
+  const int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  for (size_t t = 0; t < mesh.tets.size() / 4; ++t) {
+    const uint32_t* tet = &mesh.tets[4 * t];
+    V3 p[4];
+    double s[4];
+    for (int k = 0; k < 4; ++k) {
+      p[k] = {mesh.xyz[3 * size_t{tet[k]}], mesh.xyz[3 * size_t{tet[k]} + 1], mesh.xyz[3 * size_t{tet[k]} + 2]};
+      s[k] = (mesh.value[tet[k]] - lo) / (hi - lo);
+    }
+    // planes (outward) and the linear field s(x) = g.x + c
+    V3 n[4];
+    double d[4];
+    for (int f = 0; f < 4; ++f) {
+      n[f] = cross(sub(p[kFace[f][1]], p[kFace[f][0]]), sub(p[kFace[f][2]], p[kFace[f][0]]));
+      d[f] = -dot(n[f], p[kFace[f][0]]);
+    }
+    const V3 e1 = sub(p[1], p[0]), e2 = sub(p[2], p[0]), e3 = sub(p[3], p[0]);
+    const double det = dot(e1, cross(e2, e3));
+    if (!(std::fabs(det) > 0)) continue;
+    // gradient: g.e_i = s_i - s_0
+    const V3 c23 = cross(e2, e3), c31 = cross(e3, e1), c12 = cross(e1, e2);
+    V3 g;
+    for (int k = 0; k < 3; ++k) g[k] = ((s[1] - s[0]) * c23[k] + (s[2] - s[0]) * c31[k] + (s[3] - s[0]) * c12[k]) / det;
+    const double c0 = s[0] - dot(g, p[0]);
+    // pixel box of the projection
+    double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
+    bool behind = false;
+    for (const V3& q : p) {
+      double px, py;
+      if (!project(frame, q, &px, &py)) behind = true;
+      x0 = std::min(x0, px);
+      x1 = std::max(x1, px);
+      y0 = std::min(y0, py);
+      y1 = std::max(y1, py);
+    }
+    int ix0 = 0, ix1 = static_cast<int>(W) - 1, iy0 = 0, iy1 = static_cast<int>(H) - 1;
+    if (!behind) {
+      ix0 = std::max(ix0, static_cast<int>(std::floor(x0)) - 1);
+      ix1 = std::min(ix1, static_cast<int>(std::ceil(x1)) + 1);
+      iy0 = std::max(iy0, static_cast<int>(std::floor(y0)) - 1);
+      iy1 = std::min(iy1, static_cast<int>(std::ceil(y1)) + 1);
+    }
+    for (int y = iy0; y <= iy1; ++y)
+      for (int x = ix0; x <= ix1; ++x) {
+        V3 o, dir;
+        ray(frame, x, y, &o, &dir);
+        double t_in = 0, t_out = 1e300;
+        bool miss = false;
+        for (int f = 0; f < 4 && !miss; ++f) {
+          const double dn = dot(n[f], dir), num = -(dot(n[f], o) + d[f]);
+          if (dn > 0) t_out = std::min(t_out, num / dn);
+          else if (dn < 0) t_in = std::max(t_in, num / dn);
+          else if (num < 0) miss = true;  // parallel and outside
+        }
+        if (miss || !(t_in < t_out)) continue;
+        const V3 a{o[0] + t_in * dir[0], o[1] + t_in * dir[1], o[2] + t_in * dir[2]}, b{o[0] + t_out * dir[0], o[1] + t_out * dir[1], o[2] + t_out * dir[2]};
+        pixels[size_t{static_cast<uint32_t>(y)} * W + static_cast<uint32_t>(x)].push_back(
+            {static_cast<float>(t_in), static_cast<float>(t_out), static_cast<float>(dot(g, a) + c0), static_cast<float>(dot(g, b) + c0)});
+      }
+  }
+  Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4)};
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    auto& list = pixels[i];
+    std::sort(list.begin(), list.end(), [](const Segment& a, const Segment& b) { return a.t_in < b.t_in; });
+    double r = 0, g = 0, b = 0, a = 0;
+    for (const Segment& seg : list) {
+      if (a > 0.9999) break;
+      const auto c = integrate_segment(settings.tf, lo, hi, unit, seg.s_in, seg.s_out, double(seg.t_out) - seg.t_in);
+      r += (1 - a) * c[0];
+      g += (1 - a) * c[1];
+      b += (1 - a) * c[2];
+      a += (1 - a) * c[3];
+    }
+    const double out[3] = {r + (1 - a) * settings.background[0], g + (1 - a) * settings.background[1], b + (1 - a) * settings.background[2]};
+    for (int k = 0; k < 3; ++k) image.rgba[4 * i + k] = static_cast<uint8_t>(std::lround(std::clamp(out[k], 0.0, 1.0) * 255));
+    image.rgba[4 * i + 3] = 255;
+    std::vector<Segment>().swap(list);
+  }
+  return image;
+}
+
+}  // namespace tetrascope::renderer

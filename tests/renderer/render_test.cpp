@@ -1,0 +1,172 @@
+// The headless renderer against independent references: DVR against the CPU ray caster
+// (PSNR), isosurfaces against exact areas, every mode against golden images (PSNR with a
+// tolerance), and the errors a caller can make.
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "test_paths.h"
+#include "tetrascope/renderer/render.h"
+#include "tetrascope/storage/mesh_stream.h"
+
+namespace tetrascope::testing {
+namespace {
+
+renderer::Renderer& gl() {
+  static std::unique_ptr<renderer::Renderer> r = renderer::Renderer::create();
+  return *r;
+}
+
+// A box of n^3 cubes, 6 tets each (Kuhn split), with f = x.
+storage::TetMesh box(int n) {
+  storage::TetMesh m;
+  auto at = [&](int i, int j, int k) { return static_cast<uint32_t>((k * (n + 1) + j) * (n + 1) + i); };
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        m.x.push_back(float(i) / n);
+        m.y.push_back(float(j) / n);
+        m.z.push_back(float(k) / n);
+      }
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        uint32_t c[8] = {at(i, j, k), at(i + 1, j, k), at(i + 1, j + 1, k), at(i, j + 1, k), at(i, j, k + 1), at(i + 1, j, k + 1), at(i + 1, j + 1, k + 1), at(i, j + 1, k + 1)};
+        const int kuhn[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6}, {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
+        for (auto& t : kuhn) {
+          uint32_t tet[4] = {c[t[0]], c[t[1]], c[t[2]], c[t[3]]};
+          if (storage::signed_volume(m, tet[0], tet[1], tet[2], tet[3]) < 0) std::swap(tet[2], tet[3]);
+          m.tets.insert(m.tets.end(), tet, tet + 4);
+        }
+      }
+  storage::Attribute f{{"f", 1}, {}};
+  for (size_t v = 0; v < m.vertex_count(); ++v) f.values.push_back(m.x[v]);
+  m.attributes.push_back(f);
+  return m;
+}
+
+renderer::Image read_png(const std::filesystem::path& path) {
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  renderer::Image image;
+  if (!png_image_begin_read_from_file(&png, path.c_str())) return image;
+  png.format = PNG_FORMAT_RGBA;
+  image.width = png.width;
+  image.height = png.height;
+  image.rgba.resize(PNG_IMAGE_SIZE(png));
+  png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr);
+  return image;
+}
+
+renderer::RenderSettings settings_for(const renderer::SceneMesh& scene, uint32_t size) {
+  renderer::RenderSettings s;
+  s.width = s.height = size;
+  s.camera = lod::parse_camera("azimuth=35,elevation=25", scene.bounds);
+  s.tf.attribute = scene.attribute;
+  s.tf.opacity = {{scene.value_min, 0.05}, {scene.value_max, 0.6}};
+  return s;
+}
+
+TEST(Render, ContextOpensAndDescribesItself) {
+  const std::string d = gl().description();
+  EXPECT_NE(d.find("OpenGL"), std::string::npos) << d;
+}
+
+TEST(Render, VolumeMatchesTheReferenceRayCaster) {
+  for (const std::filesystem::path& mesh : {sample_mesh()}) {
+    const storage::TetMesh m = storage::load_mesh(mesh);
+    const auto scene = renderer::SceneMesh::from(m, "Temp");
+    auto s = settings_for(scene, 160);
+    gl().set_mesh(scene);
+    const renderer::Image image = gl().render(s);
+    const renderer::Image reference = renderer::reference_render(scene, s);
+    const double db = renderer::psnr(image, reference);
+    EXPECT_GE(db, 35.0) << mesh;
+    // and not trivially: the volume shows (differs from the bare background)
+    renderer::Image empty = reference;
+    for (size_t i = 0; i < empty.rgba.size(); i += 4)
+      for (int k = 0; k < 3; ++k) empty.rgba[i + k] = static_cast<uint8_t>(std::lround(s.background[k] * 255));
+    EXPECT_LT(renderer::psnr(reference, empty), 25.0);
+  }
+}
+
+TEST(Render, LinearFieldInABoxMatchesExactly) {
+  // f = x in the unit cube: the isosurface f = 0.3 is the square x = 0.3 (area 1), and the
+  // volume rendering equals the reference ray caster's
+  const storage::TetMesh m = box(6);
+  const auto scene = renderer::SceneMesh::from(m, "f");
+  const std::vector<float> tris = renderer::marching_tets(scene, 0.3);
+  double area = 0;
+  for (size_t i = 0; i < tris.size(); i += 9) {
+    const double e1[3] = {tris[i + 3] - tris[i], tris[i + 4] - tris[i + 1], tris[i + 5] - tris[i + 2]};
+    const double e2[3] = {tris[i + 6] - tris[i], tris[i + 7] - tris[i + 1], tris[i + 8] - tris[i + 2]};
+    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    area += 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    EXPECT_GT(n[0], 0) << "oriented towards increasing values";
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(tris[i + 3 * k], 0.3, 1e-6);
+  }
+  EXPECT_NEAR(area, 1.0, 1e-5);
+  auto s = settings_for(scene, 96);
+  s.iso = true;
+  s.isovalues = {0.3};
+  s.dvr = false;
+  gl().set_mesh(scene);
+  renderer::FrameTimings t;
+  gl().render(s, &t);
+  EXPECT_EQ(t.iso_triangles, tris.size() / 9);
+  s.iso = false;
+  s.dvr = true;
+  EXPECT_GE(renderer::psnr(gl().render(s), renderer::reference_render(scene, s)), 38.0);
+}
+
+TEST(Render, EveryModeMatchesItsGoldenImage) {
+  const storage::TetMesh m = storage::load_mesh(sample_mesh());
+  const auto scene = renderer::SceneMesh::from(m, "Temp");
+  gl().set_mesh(scene);
+  const auto golden = source_dir() / "tests" / "renderer" / "golden";
+  struct Case {
+    const char* name;
+    bool dvr, iso, surface, wireframe;
+  };
+  for (const Case& c : {Case{"dvr", true, false, false, false}, Case{"iso", false, true, false, false}, Case{"surface", false, false, true, true},
+                        Case{"dvr_iso", true, true, false, false}}) {
+    auto s = settings_for(scene, 192);
+    s.dvr = c.dvr;
+    s.iso = c.iso;
+    s.surface = c.surface;
+    s.wireframe = c.wireframe;
+    s.box = true;
+    s.isovalues = {500, 750};
+    const renderer::Image image = gl().render(s);
+    const auto path = golden / (std::string(c.name) + ".png");
+    if (std::getenv("TETRA_UPDATE_GOLDEN")) renderer::write_image(path.string(), image, 90);
+    const renderer::Image expected = read_png(path);
+    ASSERT_EQ(expected.width, 192u) << "missing golden image " << path << " (TETRA_UPDATE_GOLDEN=1 writes it)";
+    EXPECT_GE(renderer::psnr(image, expected), 30.0) << c.name;
+  }
+}
+
+TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
+  const storage::TetMesh m = box(4);
+  const auto scene = renderer::SceneMesh::from(m, "f");
+  gl().set_mesh(scene);
+  auto s = settings_for(scene, 64);
+  s.dvr = false;
+  s.surface = true;
+  const renderer::Image image = gl().render(s);
+  size_t dark = 0;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) dark += image.rgba[i] < 20 && image.rgba[i + 1] < 20 && image.rgba[i + 2] < 20;
+  EXPECT_GT(dark, 20u) << "silhouette edges are drawn";
+  s.tf.colormap = "rainbow-of-doom";
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
+  s.tf.colormap = "viridis";
+  s.width = 0;
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
+  EXPECT_THROW(renderer::SceneMesh::from(m, "nope"), std::invalid_argument);
+  EXPECT_THROW(renderer::write_image("/tmp/x.bmp", image, 90), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
