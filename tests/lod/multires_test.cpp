@@ -287,7 +287,7 @@ TEST(Multires, EverySharedDatasetPreprocessesAndVerifies) {
     options.segment_tets = 8000;
     options.base_tets = 20000;
     auto report = lod::preprocess(mesh, dir / mesh.filename(), options);
-    EXPECT_GE(report.levels.size(), 2u) << mesh;
+    if (report.input_tets > 2 * options.base_tets) EXPECT_GE(report.levels.size(), 2u) << mesh;
     auto verified = storage::verify_store(dir / mesh.filename());
     EXPECT_TRUE(verified.ok) << mesh << ": " << (verified.problems.empty() ? "" : verified.problems[0]);
     auto store = storage::Store::open(dir / mesh.filename());
