@@ -138,7 +138,9 @@ Classified classify(const lod::TransferFunction& tf, double lo, double hi, doubl
 
 std::array<double, 4> integrate_segment(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
                                         double length) {
-  const int steps = 256;
+  // steps follow the change of value along the segment (a constant value integrates exactly
+  // in any number of steps): at most 1/1024 of the range a step
+  const int steps = std::clamp(static_cast<int>(std::ceil(std::fabs(back - front) * 1024)), 4, 1024);
   double r = 0, g = 0, b = 0, a = 0;
   const double dt = length / steps;
   for (int k = 0; k < steps && a < 0.9999; ++k) {
