@@ -44,7 +44,7 @@ constexpr const char* kUsage =
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
     "                                [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
-    "                                [--orbit N] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
+    "                                [--orbit N] [--reference] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"
@@ -402,7 +402,7 @@ int run_cut(const std::vector<std::string>& raw) {
 
 int run_render(const std::vector<std::string>& raw) {
   namespace r = tetrascope::renderer;
-  Args args(raw, {"--json", "--wireframe", "--box"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance"});
+  Args args(raw, {"--json", "--wireframe", "--box", "--reference"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n");
     return 2;
@@ -488,6 +488,20 @@ int run_render(const std::vector<std::string>& raw) {
                   t.readback_ms, t.encode_ms, t.total_ms, static_cast<unsigned long long>(t.tets_drawn), static_cast<unsigned long long>(t.tets_skipped));
   }
   r::write_image(output, image, quality);
+  double reference_db = -1;
+  if (args.has("--reference")) {  // the CPU reference ray caster of the last frame (DVR only), and the PSNR between them
+    if (!settings.dvr || settings.iso || settings.surface) throw std::invalid_argument("--reference compares volume rendering only (--mode dvr)");
+    r::RenderSettings last = settings;
+    if (orbit) {
+      last.camera = tetrascope::lod::parse_camera("azimuth=" + std::to_string(30 + 360.0 * (orbit - 1) / orbit) + ",elevation=20", scene.bounds);
+      last.camera.aspect = settings.camera.aspect;
+    }
+    const r::Image reference = r::reference_render(scene, last);
+    reference_db = r::psnr(image, reference);
+    std::filesystem::path ref_path(output);
+    ref_path.replace_filename(ref_path.stem().string() + ".reference" + ref_path.extension().string());
+    r::write_image(ref_path.string(), reference, quality);
+  }
   auto median = [&](auto field) {
     std::vector<double> v;
     for (const auto& t : frames) v.push_back(field(t));
@@ -502,6 +516,7 @@ int run_render(const std::vector<std::string>& raw) {
                       {"median_draw_ms", median([](const r::FrameTimings& t) { return t.draw_ms; })},
                       {"median_readback_ms", median([](const r::FrameTimings& t) { return t.readback_ms; })},
                       {"median_encode_ms", median([](const r::FrameTimings& t) { return t.encode_ms; })},
+                      {"reference_psnr_db", reference_db},
                       {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
   if (args.has("--json")) std::cout << j.dump() << "\n";

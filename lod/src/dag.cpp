@@ -50,11 +50,14 @@ void write_dag(const std::filesystem::path& file, uint32_t levels, std::span<con
   h.histograms_crc = crc_of(histograms);
   h.header_crc = storage::crc32_of(&h, offsetof(Header, header_crc));
   std::vector<char> bytes(h.file_bytes, 0);
-  std::memcpy(bytes.data(), &h, sizeof h);
-  std::memcpy(bytes.data() + h.nodes_offset, nodes.data(), nodes.size_bytes());
-  std::memcpy(bytes.data() + h.patches_offset, patches.data(), patches.size_bytes());
-  std::memcpy(bytes.data() + h.parents_offset, parents.data(), 4 * parents.size());
-  std::memcpy(bytes.data() + h.histograms_offset, histograms.data(), histograms.size_bytes());
+  auto put = [&](uint64_t offset, const void* data, size_t size) {
+    if (size) std::memcpy(bytes.data() + offset, data, size);  // (an empty span's data may be null)
+  };
+  put(0, &h, sizeof h);
+  put(h.nodes_offset, nodes.data(), nodes.size_bytes());
+  put(h.patches_offset, patches.data(), patches.size_bytes());
+  put(h.parents_offset, parents.data(), 4 * parents.size());
+  put(h.histograms_offset, histograms.data(), histograms.size_bytes());
   std::ofstream out(file, std::ios::binary | std::ios::trunc);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   out.flush();
@@ -81,7 +84,7 @@ std::unique_ptr<Dag> Dag::open(const std::filesystem::path& file, std::span<cons
   auto block = [&](uint64_t offset, uint64_t count, uint64_t item, uint32_t crc, const char* what, auto& out) {
     if (offset % 4 != 0 || offset > h.file_bytes || count > (h.file_bytes - offset) / item) fail(std::string(what) + " block out of the file");
     out.resize(count);
-    std::memcpy(out.data(), bytes.data() + offset, count * item);
+    if (count) std::memcpy(out.data(), bytes.data() + offset, count * item);
     if (storage::crc32_of(out.data(), count * item) != crc) fail(std::string(what) + " checksum mismatch");
   };
   block(h.nodes_offset, h.node_count, sizeof(Node), h.nodes_crc, "nodes", dag->nodes_);
