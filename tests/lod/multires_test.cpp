@@ -177,8 +177,11 @@ TEST(Multires, UpdateHonoursTheBudgetAndReportsWhatChanged) {
   for (uint64_t budget : {coarsest + 2000, uint64_t{20000}, uint64_t{8000}, uint64_t{45000}, uint64_t{1000}}) {
     auto changes = cut.update(criteria, budget);
     EXPECT_EQ(changes.tets, cut.tet_count());
-    if (budget >= coarsest) EXPECT_LE(cut.tet_count(), budget) << "budget " << budget;
-    else EXPECT_EQ(cut.tet_count(), coarsest) << "below the coarsest cut everything coarsens";
+    if (budget >= coarsest) {
+      EXPECT_LE(cut.tet_count(), budget) << "budget " << budget;
+    } else {
+      EXPECT_EQ(cut.tet_count(), coarsest) << "below the coarsest cut everything coarsens";
+    }
     for (uint32_t p : changes.removed) EXPECT_EQ(active.erase(p), 1u);
     for (uint32_t p : changes.added) EXPECT_TRUE(active.insert(p).second);
     std::vector<uint32_t> now = cut.active_patches();
@@ -287,7 +290,9 @@ TEST(Multires, EverySharedDatasetPreprocessesAndVerifies) {
     options.segment_tets = 8000;
     options.base_tets = 20000;
     auto report = lod::preprocess(mesh, dir / mesh.filename(), options);
-    if (report.input_tets > 2 * options.base_tets) EXPECT_GE(report.levels.size(), 2u) << mesh;
+    if (report.input_tets > 2 * options.base_tets) {
+      EXPECT_GE(report.levels.size(), 2u) << mesh;
+    }
     auto verified = storage::verify_store(dir / mesh.filename());
     EXPECT_TRUE(verified.ok) << mesh << ": " << (verified.problems.empty() ? "" : verified.problems[0]);
     auto store = storage::Store::open(dir / mesh.filename());
