@@ -43,7 +43,7 @@ constexpr const char* kUsage =
     "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--iso v1,v2] [--json]\n"
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
-    "                                [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
+    "                                [--iso v1,v2] [--iso-opacity A] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
     "                                [--orbit N] [--reference] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
@@ -402,7 +402,7 @@ int run_cut(const std::vector<std::string>& raw) {
 
 int run_render(const std::vector<std::string>& raw) {
   namespace r = tetrascope::renderer;
-  Args args(raw, {"--json", "--wireframe", "--box", "--reference"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance"});
+  Args args(raw, {"--json", "--wireframe", "--box", "--reference"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n");
     return 2;
@@ -434,6 +434,7 @@ int run_render(const std::vector<std::string>& raw) {
   const int quality = static_cast<int>(args.number("--quality", 90));
   if (quality < 1 || quality > 100) throw std::invalid_argument("--quality must be 1 to 100");
   if (args.has("--unit-distance")) settings.unit_distance = real_number(args, "--unit-distance");
+  if (args.has("--iso-opacity")) settings.iso_opacity = real_number(args, "--iso-opacity");
   // the mesh: a file, or the cut of a multiresolution store for this view
   const std::string input = args.positionals()[0];
   tetrascope::storage::TetMesh mesh;

@@ -105,6 +105,7 @@ uniform bool ortho;
 uniform sampler1D colormap;
 uniform float lo, inv_span;
 uniform vec4 solid;   // a >= 0: this colour instead of the colormap
+uniform float opacity = 1.0;  // premultiplied output
 uniform float depth_out; // 1: write the distance along the ray into the colour's alpha target 1
 layout(location = 0) out vec4 color;
 layout(location = 1) out float distance_out;
@@ -113,7 +114,7 @@ void main() {
   vec3 d = ortho ? forward : normalize(world - eye);
   float light = 0.25 + 0.75 * abs(dot(n, d));
   vec3 base = solid.a >= 0.0 ? solid.rgb : texture(colormap, clamp((v - lo) * inv_span, 0.0, 1.0)).rgb;
-  color = vec4(base * light, 1.0);
+  color = vec4(base * light * opacity, opacity);
   distance_out = ortho ? dot(world - eye, forward) : length(world - eye);
 }
 )";
@@ -343,7 +344,9 @@ class GlRenderer final : public Renderer {
       glDrawArrays(GL_TRIANGLES, 0, surface_vertices_);
       opaque = true;
     }
-    if (s.iso && !s.isovalues.empty()) {
+    if (!(s.iso_opacity > 0 && s.iso_opacity <= 1)) throw std::invalid_argument("isosurface opacity must be in (0, 1]");
+    const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
+    if (s.iso && !s.isovalues.empty() && !translucent_iso) {
       std::vector<float>& tris = iso_triangles(s.isovalues);
       glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(tris.size() * 4), tris.data(), GL_STREAM_DRAW);
       common(surface_program_);
@@ -365,6 +368,39 @@ class GlRenderer final : public Renderer {
       glUniform4f(glGetUniformLocation(line_program_, "solid"), 0.02f, 0.02f, 0.02f, 1);
       glBindVertexArray(line_vao_);
       glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(lines.size() / 4));
+    }
+    // ---- semi-transparent isosurfaces: triangles sorted back to front, blended ----
+    if (translucent_iso && !s.isovalues.empty()) {
+      const std::vector<float>& tris = iso_triangles(s.isovalues);
+      const size_t count = tris.size() / 12;
+      std::vector<std::pair<float, uint32_t>> depth(count);
+      for (size_t i = 0; i < count; ++i) {
+        double d = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double c = (tris[12 * i + k] + tris[12 * i + 4 + k] + tris[12 * i + 8 + k]) / 3 - frame.eye[k];
+          d += frame.ortho ? c * frame.forward[k] : c * c;
+        }
+        depth[i] = {static_cast<float>(-d), static_cast<uint32_t>(i)};
+      }
+      std::sort(depth.begin(), depth.end());
+      std::vector<float> sorted(tris.size());
+      for (size_t i = 0; i < count; ++i) std::copy_n(&tris[12 * size_t{depth[i].second}], 12, &sorted[12 * i]);
+      glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(sorted.size() * 4), sorted.data(), GL_STREAM_DRAW);
+      glDrawBuffers(1, both);
+      common(surface_program_);
+      glUniform4f(glGetUniformLocation(surface_program_, "solid"), 0, 0, 0, -1);
+      glUniform1f(glGetUniformLocation(surface_program_, "opacity"), float(s.iso_opacity));
+      glBindTextureUnit(0, colormap_texture_);
+      glUniform1i(glGetUniformLocation(surface_program_, "colormap"), 0);
+      glEnable(GL_BLEND);
+      glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+      glDepthMask(GL_FALSE);
+      glBindVertexArray(line_vao_);
+      glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(sorted.size() / 4));
+      glDepthMask(GL_TRUE);
+      glDisable(GL_BLEND);
+      glUniform1f(glGetUniformLocation(surface_program_, "opacity"), 1.0f);
+      tm.iso_triangles = count;
     }
     // ---- volume ----
     if (s.dvr && !mesh.tets.empty()) {

@@ -162,6 +162,25 @@ TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
   size_t dark = 0;
   for (size_t i = 0; i < image.rgba.size(); i += 4) dark += image.rgba[i] < 20 && image.rgba[i + 1] < 20 && image.rgba[i + 2] < 20;
   EXPECT_GT(dark, 20u) << "silhouette edges are drawn";
+  // semi-transparent isosurfaces let the background through
+  auto iso = settings_for(scene, 64);
+  iso.dvr = false;
+  iso.iso = true;
+  iso.isovalues = {0.5};
+  iso.camera = lod::parse_camera("eye=4,0.5,0.5,target=0.5,0.5,0.5,up=0,0,1", scene.bounds);
+  const renderer::Image opaque = gl().render(iso);
+  iso.iso_opacity = 0.3;
+  const renderer::Image glass = gl().render(iso);
+  iso.isovalues = {};
+  const renderer::Image none = gl().render(iso);
+  const size_t centre = 4 * (32 * 64 + 32);
+  for (int k = 0; k < 3; ++k) {
+    const double expected = 0.3 * opaque.rgba[centre + k] + 0.7 * none.rgba[centre + k];
+    EXPECT_NEAR(glass.rgba[centre + k], expected, 2.0) << "channel " << k;
+  }
+  EXPECT_NE(opaque.rgba[centre], none.rgba[centre]);
+  iso.iso_opacity = 1.5;
+  EXPECT_THROW(gl().render(iso), std::invalid_argument);
   s.tf.colormap = "rainbow-of-doom";
   EXPECT_THROW(gl().render(s), std::invalid_argument);
   s.tf.colormap = "viridis";

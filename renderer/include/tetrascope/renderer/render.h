@@ -43,6 +43,7 @@ struct RenderSettings {
   lod::TransferFunction tf;          // attribute, range, colormap, opacity
   double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
   std::vector<double> isovalues;     // attribute units
+  double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
 };
 
