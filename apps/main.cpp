@@ -43,7 +43,7 @@ constexpr const char* kUsage =
     "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--iso v1,v2] [--json]\n"
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
-    "                                [--iso v1,v2] [--iso-opacity A] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
+    "                                [--iso v1,v2] [--iso-opacity A] [--iso-color B] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
     "                                [--orbit N] [--reference] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
@@ -402,7 +402,7 @@ int run_cut(const std::vector<std::string>& raw) {
 
 int run_render(const std::vector<std::string>& raw) {
   namespace r = tetrascope::renderer;
-  Args args(raw, {"--json", "--wireframe", "--box", "--reference"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity"});
+  Args args(raw, {"--json", "--wireframe", "--box", "--reference"}, {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n");
     return 2;
@@ -457,7 +457,8 @@ int run_render(const std::vector<std::string>& raw) {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
     mesh = tetrascope::storage::load_mesh(input);
   }
-  const r::SceneMesh scene = r::SceneMesh::from(mesh, settings.tf.attribute);
+  const r::SceneMesh scene = r::SceneMesh::from(mesh, settings.tf.attribute, args.get("--iso-color"));
+  settings.iso_by_second = args.has("--iso-color");
   settings.tf.attribute = scene.attribute;
   if (args.has("--iso")) settings.isovalues = number_list("--iso", args.get("--iso"));
   else if (settings.iso) settings.isovalues = {0.5 * (scene.value_min + scene.value_max)};
@@ -520,6 +521,7 @@ int run_render(const std::vector<std::string>& raw) {
                       {"reference_psnr_db", reference_db},
                       {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
+  if (settings.iso_by_second) j["legend"]["isosurfaces"] = {{"attribute", scene.second_attribute}, {"colormap", settings.tf.colormap}, {"range", {scene.second_min, scene.second_max}}};
   if (args.has("--json")) std::cout << j.dump() << "\n";
   else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", output.c_str(), settings.width, settings.height, mode.c_str(), mesh.tet_count(),
                    scene.attribute.c_str(), j["median_ms"].get<double>());

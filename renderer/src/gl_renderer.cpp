@@ -346,10 +346,20 @@ class GlRenderer final : public Renderer {
     }
     if (!(s.iso_opacity > 0 && s.iso_opacity <= 1)) throw std::invalid_argument("isosurface opacity must be in (0, 1]");
     const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
+    const bool by_second = s.iso_by_second;
+    if (by_second && mesh.second.size() != mesh.value.size()) throw std::invalid_argument("isosurfaces coloured by a second attribute need a scene built with one");
+    // the isosurface's colour range: the second attribute's, or the transfer function's
+    auto iso_range = [&](GLuint p) {
+      if (!by_second) return;
+      const double span = mesh.second_max > mesh.second_min ? mesh.second_max - mesh.second_min : 1.0;
+      glUniform1f(glGetUniformLocation(p, "lo"), float(mesh.second_min));
+      glUniform1f(glGetUniformLocation(p, "inv_span"), float(1 / span));
+    };
     if (s.iso && !s.isovalues.empty() && !translucent_iso) {
-      std::vector<float>& tris = iso_triangles(s.isovalues);
+      std::vector<float>& tris = iso_triangles(s.isovalues, by_second);
       glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(tris.size() * 4), tris.data(), GL_STREAM_DRAW);
       common(surface_program_);
+      iso_range(surface_program_);
       glUniform4f(glGetUniformLocation(surface_program_, "solid"), 0, 0, 0, -1);
       glBindTextureUnit(0, colormap_texture_);
       glUniform1i(glGetUniformLocation(surface_program_, "colormap"), 0);
@@ -371,7 +381,7 @@ class GlRenderer final : public Renderer {
     }
     // ---- semi-transparent isosurfaces: triangles sorted back to front, blended ----
     if (translucent_iso && !s.isovalues.empty()) {
-      const std::vector<float>& tris = iso_triangles(s.isovalues);
+      const std::vector<float>& tris = iso_triangles(s.isovalues, by_second);
       const size_t count = tris.size() / 12;
       std::vector<std::pair<float, uint32_t>> depth(count);
       for (size_t i = 0; i < count; ++i) {
@@ -388,6 +398,7 @@ class GlRenderer final : public Renderer {
       glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(sorted.size() * 4), sorted.data(), GL_STREAM_DRAW);
       glDrawBuffers(1, both);
       common(surface_program_);
+      iso_range(surface_program_);
       glUniform4f(glGetUniformLocation(surface_program_, "solid"), 0, 0, 0, -1);
       glUniform1f(glGetUniformLocation(surface_program_, "opacity"), float(s.iso_opacity));
       glBindTextureUnit(0, colormap_texture_);
@@ -648,16 +659,21 @@ class GlRenderer final : public Renderer {
     return static_cast<uint32_t>(n);
   }
 
-  std::vector<float>& iso_triangles(const std::vector<double>& isovalues) {
-    auto it = iso_cache_.find(isovalues);
+  // Isosurface triangles as (x, y, z, value) corners; value = the isovalue, or the second
+  // attribute interpolated at the corner.
+  std::vector<float>& iso_triangles(const std::vector<double>& isovalues, bool by_second) {
+    std::vector<double> key = isovalues;
+    key.push_back(by_second);
+    auto it = iso_cache_.find(key);
     if (it != iso_cache_.end()) return it->second;
     std::vector<float> out;
     for (double iso : isovalues) {
-      std::vector<float> tris = marching_tets(*mesh_, iso);
-      for (size_t i = 0; i < tris.size(); i += 3) out.insert(out.end(), {tris[i], tris[i + 1], tris[i + 2], static_cast<float>(iso)});
+      std::vector<float> second;
+      std::vector<float> tris = marching_tets(*mesh_, iso, by_second ? &second : nullptr);
+      for (size_t i = 0; i < tris.size(); i += 3) out.insert(out.end(), {tris[i], tris[i + 1], tris[i + 2], by_second ? second[i / 3] : static_cast<float>(iso)});
     }
     if (iso_cache_.size() > 8) iso_cache_.clear();
-    return iso_cache_[isovalues] = std::move(out);
+    return iso_cache_[key] = std::move(out);
   }
 
   void silhouettes(const Frame& f, bool wireframe, std::vector<float>& lines) {
@@ -709,7 +725,7 @@ class GlRenderer final : public Renderer {
   std::vector<int> visible_prefix_;
   PreintegrationTable table_;
   std::string table_key_, colormap_name_;
-  std::map<std::vector<double>, std::vector<float>> iso_cache_;
+  std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_second
 };
 
 }  // namespace

@@ -19,7 +19,22 @@ namespace {
 constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 }
 
-SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attribute) {
+namespace {
+// values of an attribute per vertex (vector magnitude for vectors), non-finite as 0
+std::vector<float> values_of(const storage::TetMesh& mesh, const storage::Attribute& a) {
+  std::vector<float> out(mesh.vertex_count(), 0.0f);
+  const uint32_t c = a.info.components;
+  for (size_t v = 0; v < out.size(); ++v) {
+    double m = 0;
+    for (uint32_t k = 0; k < c; ++k) m += double(a.values[v * c + k]) * a.values[v * c + k];
+    const double value = c == 1 ? double(a.values[v]) : std::sqrt(m);
+    out[v] = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
+  }
+  return out;
+}
+}  // namespace
+
+SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& second_attribute) {
   SceneMesh s;
   const size_t n = mesh.vertex_count();
   s.xyz.resize(3 * n);
@@ -58,6 +73,17 @@ SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attri
     auto [lo, hi] = std::minmax_element(s.value.begin(), s.value.end());
     s.value_min = *lo;
     s.value_max = *hi;
+  }
+  if (!second_attribute.empty()) {
+    const storage::Attribute* b = mesh.find_attribute(second_attribute);
+    if (!b) throw std::invalid_argument("no attribute '" + second_attribute + "' to colour by");
+    s.second = values_of(mesh, *b);
+    s.second_attribute = second_attribute;
+    if (n) {
+      auto [lo, hi] = std::minmax_element(s.second.begin(), s.second.end());
+      s.second_min = *lo;
+      s.second_max = *hi;
+    }
   }
   // boundary faces, and the longest edge (the pre-integration table's length range)
   std::vector<std::pair<std::array<uint32_t, 3>, std::array<uint32_t, 3>>> faces;
@@ -199,13 +225,16 @@ PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, dou
   return table;
 }
 
-std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue) {
+std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue, std::vector<float>* second) {
   std::vector<float> out;
+  if (second && mesh.second.size() != mesh.value.size()) throw std::invalid_argument("the scene has no second attribute");
+  // a corner: position and, in the fourth slot, the second attribute
   auto point = [&](uint32_t a, uint32_t b) {
     const double va = mesh.value[a], vb = mesh.value[b];
     const double u = vb != va ? std::clamp((isovalue - va) / (vb - va), 0.0, 1.0) : 0.5;
-    std::array<float, 3> p;
+    std::array<float, 4> p{};
     for (int k = 0; k < 3; ++k) p[k] = static_cast<float>(mesh.xyz[3 * size_t{a} + k] + u * (mesh.xyz[3 * size_t{b} + k] - mesh.xyz[3 * size_t{a} + k]));
+    if (second) p[3] = static_cast<float>(mesh.second[a] + u * (mesh.second[b] - mesh.second[a]));
     return p;
   };
   for (size_t t = 0; t < mesh.tets.size() / 4; ++t) {
@@ -214,7 +243,7 @@ std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue) {
     int na = 0, nb = 0;
     for (int k = 0; k < 4; ++k) (mesh.value[tet[k]] >= isovalue ? above[na++] : below[nb++]) = tet[k];
     if (na == 0 || nb == 0) continue;
-    std::vector<std::array<float, 3>> poly;
+    std::vector<std::array<float, 4>> poly;
     if (na == 1) {
       for (int k = 0; k < 3; ++k) poly.push_back(point(above[0], below[k]));
     } else if (nb == 1) {
@@ -225,12 +254,15 @@ std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue) {
     // orient towards increasing values: the direction from a below vertex to an above one
     double up[3];
     for (int k = 0; k < 3; ++k) up[k] = mesh.xyz[3 * size_t{above[0]} + k] - mesh.xyz[3 * size_t{below[0]} + k];
-    auto emit = [&](const std::array<float, 3>& a, const std::array<float, 3>& b, const std::array<float, 3>& c) {
+    auto emit = [&](const std::array<float, 4>& a, const std::array<float, 4>& b, const std::array<float, 4>& c) {
       const double e1[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]}, e2[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
       const double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
       const bool flip = nrm[0] * up[0] + nrm[1] * up[1] + nrm[2] * up[2] < 0;
-      const std::array<float, 3>* corners[3] = {&a, flip ? &c : &b, flip ? &b : &c};
-      for (auto* p : corners) out.insert(out.end(), p->begin(), p->end());
+      const std::array<float, 4>* corners[3] = {&a, flip ? &c : &b, flip ? &b : &c};
+      for (auto* p : corners) {
+        out.insert(out.end(), p->begin(), p->begin() + 3);
+        if (second) second->push_back((*p)[3]);
+      }
     };
     emit(poly[0], poly[1], poly[2]);
     if (poly.size() == 4) emit(poly[0], poly[2], poly[3]);

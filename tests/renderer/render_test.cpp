@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <png.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -181,6 +182,27 @@ TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
   EXPECT_NE(opaque.rgba[centre], none.rgba[centre]);
   iso.iso_opacity = 1.5;
   EXPECT_THROW(gl().render(iso), std::invalid_argument);
+  // coloured by a second attribute (g = z): the plane x = 0.5 shades from bottom to top
+  storage::TetMesh two = box(4);
+  storage::Attribute g{{"g", 1}, {}};
+  for (size_t v = 0; v < two.vertex_count(); ++v) g.values.push_back(two.z[v]);
+  two.attributes.push_back(g);
+  const auto scene2 = renderer::SceneMesh::from(two, "f", "g");
+  gl().set_mesh(scene2);
+  iso.iso_opacity = 1;
+  iso.isovalues = {0.5};
+  const renderer::Image by_value = gl().render(iso);
+  iso.iso_by_second = true;
+  const renderer::Image by_g = gl().render(iso);
+  auto pixel = [](const renderer::Image& im, int x, int y) { return std::array<int, 3>{im.rgba[4 * (y * 64 + x)], im.rgba[4 * (y * 64 + x) + 1], im.rgba[4 * (y * 64 + x) + 2]}; };
+  auto difference = [&](const renderer::Image& im) {
+    const auto a = pixel(im, 32, 16), b = pixel(im, 32, 48);
+    return std::max({std::abs(a[0] - b[0]), std::abs(a[1] - b[1]), std::abs(a[2] - b[2])});
+  };
+  EXPECT_LT(difference(by_value), 20) << "one isovalue, one colour (only the lighting differs)";
+  EXPECT_GT(difference(by_g), 60) << "the second attribute varies from top to bottom";
+  EXPECT_THROW(renderer::SceneMesh::from(two, "f", "nope"), std::invalid_argument);
+  gl().set_mesh(scene);
   s.tf.colormap = "rainbow-of-doom";
   EXPECT_THROW(gl().render(s), std::invalid_argument);
   s.tf.colormap = "viridis";

@@ -44,6 +44,7 @@ struct RenderSettings {
   double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
   std::vector<double> isovalues;     // attribute units
   double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
+  bool iso_by_second = false;        // colour isosurfaces by the scene's second attribute
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
 };
 
@@ -63,7 +64,11 @@ struct SceneMesh {
   double diagonal = 1, max_edge = 0;
   std::string attribute;
   double value_min = 0, value_max = 1;
-  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute);  // throws std::invalid_argument
+  // optional second attribute (isosurface colouring)
+  std::vector<float> second;
+  std::string second_attribute;
+  double second_min = 0, second_max = 1;
+  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& second_attribute = "");  // throws std::invalid_argument
 };
 
 // Colormaps: viridis, plasma, cool-warm, grayscale; `colors` of the transfer function JSON
@@ -108,7 +113,8 @@ std::vector<uint8_t> encode_png(const Image& image);
 void write_image(const std::string& path, const Image& image, int quality);
 
 // Marching tetrahedra: triangles (xyz per corner, 9 floats a triangle) where the values cross
-// `isovalue`, oriented towards increasing values.
-std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue);
+// `isovalue`, oriented towards increasing values. With `second`, also the second attribute
+// interpolated at every corner (3 a triangle).
+std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue, std::vector<float>* second = nullptr);
 
 }  // namespace tetrascope::renderer
