@@ -431,6 +431,11 @@ int run_render(const std::vector<std::string>& raw) {
     settings.width = w;
     settings.height = h;
   }
+  {
+    std::string ext = std::filesystem::path(args.get("--output")).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") throw std::invalid_argument(args.get("--output") + ": the output must end in .png, .jpg or .jpeg");
+  }
   const int quality = static_cast<int>(args.number("--quality", 90));
   if (quality < 1 || quality > 100) throw std::invalid_argument("--quality must be 1 to 100");
   if (args.has("--unit-distance")) settings.unit_distance = real_number(args, "--unit-distance");
@@ -464,7 +469,10 @@ int run_render(const std::vector<std::string>& raw) {
   else if (settings.iso) settings.isovalues = {0.5 * (scene.value_min + scene.value_max)};
   settings.camera = args.has("--camera") ? tetrascope::lod::parse_camera(args.get("--camera"), scene.bounds) : tetrascope::lod::default_camera(scene.bounds);
   settings.camera.aspect = double(settings.width) / settings.height;
-  auto renderer = r::Renderer::create();
+  // The context stays up to exit, on every path: Mesa's driver, unloaded by eglTerminate,
+  // would leave allocations behind that leak checkers report against us.
+  static r::Renderer* renderer = nullptr;  // reachable from here: not a leak
+  renderer = r::Renderer::create().release();
   renderer->set_mesh(scene);
   const uint32_t orbit = args.number("--orbit", 0);
   std::vector<r::FrameTimings> frames;
