@@ -40,7 +40,7 @@ constexpr const char* kUsage =
     "  preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N]\n"
     "                                [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n"
     "                                multiresolution store: segments, levels, DAG, error histograms (§6.3)\n"
-    "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--iso v1,v2] [--json]\n"
+    "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--json]\n"
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
     "                                [--iso v1,v2] [--iso-opacity A] [--iso-color B] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
@@ -53,7 +53,6 @@ constexpr const char* kUsage =
     "                                quadric simplification of a whole mesh\n"
     "  error ORIGINAL SIMPLIFIED [--samples N] [--json]\n"
     "                                mean/max field error and domain error (§4.2.5)\n"
-    "                                checksums and structure of a store\n"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off\n";
 
