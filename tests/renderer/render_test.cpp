@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh_stream.h"
@@ -22,32 +23,9 @@ renderer::Renderer& gl() {
   return *r;
 }
 
-// A box of n^3 cubes, 6 tets each (Kuhn split), with f = x.
+// The unit box with f = x.
 storage::TetMesh box(int n) {
-  storage::TetMesh m;
-  auto at = [&](int i, int j, int k) { return static_cast<uint32_t>((k * (n + 1) + j) * (n + 1) + i); };
-  for (int k = 0; k <= n; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) {
-        m.x.push_back(float(i) / n);
-        m.y.push_back(float(j) / n);
-        m.z.push_back(float(k) / n);
-      }
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        uint32_t c[8] = {at(i, j, k), at(i + 1, j, k), at(i + 1, j + 1, k), at(i, j + 1, k), at(i, j, k + 1), at(i + 1, j, k + 1), at(i + 1, j + 1, k + 1), at(i, j + 1, k + 1)};
-        const int kuhn[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6}, {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
-        for (auto& t : kuhn) {
-          uint32_t tet[4] = {c[t[0]], c[t[1]], c[t[2]], c[t[3]]};
-          if (storage::signed_volume(m, tet[0], tet[1], tet[2], tet[3]) < 0) std::swap(tet[2], tet[3]);
-          m.tets.insert(m.tets.end(), tet, tet + 4);
-        }
-      }
-  storage::Attribute f{{"f", 1}, {}};
-  for (size_t v = 0; v < m.vertex_count(); ++v) f.values.push_back(m.x[v]);
-  m.attributes.push_back(f);
-  return m;
+  return kuhn_box(n, 0, [](float x, float, float) { return x; });
 }
 
 renderer::Image read_png(const std::filesystem::path& path) {
