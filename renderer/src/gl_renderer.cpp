@@ -418,7 +418,7 @@ class GlRenderer final : public Renderer {
       const double unit = s.unit_distance > 0 ? s.unit_distance : mesh.diagonal / 100;
       update_table(s.tf, lo, hi, unit, mesh.max_edge);
       const auto sort_start = clock_type::now();
-      const uint32_t count = visibility_order(s.tf, lo, hi, frame, tm);
+      const uint32_t count = visibility_order(lo, hi, frame, tm);
       tm.sort_ms = ms_since(sort_start);
       if (count) {
         glNamedBufferSubData(order_buffer_, 0, count * 4, order_.data());
@@ -615,7 +615,7 @@ class GlRenderer final : public Renderer {
   }
 
   // Tets that can show, sorted back to front by centroid depth (LSD radix sort on the key).
-  uint32_t visibility_order(const lod::TransferFunction&, double lo, double hi, const Frame& f, FrameTimings& tm) {
+  uint32_t visibility_order(double lo, double hi, const Frame& f, FrameTimings& tm) {
     const size_t tets = centroid_.size() / 3;
     keys_.clear();
     ids_.clear();

@@ -61,13 +61,7 @@ SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attri
   s.value.assign(n, 0.0f);
   if (a) {
     s.attribute = a->info.name;
-    const uint32_t c = a->info.components;
-    for (size_t v = 0; v < n; ++v) {
-      double m = 0;
-      for (uint32_t k = 0; k < c; ++k) m += double(a->values[v * c + k]) * a->values[v * c + k];
-      const double value = c == 1 ? double(a->values[v]) : std::sqrt(m);
-      s.value[v] = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
-    }
+    s.value = values_of(mesh, *a);
   }
   if (n) {
     auto [lo, hi] = std::minmax_element(s.value.begin(), s.value.end());
