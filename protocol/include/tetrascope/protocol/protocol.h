@@ -1,0 +1,144 @@
+// The WebSocket protocol between the browser and the server (issue 7).
+//
+// Control messages are JSON text frames {"type": "camera.set", "id": 7, ...}; every field is
+// checked here, at the edge, and a bad message becomes a ProtocolError whose code and message
+// go back to the client in an `error` reply (the session lives on). Frames are binary
+// messages: a 48-byte little-endian header (FrameHeader) followed by the JPEG or PNG.
+// protocol/schema/messages.schema.json describes the same messages; the test vectors in
+// protocol/testdata/ are checked against this codec and the browser's (protocol/js/codec.js).
+// Input of parse_message and decode_frame_header is untrusted.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace tetrascope::protocol {
+
+constexpr uint32_t kVersion = 1;
+constexpr uint32_t kFrameMagic = 0x31465354;  // "TSF1" in file order
+constexpr size_t kFrameHeaderBytes = 48;
+
+// Every limit of a session, each configurable (`serve` options) and tested at and past it.
+struct Limits {
+  size_t max_message_bytes = 64 * 1024;
+  uint32_t max_messages_per_second = 200;
+  uint32_t max_image_side = 4096;
+  uint32_t max_sessions = 32;
+  uint32_t max_bad_messages = 16;  // bad messages in a row before the session is closed (policy violation)
+  uint32_t max_isovalues = 16;
+  uint32_t max_tf_points = 256;
+};
+
+// Error codes of `error` replies (and of ProtocolError).
+namespace code {
+constexpr const char* kBadJson = "bad_json";              // not a JSON object
+constexpr const char* kTooLarge = "too_large";            // over Limits::max_message_bytes
+constexpr const char* kBadMessage = "bad_message";        // no string `type` or no integer `id`
+constexpr const char* kUnknownType = "unknown_type";
+constexpr const char* kBadField = "bad_field";            // a field is missing, mistyped or out of range
+constexpr const char* kUnsupportedVersion = "unsupported_version";
+constexpr const char* kHelloFirst = "hello_first";        // a message before `hello`
+constexpr const char* kUnauthorized = "unauthorized";
+constexpr const char* kNoDataset = "no_dataset";          // needs dataset.open first
+constexpr const char* kNotFound = "not_found";            // no such dataset or attribute
+constexpr const char* kRateLimited = "rate_limited";
+constexpr const char* kBinaryMessage = "binary_message";  // clients send text frames only
+constexpr const char* kInternal = "internal";
+}  // namespace code
+
+class ProtocolError : public std::runtime_error {
+ public:
+  ProtocolError(std::string code, const std::string& message, std::optional<uint32_t> id = std::nullopt)
+      : std::runtime_error(message), code_(std::move(code)), id_(id) {}
+  const std::string& code() const { return code_; }
+  std::optional<uint32_t> id() const { return id_; }
+
+ private:
+  std::string code_;
+  std::optional<uint32_t> id_;
+};
+
+struct Hello {
+  uint32_t version = kVersion;
+  std::string token;
+};
+struct DatasetOpen {
+  std::string name;
+};
+struct CameraSet {
+  std::array<double, 3> eye{}, target{}, up{0, 1, 0};
+  double fov = 30;  // vertical, degrees
+  bool orthographic = false;
+  double height = 1;         // visible height of orthographic views
+  bool interacting = true;   // false: a jump (reset, saved view), rendered as a still at once
+};
+struct TfSet {
+  nlohmann::json tf;  // checked: attribute, colormap, range, opacity, colors (lod::TransferFunction's JSON)
+};
+struct ModeSet {
+  bool dvr = true, iso = false, surface = false;
+  std::optional<bool> wireframe, box;
+};
+struct IsoSet {
+  std::vector<double> values;
+  std::optional<double> opacity;
+  std::optional<std::string> color_by;  // a second attribute; "" colours by value
+};
+struct LodSet {
+  std::optional<uint64_t> budget, interaction_budget;  // tets
+};
+struct ViewResize {
+  uint32_t width = 0, height = 0;
+};
+struct QualitySet {
+  std::optional<int> interaction, still;        // JPEG quality 1..100
+  std::optional<std::string> still_codec;       // "jpeg" or "png"
+  std::optional<double> interaction_scale;      // 0.25..1 of the view size
+};
+struct Ping {};
+
+using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, Ping>;
+
+struct Envelope {
+  std::string type;
+  uint32_t id = 0;
+  Message message;
+};
+
+// Parses and checks one control message. Throws ProtocolError (with the message's id when it
+// could be read).
+Envelope parse_message(std::string_view text, const Limits& limits);
+
+// Replies (JSON text).
+std::string error_reply(const std::string& code, const std::string& message, std::optional<uint32_t> id);
+std::string pong_reply(uint32_t id);
+
+enum class Codec : uint8_t { kJpeg = 0, kPng = 1 };
+
+struct FrameHeader {
+  uint32_t frame_number = 0;
+  uint32_t message_id = 0;  // id of the last control message applied to this frame
+  uint32_t width = 0, height = 0;
+  Codec codec = Codec::kJpeg;
+  bool still = false;       // the refined frame after interaction stops
+  uint64_t tets = 0;        // tets rendered
+  float render_ms = 0, encode_ms = 0;
+  uint32_t payload_bytes = 0;
+};
+// Layout (little-endian): u32 magic, u16 version, u8 codec, u8 flags (bit 0: still),
+// u32 frame_number, u32 message_id, u32 width, u32 height, u64 tets, f32 render_ms,
+// f32 encode_ms, u32 payload_bytes, u32 reserved (0).
+std::array<uint8_t, kFrameHeaderBytes> encode_frame_header(const FrameHeader& header);
+// Checks magic, version, codec, sizes against `bytes` (header + payload). Throws ProtocolError.
+FrameHeader decode_frame_header(std::span<const uint8_t> bytes, const Limits& limits);
+
+}  // namespace tetrascope::protocol

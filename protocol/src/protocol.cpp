@@ -1,0 +1,290 @@
+// Control-message parsing and the binary frame header (protocol/schema/messages.schema.json
+// says the same in JSON Schema; protocol/js/codec.js in JavaScript).
+#include "tetrascope/protocol/protocol.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace tetrascope::protocol {
+namespace {
+
+using nlohmann::json;
+
+class Fields {
+ public:
+  Fields(const json& object, uint32_t id) : object_(object), id_(id) {}
+
+  [[noreturn]] void fail(const std::string& field, const std::string& what) const {
+    throw ProtocolError(code::kBadField, field + ": " + what, id_);
+  }
+  const json* find(const std::string& field) const {
+    auto it = object_.find(field);
+    return it == object_.end() || it->is_null() ? nullptr : &*it;
+  }
+  const json& require(const std::string& field) const {
+    const json* v = find(field);
+    if (!v) fail(field, "missing");
+    return *v;
+  }
+  double number(const std::string& field, const json& v, double lo, double hi) const {
+    if (!v.is_number()) fail(field, "expected a number");
+    const double d = v.get<double>();
+    if (!std::isfinite(d) || d < lo || d > hi) fail(field, "out of range [" + text(lo) + ", " + text(hi) + "]");
+    return d;
+  }
+  std::optional<double> number(const std::string& field, double lo, double hi) const {
+    const json* v = find(field);
+    if (!v) return std::nullopt;
+    return number(field, *v, lo, hi);
+  }
+  std::optional<uint64_t> integer(const std::string& field, uint64_t lo, uint64_t hi) const {
+    const json* v = find(field);
+    if (!v) return std::nullopt;
+    if (!v->is_number_unsigned()) fail(field, "expected a whole number");
+    const uint64_t n = v->get<uint64_t>();
+    if (n < lo || n > hi) fail(field, "out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return n;
+  }
+  std::optional<bool> boolean(const std::string& field) const {
+    const json* v = find(field);
+    if (!v) return std::nullopt;
+    if (!v->is_boolean()) fail(field, "expected true or false");
+    return v->get<bool>();
+  }
+  std::optional<std::string> string(const std::string& field, size_t max_length) const {
+    const json* v = find(field);
+    if (!v) return std::nullopt;
+    if (!v->is_string()) fail(field, "expected a string");
+    std::string s = v->get<std::string>();
+    if (s.size() > max_length) fail(field, "longer than " + std::to_string(max_length) + " characters");
+    return s;
+  }
+  std::array<double, 3> vector3(const std::string& field) const {
+    const json& v = require(field);
+    if (!v.is_array() || v.size() != 3) fail(field, "expected [x, y, z]");
+    std::array<double, 3> out{};
+    for (size_t i = 0; i < 3; ++i) out[i] = number(field, v[i], -1e30, 1e30);
+    return out;
+  }
+  // [[v, a...], ...] with `width` numbers per point, values ascending, the rest in [0, 1]
+  void points(const std::string& field, size_t width, size_t max_points) const {
+    const json* v = find(field);
+    if (!v) return;
+    if (!v->is_array()) fail(field, "expected a list of points");
+    if (v->size() > max_points) fail(field, "more than " + std::to_string(max_points) + " points");
+    double previous = -INFINITY;
+    for (size_t i = 0; i < v->size(); ++i) {
+      const json& p = (*v)[i];
+      const std::string name = field + "[" + std::to_string(i) + "]";
+      if (!p.is_array() || p.size() != width) fail(name, "expected " + std::to_string(width) + " numbers");
+      const double value = number(name, p[0], -1e30, 1e30);
+      if (value < previous) fail(name, "values must ascend");
+      previous = value;
+      for (size_t k = 1; k < width; ++k) number(name, p[k], 0, 1);
+    }
+  }
+
+ private:
+  static std::string text(double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%g", v);
+    return buffer;
+  }
+  const json& object_;
+  uint32_t id_;
+};
+
+Message parse_body(const std::string& type, const Fields& f, const Limits& limits, uint32_t id) {
+  if (type == "hello") {
+    Hello m;
+    const json& version = f.require("version");
+    if (!version.is_number_unsigned()) f.fail("version", "expected a whole number");
+    if (version.get<uint64_t>() != kVersion)
+      throw ProtocolError(code::kUnsupportedVersion, "this server speaks protocol version " + std::to_string(kVersion) + ", the client " + version.dump(), id);
+    m.token = f.string("token", 1024).value_or("");
+    return m;
+  }
+  if (type == "dataset.open") {
+    DatasetOpen m;
+    m.name = f.string("name", 128).value_or("");
+    if (m.name.empty()) f.fail("name", "missing");
+    return m;
+  }
+  if (type == "camera.set") {
+    CameraSet m;
+    m.eye = f.vector3("eye");
+    m.target = f.vector3("target");
+    if (f.find("up")) m.up = f.vector3("up");
+    m.fov = f.number("fov", 1, 170).value_or(30);
+    m.orthographic = f.boolean("orthographic").value_or(false);
+    m.height = f.number("height", 1e-30, 1e30).value_or(1);
+    m.interacting = f.boolean("interacting").value_or(true);
+    const std::array<double, 3> d{m.target[0] - m.eye[0], m.target[1] - m.eye[1], m.target[2] - m.eye[2]};
+    const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(dl > 0)) f.fail("target", "equals eye");
+    const std::array<double, 3> c{d[1] * m.up[2] - d[2] * m.up[1], d[2] * m.up[0] - d[0] * m.up[2], d[0] * m.up[1] - d[1] * m.up[0]};
+    const double ul = std::sqrt(m.up[0] * m.up[0] + m.up[1] * m.up[1] + m.up[2] * m.up[2]);
+    if (!(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * dl * ul)) f.fail("up", "zero or parallel to the view direction");
+    return m;
+  }
+  if (type == "tf.set") {
+    TfSet m;
+    json tf = json::object();
+    if (auto a = f.string("attribute", 128)) tf["attribute"] = *a;
+    if (auto c = f.string("colormap", 64)) tf["colormap"] = *c;
+    if (const json* r = f.find("range")) {
+      if (!r->is_array() || r->size() != 2) f.fail("range", "expected [low, high]");
+      const double lo = f.number("range", (*r)[0], -1e30, 1e30), hi = f.number("range", (*r)[1], -1e30, 1e30);
+      if (!(hi > lo)) f.fail("range", "high must exceed low");
+      tf["range"] = {lo, hi};
+    }
+    f.points("opacity", 2, limits.max_tf_points);
+    f.points("colors", 4, limits.max_tf_points);
+    if (const json* o = f.find("opacity")) tf["opacity"] = *o;
+    if (const json* c = f.find("colors")) tf["colors"] = *c;
+    m.tf = std::move(tf);
+    return m;
+  }
+  if (type == "mode.set") {
+    ModeSet m;
+    const std::string mode = f.string("mode", 64).value_or("");
+    if (mode.empty()) f.fail("mode", "missing");
+    m.dvr = m.iso = m.surface = false;
+    for (size_t at = 0; at <= mode.size();) {
+      size_t plus = mode.find('+', at);
+      if (plus == std::string::npos) plus = mode.size();
+      const std::string part = mode.substr(at, plus - at);
+      if (part == "dvr") m.dvr = true;
+      else if (part == "iso" || part == "isosurface") m.iso = true;
+      else if (part == "surface") m.surface = true;
+      else f.fail("mode", "unknown mode '" + part + "' (dvr, iso, surface or combinations such as dvr+iso)");
+      at = plus + 1;
+    }
+    m.wireframe = f.boolean("wireframe");
+    m.box = f.boolean("box");
+    return m;
+  }
+  if (type == "iso.set") {
+    IsoSet m;
+    const json& values = f.require("values");
+    if (!values.is_array()) f.fail("values", "expected a list of numbers");
+    if (values.size() > limits.max_isovalues) f.fail("values", "more than " + std::to_string(limits.max_isovalues) + " isovalues");
+    for (const json& v : values) m.values.push_back(f.number("values", v, -1e30, 1e30));
+    m.opacity = f.number("opacity", 0, 1);
+    m.color_by = f.string("color_by", 128);
+    return m;
+  }
+  if (type == "lod.set") {
+    LodSet m;
+    m.budget = f.integer("budget", 1, 4000000000ull);
+    m.interaction_budget = f.integer("interaction_budget", 1, 4000000000ull);
+    if (!m.budget && !m.interaction_budget) f.fail("budget", "missing (budget or interaction_budget)");
+    return m;
+  }
+  if (type == "view.resize") {
+    ViewResize m;
+    m.width = static_cast<uint32_t>(f.integer("width", 16, limits.max_image_side).value_or(0));
+    m.height = static_cast<uint32_t>(f.integer("height", 16, limits.max_image_side).value_or(0));
+    if (!m.width) f.fail("width", "missing");
+    if (!m.height) f.fail("height", "missing");
+    return m;
+  }
+  if (type == "quality.set") {
+    QualitySet m;
+    if (auto q = f.integer("interaction", 1, 100)) m.interaction = static_cast<int>(*q);
+    if (auto q = f.integer("still", 1, 100)) m.still = static_cast<int>(*q);
+    m.still_codec = f.string("still_codec", 8);
+    if (m.still_codec && *m.still_codec != "jpeg" && *m.still_codec != "png") f.fail("still_codec", "expected jpeg or png");
+    m.interaction_scale = f.number("interaction_scale", 0.25, 1);
+    return m;
+  }
+  if (type == "ping") return Ping{};
+  throw ProtocolError(code::kUnknownType, "unknown message type '" + type + "'", id);
+}
+
+void put(uint8_t* at, uint64_t value, size_t bytes) {
+  for (size_t i = 0; i < bytes; ++i) at[i] = static_cast<uint8_t>(value >> (8 * i));
+}
+uint64_t get(const uint8_t* at, size_t bytes) {
+  uint64_t value = 0;
+  for (size_t i = 0; i < bytes; ++i) value |= uint64_t(at[i]) << (8 * i);
+  return value;
+}
+
+}  // namespace
+
+Envelope parse_message(std::string_view text, const Limits& limits) {
+  if (text.size() > limits.max_message_bytes)
+    throw ProtocolError(code::kTooLarge, "message of " + std::to_string(text.size()) + " bytes; the limit is " + std::to_string(limits.max_message_bytes));
+  json object = json::parse(text.begin(), text.end(), nullptr, false);
+  if (object.is_discarded() || !object.is_object()) throw ProtocolError(code::kBadJson, "a control message is one JSON object");
+  std::optional<uint32_t> id;
+  auto id_field = object.find("id");
+  if (id_field != object.end() && id_field->is_number_unsigned() && id_field->get<uint64_t>() <= 0xFFFFFFFFull) id = static_cast<uint32_t>(id_field->get<uint64_t>());
+  auto type_field = object.find("type");
+  if (type_field == object.end() || !type_field->is_string()) throw ProtocolError(code::kBadMessage, "missing \"type\"", id);
+  if (!id) throw ProtocolError(code::kBadMessage, "\"id\" must be a whole number 0..4294967295", std::nullopt);
+  Envelope envelope;
+  envelope.type = type_field->get<std::string>();
+  envelope.id = *id;
+  envelope.message = parse_body(envelope.type, Fields(object, *id), limits, *id);
+  return envelope;
+}
+
+std::string error_reply(const std::string& error_code, const std::string& message, std::optional<uint32_t> id) {
+  nlohmann::json j = {{"type", "error"}, {"code", error_code}, {"message", message}};
+  j["id"] = id ? nlohmann::json(*id) : nlohmann::json(nullptr);
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::string pong_reply(uint32_t id) { return nlohmann::json({{"type", "pong"}, {"id", id}}).dump(); }
+
+std::array<uint8_t, kFrameHeaderBytes> encode_frame_header(const FrameHeader& h) {
+  std::array<uint8_t, kFrameHeaderBytes> out{};
+  uint8_t* p = out.data();
+  uint32_t render_bits = 0, encode_bits = 0;
+  std::memcpy(&render_bits, &h.render_ms, 4);
+  std::memcpy(&encode_bits, &h.encode_ms, 4);
+  put(p + 0, kFrameMagic, 4);
+  put(p + 4, kVersion, 2);
+  p[6] = static_cast<uint8_t>(h.codec);
+  p[7] = h.still ? 1 : 0;
+  put(p + 8, h.frame_number, 4);
+  put(p + 12, h.message_id, 4);
+  put(p + 16, h.width, 4);
+  put(p + 20, h.height, 4);
+  put(p + 24, h.tets, 8);
+  put(p + 32, render_bits, 4);
+  put(p + 36, encode_bits, 4);
+  put(p + 40, h.payload_bytes, 4);
+  put(p + 44, 0, 4);
+  return out;
+}
+
+FrameHeader decode_frame_header(std::span<const uint8_t> bytes, const Limits& limits) {
+  if (bytes.size() < kFrameHeaderBytes) throw ProtocolError(code::kBadMessage, "frame shorter than its " + std::to_string(kFrameHeaderBytes) + "-byte header");
+  const uint8_t* p = bytes.data();
+  if (get(p, 4) != kFrameMagic) throw ProtocolError(code::kBadMessage, "frame: bad magic");
+  if (get(p + 4, 2) != kVersion) throw ProtocolError(code::kUnsupportedVersion, "frame: version " + std::to_string(get(p + 4, 2)));
+  if (p[6] > 1) throw ProtocolError(code::kBadMessage, "frame: unknown codec " + std::to_string(p[6]));
+  if (p[7] > 1) throw ProtocolError(code::kBadMessage, "frame: unknown flags");
+  FrameHeader h;
+  h.codec = static_cast<Codec>(p[6]);
+  h.still = p[7] & 1;
+  h.frame_number = static_cast<uint32_t>(get(p + 8, 4));
+  h.message_id = static_cast<uint32_t>(get(p + 12, 4));
+  h.width = static_cast<uint32_t>(get(p + 16, 4));
+  h.height = static_cast<uint32_t>(get(p + 20, 4));
+  h.tets = get(p + 24, 8);
+  const uint32_t render_bits = static_cast<uint32_t>(get(p + 32, 4)), encode_bits = static_cast<uint32_t>(get(p + 36, 4));
+  std::memcpy(&h.render_ms, &render_bits, 4);
+  std::memcpy(&h.encode_ms, &encode_bits, 4);
+  h.payload_bytes = static_cast<uint32_t>(get(p + 40, 4));
+  if (h.width == 0 || h.height == 0 || h.width > limits.max_image_side || h.height > limits.max_image_side)
+    throw ProtocolError(code::kBadMessage, "frame: image size " + std::to_string(h.width) + "x" + std::to_string(h.height) + " outside 1.." + std::to_string(limits.max_image_side));
+  if (uint64_t(h.payload_bytes) + kFrameHeaderBytes != bytes.size())
+    throw ProtocolError(code::kBadMessage, "frame: header says " + std::to_string(h.payload_bytes) + " payload bytes, message has " + std::to_string(bytes.size() - kFrameHeaderBytes));
+  return h;
+}
+
+}  // namespace tetrascope::protocol
