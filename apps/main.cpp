@@ -20,6 +20,8 @@
 #include "tetrascope/lod/multires.h"
 #include "tetrascope/lod/segmentation.h"
 #include "tetrascope/renderer/render.h"
+#include "tetrascope/server/loadtest.h"
+#include "tetrascope/server/server.h"
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/vtk_writer.h"
 #include "tetrascope/storage/mesh_error.h"
@@ -53,6 +55,14 @@ constexpr const char* kUsage =
     "                                quadric simplification of a whole mesh\n"
     "  error ORIGINAL SIMPLIFIED [--samples N] [--json]\n"
     "                                mean/max field error and domain error (§4.2.5)\n"
+    "  serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] [--workers N] [--cache-mb M]\n"
+    "                                [--max-sessions N] [--max-message-bytes B] [--max-messages-per-second N] [--max-image-side S]\n"
+    "                                [--max-upload-mb M] [--max-jobs N] [--max-fps F] [--budget TETS] [--interaction-budget TETS]\n"
+    "                                [--interaction-scale S] [--web DIR]\n"
+    "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"
+    "  loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random]\n"
+    "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--json]\n"
+    "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off\n";
 
@@ -567,6 +577,92 @@ int run_verify(const std::vector<std::string>& raw) {
   return report.ok ? 0 : 1;
 }
 
+double positive_number(const Args& args, const std::string& name, double fallback) {
+  if (!args.has(name)) return fallback;
+  const double v = real_number(args, name);
+  if (!(v > 0)) throw std::invalid_argument(name + " must be above 0");
+  return v;
+}
+
+int run_serve(const std::vector<std::string>& raw) {
+  Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-fps", "--budget", "--interaction-budget",
+                      "--interaction-scale", "--web"});
+  if (!args.has("--data") || !args.positionals().empty()) {
+    std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
+    return 2;
+  }
+  tetrascope::server::ServerOptions o;
+  o.data_dir = args.get("--data");
+  const std::filesystem::path source = TETRA_SOURCE_DIR;
+  o.web_root = args.has("--web") ? std::filesystem::path(args.get("--web")) : source / "web-client";
+  o.protocol_root = o.web_root.parent_path() / "protocol";
+  const uint32_t port = args.number("--port", 8080);
+  if (port > 65535) throw std::invalid_argument("--port must be 0 to 65535");
+  o.port = static_cast<uint16_t>(port);
+  o.bind = args.get("--bind", "127.0.0.1");
+  o.token = args.get("--token", std::getenv("TETRASCOPE_TOKEN") ? std::getenv("TETRASCOPE_TOKEN") : "");
+  o.io_threads = std::max(1u, args.number("--threads", 1));
+  o.render_workers = std::max(1u, args.number("--workers", 2));
+  o.cache_bytes = uint64_t(args.number("--cache-mb", 2048)) << 20;
+  o.limits.max_sessions = args.number("--max-sessions", o.limits.max_sessions);
+  o.limits.max_message_bytes = args.number("--max-message-bytes", static_cast<uint32_t>(o.limits.max_message_bytes));
+  o.limits.max_messages_per_second = args.number("--max-messages-per-second", o.limits.max_messages_per_second);
+  o.limits.max_image_side = std::min(8192u, args.number("--max-image-side", o.limits.max_image_side));
+  o.max_upload_bytes = uint64_t(args.number("--max-upload-mb", 8192)) << 20;
+  o.max_running_jobs = std::max(1u, args.number("--max-jobs", 1));
+  o.max_fps = positive_number(args, "--max-fps", 30);
+  o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
+  o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));
+  o.interaction_scale = positive_number(args, "--interaction-scale", 0.5);
+  if (o.interaction_scale < 0.25 || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
+  tetrascope::server::Server server(o);
+  std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
+              o.data_dir.c_str(), o.render_workers, o.token.empty() ? "" : ", token required");
+  std::fflush(stdout);
+  server.run_until_signal();
+  return 0;
+}
+
+int run_loadtest(const std::vector<std::string>& raw) {
+  Args args(raw, {"--json", "--allow-remote"}, {"--url", "--dataset", "--clients", "--duration", "--path", "--rate", "--size", "--token"});
+  if (!args.has("--url") || !args.has("--dataset")) {
+    std::fprintf(stderr, "usage: tetrascope loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random] [--json]\n");
+    return 2;
+  }
+  tetrascope::server::LoadtestOptions o;
+  o.url = args.get("--url");
+  o.dataset = args.get("--dataset");
+  o.token = args.get("--token", std::getenv("TETRASCOPE_TOKEN") ? std::getenv("TETRASCOPE_TOKEN") : "");
+  o.clients = args.number("--clients", 1);
+  o.duration_s = positive_number(args, "--duration", 10);
+  o.path = args.get("--path", "orbit");
+  o.rate_hz = positive_number(args, "--rate", 30);
+  o.allow_remote = args.has("--allow-remote");
+  if (args.has("--size")) {
+    unsigned w = 0, h = 0;
+    if (std::sscanf(args.get("--size").c_str(), "%ux%u", &w, &h) != 2 || w < 16 || h < 16 || w > 4096 || h > 4096) throw std::invalid_argument("--size expects WxH, each 16..4096");
+    o.width = w;
+    o.height = h;
+  }
+  const nlohmann::json r = tetrascope::server::run_loadtest(o);
+  if (args.has("--json")) {
+    std::cout << r.dump() << "\n";
+  } else {
+    for (size_t c = 0; c < r["per_client"].size(); ++c) {
+      const auto& pc = r["per_client"][c];
+      std::printf("client %2zu: %6.1f fps  %5llu frames  latency p50 %6.1f p95 %6.1f p99 %6.1f ms  %llu errors%s%s\n", c, pc["fps"].get<double>(),
+                  static_cast<unsigned long long>(pc["frames"].get<uint64_t>()), pc["latency_ms"]["p50"].get<double>(), pc["latency_ms"]["p95"].get<double>(),
+                  pc["latency_ms"]["p99"].get<double>(), static_cast<unsigned long long>(pc["errors"].get<uint64_t>()), pc["failure"].is_null() ? "" : "  ",
+                  pc["failure"].is_null() ? "" : pc["failure"].get<std::string>().c_str());
+    }
+    std::printf("total: %.1f fps over %u clients, latency p50 %.1f p95 %.1f p99 %.1f ms, %.0f KB/s, %llu errors\n", r["total_fps"].get<double>(), o.clients,
+                r["latency_ms"]["p50"].get<double>(), r["latency_ms"]["p95"].get<double>(), r["latency_ms"]["p99"].get<double>(), r["bytes_per_s"].get<double>() / 1024,
+                static_cast<unsigned long long>(r["errors"].get<uint64_t>()));
+  }
+  return r["errors"].get<uint64_t>() == 0 && r["clients_without_frames"].get<int64_t>() == 0 ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -585,6 +681,8 @@ int main(int argc, char** argv) {
     if (command == "render") return run_render(args);
     if (command == "simplify") return run_simplify(args);
     if (command == "error") return run_error(args);
+    if (command == "serve") return run_serve(args);
+    if (command == "loadtest") return run_loadtest(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
     return 2;
   } catch (const std::invalid_argument& e) {

@@ -1,0 +1,29 @@
+// `tetrascope loadtest`: N concurrent viewing sessions replaying a camera path against a
+// server; input-to-frame latency comes from each frame header's message id.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace tetrascope::server {
+
+struct LoadtestOptions {
+  std::string url;           // ws://HOST:PORT/api/v1/session
+  std::string dataset;
+  std::string token;
+  unsigned clients = 1;      // 1..kMaxLoadtestClients
+  double duration_s = 10;    // 1..kMaxLoadtestSeconds
+  std::string path = "orbit";  // orbit | random
+  double rate_hz = 30;       // camera messages a second per client
+  uint32_t width = 1024, height = 768;
+  bool allow_remote = false; // else loopback hosts only
+};
+constexpr unsigned kMaxLoadtestClients = 64;
+constexpr double kMaxLoadtestSeconds = 600;
+
+// Runs the test; throws std::invalid_argument for bad options, std::runtime_error when the
+// server cannot be reached. Returns per-client and total figures (see the README).
+nlohmann::json run_loadtest(const LoadtestOptions& options);
+
+}  // namespace tetrascope::server

@@ -1,0 +1,66 @@
+// `tetrascope serve`: one port for the web client (static files), the REST API under
+// /api/v1/ and WebSocket viewing sessions at /api/v1/session (Boost.Asio + Boost.Beast).
+//
+// Sessions share one pool of render workers (each with its own EGL context) and the
+// datasets' segment caches. A session has at most one render queued or running; camera
+// moves are latest-wins, so a burst renders once. Interaction frames use a smaller tet
+// budget and JPEG quality; ~150 ms after input stops the session sends a still frame at
+// full budget, quality and size. A slow client never makes frames pile up: one frame is in
+// flight and only the newest waits behind it.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "tetrascope/protocol/protocol.h"
+
+namespace tetrascope::server {
+
+struct ServerOptions {
+  std::filesystem::path data_dir;      // the stores (datasets), uploads/ and .jobs/
+  std::filesystem::path web_root;      // web-client/
+  std::filesystem::path protocol_root; // protocol/ (codec.js, schema, openapi.yaml)
+  std::string bind = "127.0.0.1";
+  uint16_t port = 8080;                // 0: any free port (tests)
+  std::string token;                   // empty: no auth, loopback only
+  unsigned io_threads = 1;
+  unsigned render_workers = 1;
+  protocol::Limits limits;
+  uint64_t max_upload_bytes = 8ull << 30;
+  uint64_t max_request_body_bytes = 1 << 20;  // REST bodies other than uploads
+  unsigned max_running_jobs = 1;
+  uint64_t cache_bytes = 2ull << 30;   // segment cache, all datasets together
+  double max_fps = 30;
+  uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
+  uint64_t still_budget = 500000;
+  int interaction_quality = 60, still_quality = 90;
+  double interaction_scale = 0.5;      // of the view size, for interaction frames (fragments dominate on llvmpipe)
+  std::chrono::milliseconds still_delay{150};
+  std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
+};
+
+class Server {
+ public:
+  // Checks the options (data folder exists, a token when binding beyond loopback), binds the
+  // port, opens the render contexts and starts serving. Throws std::invalid_argument or
+  // std::runtime_error with a message for the operator.
+  explicit Server(ServerOptions options);
+  ~Server();  // stops
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  uint16_t port() const;
+  void stop();
+  void wait();  // until stop() (or SIGINT/SIGTERM when run_until_signal)
+  void run_until_signal();
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace tetrascope::server

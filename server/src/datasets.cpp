@@ -1,0 +1,126 @@
+#include "datasets.h"
+
+#include <cmath>
+
+#include "tetrascope/lod/cut.h"
+
+namespace tetrascope::server {
+namespace fs = std::filesystem;
+
+bool valid_name(const std::string& name) {
+  if (name.empty() || name.size() > 128 || name[0] == '.') return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) return false;
+  return true;
+}
+
+std::optional<fs::path> resolve_inside(const fs::path& root, const std::string& relative) {
+  if (relative.empty() || relative.find('\0') != std::string::npos) return std::nullopt;
+  const fs::path rel(relative);
+  if (rel.is_absolute() || rel.has_root_name() || rel.has_root_directory()) return std::nullopt;
+  for (const auto& part : rel)
+    if (part == "..") return std::nullopt;
+  std::error_code ec;
+  const fs::path base = fs::weakly_canonical(root, ec);
+  if (ec) return std::nullopt;
+  const fs::path full = fs::weakly_canonical(base / rel, ec);  // resolves symlinks of the existing part
+  if (ec) return std::nullopt;
+  auto b = base.begin();
+  auto f = full.begin();
+  for (; b != base.end(); ++b, ++f)
+    if (f == full.end() || *f != *b) return std::nullopt;
+  return full;
+}
+
+namespace {
+
+nlohmann::json store_summary(const std::string& name, const storage::Store& store) {
+  const auto& m = store.manifest();
+  nlohmann::json attributes = nlohmann::json::array();
+  for (const auto& a : m.attributes) attributes.push_back({{"name", a.name}, {"components", a.components}, {"range", {a.min, a.max}}});
+  return {{"name", name},
+          {"state", "ready"},
+          {"tets", m.tet_count},
+          {"vertices", m.vertex_count},
+          {"source", fs::path(m.source_file).filename().string()},
+          {"attributes", attributes},
+          {"bounds", {{"min", m.bounds.min}, {"max", m.bounds.max}}}};
+}
+
+}  // namespace
+
+nlohmann::json DatasetRegistry::list() const {
+  nlohmann::json out = nlohmann::json::array();
+  std::error_code ec;
+  std::vector<fs::path> folders;
+  for (const auto& entry : fs::directory_iterator(data_dir_, ec))
+    if (entry.is_directory() && valid_name(entry.path().filename().string()) && entry.path().filename() != "uploads") folders.push_back(entry.path());
+  std::sort(folders.begin(), folders.end());
+  for (const auto& folder : folders) {
+    const std::string name = folder.filename().string();
+    if (!fs::exists(folder / "manifest.json")) continue;
+    try {
+      auto store = storage::Store::open(folder);
+      nlohmann::json summary = store_summary(name, *store);
+      if (!fs::exists(folder / "dag.bin")) summary["state"] = "single-level store: run tetrascope preprocess to view it";
+      out.push_back(std::move(summary));
+    } catch (const std::exception& e) {
+      out.push_back({{"name", name}, {"state", std::string("unreadable: ") + e.what()}});
+    }
+  }
+  return out;
+}
+
+std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
+  if (!valid_name(name)) throw NotFound("no dataset named '" + name + "'");
+  std::lock_guard lock(mutex_);
+  if (auto it = open_.find(name); it != open_.end()) return it->second;
+  const fs::path folder = data_dir_ / name;
+  if (name == "uploads" || !fs::exists(folder / "manifest.json")) throw NotFound("no dataset named '" + name + "'");
+  auto d = std::make_shared<Dataset>();
+  d->name = name;
+  d->store = storage::Store::open(folder);
+  d->dag = lod::open_dag(*d->store);
+  if (!d->dag) throw std::runtime_error(name + " is a single-level store: run tetrascope preprocess to view it");
+  d->cache = std::make_unique<storage::SegmentCache>(*d->store, cache_bytes_);
+  d->info = store_summary(name, *d->store);
+  d->info["levels"] = d->dag->level_count();
+  // value histograms of the coarsest level, for the transfer-function editor
+  lod::Cut coarse(*d->dag);
+  const auto mesh = lod::assemble_cut(*d->store, *d->cache, coarse, false).mesh;
+  d->info["coarsest_tets"] = mesh.tet_count();
+  for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
+    const auto& attr = mesh.attributes[a];
+    auto& out = d->info["attributes"][a];
+    const double lo = out["range"][0], hi = out["range"][1];
+    std::vector<uint64_t> bins(64, 0);
+    const uint32_t c = attr.info.components;
+    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+      double value = 0;
+      if (c == 1) {
+        value = attr.values[v];
+      } else {
+        for (uint32_t k = 0; k < c; ++k) value += double(attr.values[v * c + k]) * attr.values[v * c + k];
+        value = std::sqrt(value);
+      }
+      const double t = hi > lo ? (value - lo) / (hi - lo) : 0;
+      if (std::isfinite(t)) ++bins[std::clamp<int64_t>(static_cast<int64_t>(t * 64), 0, 63)];
+    }
+    out["histogram"] = bins;
+  }
+  open_[name] = d;
+  return d;
+}
+
+void DatasetRegistry::cache_stats(uint64_t& hits, uint64_t& misses, uint64_t& resident_bytes) const {
+  std::lock_guard lock(mutex_);
+  hits = misses = resident_bytes = 0;
+  for (const auto& [name, d] : open_) {
+    const auto s = d->cache->stats();
+    hits += s.hits;
+    misses += s.misses;
+    resident_bytes += s.resident_bytes;
+  }
+}
+
+}  // namespace tetrascope::server

@@ -1,0 +1,72 @@
+// Preprocessing jobs: `tetrascope preprocess --progress json` run as child processes (a job
+// that crashes or runs out of memory never harms the server), at most `max_running` at a
+// time, the rest queued. Each job lives in DATA/.jobs/ID/: job.json (its state, rewritten
+// atomically), log (everything the child printed) and out/ (the store being written). A
+// finished store is renamed to DATA/NAME, so a dataset never appears half written; a failed
+// or cancelled job's out/ is removed. After a restart, jobs that were running are reported
+// failed and queued ones run.
+#pragma once
+
+#include <sys/types.h>
+
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace tetrascope::server {
+
+class BadRequest : public std::runtime_error {
+ public:
+  BadRequest(int status, std::string code, const std::string& message) : std::runtime_error(message), status_(status), code_(std::move(code)) {}
+  int status() const { return status_; }
+  const std::string& code() const { return code_; }
+
+ private:
+  int status_;
+  std::string code_;
+};
+
+class JobRunner {
+ public:
+  JobRunner(std::filesystem::path data_dir, std::filesystem::path binary, unsigned max_running);
+  ~JobRunner();  // kills running children, waits for their threads
+
+  // body: {"source": "uploads/mesh.vtk" (inside the data folder), "name": "mesh",
+  //        "options": {"base_tets", "segment_tets", "level_ratio", "bins", "threads", "seed"}}.
+  // Throws BadRequest.
+  nlohmann::json submit(const nlohmann::json& body);
+  std::optional<nlohmann::json> get(const std::string& id) const;
+  nlohmann::json list() const;
+  std::optional<nlohmann::json> cancel(const std::string& id);
+  std::map<std::string, uint64_t> count_by_state() const;
+
+ private:
+  struct Job;
+  void load();
+  void schedule();  // starts queued jobs while slots are free (mutex held)
+  void run(std::shared_ptr<Job> job);
+  void save(const Job& job) const;  // mutex held
+  nlohmann::json to_json(const Job& job) const;
+
+  std::filesystem::path data_dir_, jobs_dir_, binary_;
+  unsigned max_running_;
+  mutable std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<Job>> jobs_;
+  std::deque<std::string> queue_;
+  unsigned running_ = 0;
+  bool stopping_ = false;
+  std::vector<std::thread> threads_;
+  uint64_t sequence_ = 0;
+};
+
+}  // namespace tetrascope::server

@@ -1,0 +1,40 @@
+// Counters and histograms of the server, written in Prometheus' text format at /metrics.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+
+namespace tetrascope::server {
+
+class Histogram {
+ public:
+  static constexpr std::array<double, 12> kBucketsMs{1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000};
+  void observe(double ms);
+  void write(std::string& out, const std::string& name, const std::string& help) const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::array<uint64_t, kBucketsMs.size() + 1> counts_{};
+  double sum_ = 0;
+  uint64_t count_ = 0;
+};
+
+struct Metrics {
+  std::atomic<int64_t> sessions_active{0};
+  std::atomic<uint64_t> sessions_total{0}, sessions_refused{0};
+  std::atomic<uint64_t> frames_interaction{0}, frames_still{0}, frames_dropped{0}, frame_bytes{0};
+  std::atomic<uint64_t> messages{0}, http_requests{0};
+  Histogram render_ms, encode_ms;
+  void count_error(const std::string& code);
+  std::map<std::string, uint64_t> errors() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, uint64_t> errors_;
+};
+
+}  // namespace tetrascope::server

@@ -1,0 +1,73 @@
+#include "render_pool.h"
+
+namespace tetrascope::server {
+
+RenderPool::RenderPool(unsigned workers) {
+  for (unsigned i = 0; i < std::max(1u, workers); ++i) threads_.emplace_back([this, i] { run(i); });
+  std::unique_lock lock(mutex_);
+  ready_.wait(lock, [&] { return started_ == threads_.size(); });
+  if (!error_.empty()) {
+    stopping_ = true;
+    lock.unlock();
+    wake_.notify_all();
+    for (auto& t : threads_) t.join();
+    throw renderer::RenderError(error_);
+  }
+}
+
+RenderPool::~RenderPool() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  for (auto& t : threads_) t.join();
+}
+
+void RenderPool::submit(Task task) {
+  {
+    std::lock_guard lock(mutex_);
+    tasks_.push_back(std::move(task));
+  }
+  wake_.notify_one();
+}
+
+size_t RenderPool::queued() const {
+  std::lock_guard lock(mutex_);
+  return tasks_.size();
+}
+
+void RenderPool::run(size_t index) {
+  Worker worker;
+  try {
+    worker.renderer = renderer::Renderer::create();
+  } catch (const std::exception& e) {
+    std::lock_guard lock(mutex_);
+    error_ = "render worker " + std::to_string(index) + ": " + e.what();
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (worker.renderer && description_.empty()) description_ = worker.renderer->description();
+    ++started_;
+  }
+  ready_.notify_all();
+  for (;;) {
+    Task task;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return stopping_ || !tasks_.empty(); });
+      if (stopping_) break;
+      task = std::move(tasks_.front());
+      tasks_.pop_front();
+    }
+    task(worker);  // tasks catch their own errors
+  }
+  // The context stays up to exit (see apps/main.cpp): Mesa, unloaded by eglTerminate, leaves
+  // allocations that leak checkers report against us.
+  static std::mutex kept_mutex;
+  static std::vector<renderer::Renderer*>* kept = new std::vector<renderer::Renderer*>();
+  std::lock_guard lock(kept_mutex);
+  if (worker.renderer) kept->push_back(worker.renderer.release());
+}
+
+}  // namespace tetrascope::server

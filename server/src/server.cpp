@@ -1,0 +1,72 @@
+#include "tetrascope/server/server.h"
+
+#include <csignal>
+
+#include "server_impl.h"
+
+namespace tetrascope::server {
+namespace fs = std::filesystem;
+
+Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
+  Impl& s = *impl_;
+  std::error_code ec;
+  if (!fs::is_directory(options.data_dir, ec)) throw std::invalid_argument("--data " + options.data_dir.string() + ": not a folder");
+  options.data_dir = fs::canonical(options.data_dir);
+  if (!fs::is_regular_file(options.web_root / "index.html", ec)) throw std::invalid_argument("the web client is missing: no " + (options.web_root / "index.html").string());
+  boost::system::error_code net_ec;
+  const auto address = net::ip::make_address(options.bind, net_ec);
+  if (net_ec) throw std::invalid_argument("--bind " + options.bind + ": not an IP address");
+  if (!address.is_loopback() && options.token.empty())
+    throw std::invalid_argument("--bind " + options.bind + " reaches beyond this machine: give a --token (clients then send Authorization: Bearer TOKEN)");
+  if (options.max_fps <= 0) throw std::invalid_argument("--max-fps must be above 0");
+  if (options.job_binary.empty()) options.job_binary = fs::read_symlink("/proc/self/exe", ec);
+  s.options = std::move(options);
+  s.datasets = std::make_unique<DatasetRegistry>(s.options.data_dir, s.options.cache_bytes);
+  s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs);
+  s.pool = std::make_unique<RenderPool>(s.options.render_workers);
+  s.acceptor = std::make_unique<net::ip::tcp::acceptor>(s.io);
+  const net::ip::tcp::endpoint endpoint(address, s.options.port);
+  s.acceptor->open(endpoint.protocol());
+  s.acceptor->set_option(net::socket_base::reuse_address(true));
+  s.acceptor->bind(endpoint, net_ec);
+  if (net_ec) throw std::runtime_error("cannot listen on " + s.options.bind + ":" + std::to_string(s.options.port) + ": " + net_ec.message());
+  s.acceptor->listen(net::socket_base::max_listen_connections);
+  s.accept();
+  for (unsigned i = 0; i < std::max(1u, s.options.io_threads); ++i) s.threads.emplace_back([&s] { s.io.run(); });
+}
+
+Server::~Server() {
+  stop();
+  wait();
+  // sessions hold the pool and datasets through Impl: the io threads are joined, so no
+  // handler runs any more; the pool's workers finish their current task and stop.
+  impl_->io.restart();
+  impl_->io.poll();  // lets pending handlers release their sessions
+  impl_->pool.reset();
+}
+
+uint16_t Server::port() const { return impl_->acceptor->local_endpoint().port(); }
+
+void Server::stop() {
+  if (impl_->stopped.exchange(true)) return;
+  net::post(impl_->io, [this] {
+    boost::system::error_code ec;
+    impl_->acceptor->close(ec);
+  });
+  impl_->io.stop();
+}
+
+void Server::wait() {
+  for (auto& t : impl_->threads)
+    if (t.joinable()) t.join();
+}
+
+void Server::run_until_signal() {
+  net::signal_set signals(impl_->io, SIGINT, SIGTERM);
+  signals.async_wait([this](const boost::system::error_code& ec, int) {
+    if (!ec) stop();
+  });
+  wait();
+}
+
+}  // namespace tetrascope::server

@@ -1,0 +1,44 @@
+// The parts of a running server, shared by the HTTP and WebSocket sessions.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+
+#include "datasets.h"
+#include "jobs.h"
+#include "metrics.h"
+#include "render_pool.h"
+#include "tetrascope/server/server.h"
+
+namespace tetrascope::server {
+
+namespace net = boost::asio;
+
+struct Server::Impl {
+  ServerOptions options;
+  net::io_context io;
+  std::unique_ptr<net::ip::tcp::acceptor> acceptor;
+  std::vector<std::thread> threads;
+  Metrics metrics;
+  std::unique_ptr<DatasetRegistry> datasets;
+  std::unique_ptr<RenderPool> pool;
+  std::unique_ptr<JobRunner> jobs;
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+  std::atomic<bool> stopped{false};
+
+  void accept();
+  // constant time in the token's length
+  bool token_matches(std::string_view offered) const;
+};
+
+// Starts one WebSocket viewing session on an upgraded connection (session.cpp).
+void start_ws_session(Server::Impl& server, boost::beast::tcp_stream stream, boost::beast::http::request<boost::beast::http::empty_body> request);
+
+}  // namespace tetrascope::server

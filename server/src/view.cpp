@@ -1,0 +1,98 @@
+#include "view.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+
+namespace tetrascope::server {
+namespace {
+
+std::atomic<uint64_t> next_generation{1};
+
+double ms_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number) {
+  const auto start = std::chrono::steady_clock::now();
+  const Dataset& d = *state.dataset;
+  if (dataset_ != state.dataset) {
+    dataset_ = state.dataset;
+    cut_ = std::make_unique<lod::Cut>(*d.dag);
+    scene_.reset();
+  }
+  const auto& manifest = d.store->manifest();
+  lod::TransferFunction tf = state.tf;
+  if (!tf.attribute.empty() || !manifest.attributes.empty()) {
+    const std::string name = tf.attribute.empty() ? manifest.attributes.front().name : tf.attribute;
+    auto a = std::find_if(manifest.attributes.begin(), manifest.attributes.end(), [&](const auto& x) { return x.name == name; });
+    if (a == manifest.attributes.end()) throw std::invalid_argument("no attribute '" + name + "' in " + d.name);
+    tf.attribute = name;
+    // colours stay put while the cut changes: the range is the dataset's, not the cut's
+    if (!tf.range) tf.range = std::array<double, 2>{a->components == 1 ? a->min : 0, a->max > a->min ? a->max : a->min + 1};
+  }
+  if (!renderer::known_colormap(tf.colormap)) throw std::invalid_argument("unknown colormap '" + tf.colormap + "'");
+
+  renderer::RenderSettings settings;
+  const double scale = still ? 1.0 : state.interaction_scale;
+  settings.width = std::max<uint32_t>(16, static_cast<uint32_t>(std::lround(state.width * scale)));
+  settings.height = std::max<uint32_t>(16, static_cast<uint32_t>(std::lround(state.height * scale)));
+  settings.camera = state.camera_set ? state.camera : lod::default_camera(manifest.bounds);
+  settings.camera.aspect = double(settings.width) / settings.height;
+  settings.dvr = state.dvr;
+  settings.iso = state.iso;
+  settings.surface = state.surface;
+  settings.wireframe = state.wireframe;
+  settings.box = state.box;
+  settings.tf = tf;
+  settings.iso_opacity = state.iso_opacity;
+  settings.isovalues = state.isovalues;
+  if (settings.iso && settings.isovalues.empty()) settings.isovalues = {0.5 * ((*tf.range)[0] + (*tf.range)[1])};
+
+  lod::CutCriteria criteria = lod::criteria_for(*d.store, *d.dag, tf);
+  if (settings.iso) {
+    const auto& a = manifest.attributes.at(criteria.channel);
+    const double lo = a.components == 1 ? a.min : 0, span = a.max > lo ? a.max - lo : 1;
+    for (double v : settings.isovalues) criteria.isovalues.push_back((v - lo) / span);
+  }
+  criteria.frustum = lod::view_frustum(settings.camera, 0, 1e30);
+  const auto changes = cut_->update(criteria, still ? state.budget : state.interaction_budget);
+  const bool cut_changed = !changes.added.empty() || !changes.removed.empty();
+  if (!scene_ || cut_changed || attribute_ != tf.attribute || second_ != state.color_by) {
+    const auto mesh = lod::assemble_cut(*d.store, *d.cache, *cut_, false).mesh;
+    scene_ = std::make_shared<const renderer::SceneMesh>(renderer::SceneMesh::from(mesh, tf.attribute, state.color_by));
+    attribute_ = tf.attribute;
+    second_ = state.color_by;
+    scene_generation_ = next_generation++;
+  }
+  settings.iso_by_second = !state.color_by.empty();
+  if (worker.scene_generation != scene_generation_) {
+    worker.renderer->set_mesh(*scene_);
+    worker.scene_generation = scene_generation_;
+  }
+  const renderer::Image image = worker.renderer->render(settings);
+  const double render_ms = ms_since(start);
+  const auto encode_start = std::chrono::steady_clock::now();
+  const bool png = still && state.png_stills;
+  std::vector<uint8_t> payload = png ? renderer::encode_png(image) : renderer::encode_jpeg(image, still ? state.still_quality : state.interaction_quality);
+  RenderedFrame frame;
+  frame.header.frame_number = frame_number;
+  frame.header.message_id = state.message_id;
+  frame.header.width = image.width;
+  frame.header.height = image.height;
+  frame.header.codec = png ? protocol::Codec::kPng : protocol::Codec::kJpeg;
+  frame.header.still = still;
+  frame.header.tets = scene_->tets.size() / 4;
+  frame.header.render_ms = static_cast<float>(render_ms);
+  frame.header.encode_ms = static_cast<float>(ms_since(encode_start));
+  frame.header.payload_bytes = static_cast<uint32_t>(payload.size());
+  const auto header = protocol::encode_frame_header(frame.header);
+  frame.bytes.reserve(header.size() + payload.size());
+  frame.bytes.insert(frame.bytes.end(), header.begin(), header.end());
+  frame.bytes.insert(frame.bytes.end(), payload.begin(), payload.end());
+  return frame;
+}
+
+}  // namespace tetrascope::server
