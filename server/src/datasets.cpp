@@ -38,10 +38,13 @@ nlohmann::json store_summary(const std::string& name, const storage::Store& stor
   const auto& m = store.manifest();
   nlohmann::json attributes = nlohmann::json::array();
   for (const auto& a : m.attributes) attributes.push_back({{"name", a.name}, {"components", a.components}, {"range", {a.min, a.max}}});
+  // a multiresolution store holds every level: its mesh is the input's
+  const nlohmann::json input = m.json.contains("multiresolution") ? m.json["multiresolution"].value("input", nlohmann::json::object()) : nlohmann::json::object();
   return {{"name", name},
           {"state", "ready"},
-          {"tets", m.tet_count},
-          {"vertices", m.vertex_count},
+          {"tets", input.value("tetrahedra", m.tet_count)},
+          {"vertices", input.value("vertices", m.vertex_count)},
+          {"stored_tets", m.tet_count},
           {"source", fs::path(m.source_file).filename().string()},
           {"attributes", attributes},
           {"bounds", {{"min", m.bounds.min}, {"max", m.bounds.max}}}};

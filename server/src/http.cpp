@@ -106,6 +106,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void do_read_header() {
     parser_.emplace();
     parser_->header_limit(kMaxHeaderBytes);
+    parser_->body_limit(boost::none);  // bodies are limited by the parser that reads them (upload or REST)
     stream_.expires_after(kHeaderTimeout);
     http::async_read_header(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_header, shared_from_this()));
   }
@@ -133,7 +134,25 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       start_ws_session(server_, std::move(stream_), parser_->release());
       return;
     }
-    if (target.path == "/api/v1/uploads" && request.method() == http::verb::post) return start_upload(target);
+    if (target.path == "/api/v1/uploads" && request.method() == http::verb::post) {  // refused before the client sends the body
+      const auto length = parser_->content_length();
+      if (length && *length > server_.options.max_upload_bytes)
+        return reply_then_close(error_response(version, false, 413, "too_large",
+                                               "upload of " + std::to_string(*length) + " bytes; the limit is " + std::to_string(server_.options.max_upload_bytes)));
+    }
+    if (request[http::field::expect] == "100-continue") {  // curl and others wait for this before sending a body
+      auto interim = std::make_shared<http::response<http::empty_body>>(http::status::continue_, version);
+      http::async_write(stream_, *interim, [self = shared_from_this(), interim, target](beast::error_code write_ec, size_t) {
+        if (write_ec) return self->shutdown();
+        self->read_body(target);
+      });
+      return;
+    }
+    read_body(target);
+  }
+
+  void read_body(const Target& target) {
+    if (target.path == "/api/v1/uploads" && parser_->get().method() == http::verb::post) return start_upload(target);
     // every other request has a small body (or none)
     body_parser_.emplace(std::move(*parser_));
     body_parser_->body_limit(server_.options.max_request_body_bytes);
@@ -273,9 +292,6 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     auto it = target.query.find("name");
     const std::string name = it == target.query.end() ? "" : it->second;
     if (!valid_name(name)) return reply_then_close(error_response(v, false, 400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.'"));
-    const auto length = parser_->content_length();
-    if (length && *length > server_.options.max_upload_bytes)
-      return reply_then_close(error_response(v, false, 413, "too_large", "upload of " + std::to_string(*length) + " bytes; the limit is " + std::to_string(server_.options.max_upload_bytes)));
     const fs::path folder = server_.options.data_dir / "uploads";
     std::error_code fec;
     fs::create_directories(folder, fec);

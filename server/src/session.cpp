@@ -10,6 +10,7 @@
 //    size) follows;
 //  - outgoing: replies in order; frames latest-wins, one in flight and one waiting.
 #include <chrono>
+#include <cmath>
 #include <deque>
 #include <mutex>
 #include <optional>
@@ -125,6 +126,15 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         hello_ = true;
         const auto& o = server_.options;
         const auto& l = o.limits;
+        nlohmann::json colormaps = nlohmann::json::object();  // for the client's legend and editor
+        for (const char* name : {"viridis", "plasma", "cool-warm", "grayscale"}) {
+          nlohmann::json samples = nlohmann::json::array();
+          for (int i = 0; i < 32; ++i) {
+            const auto rgb = renderer::colormap(name, i / 31.0);
+            samples.push_back({std::round(rgb[0] * 1000) / 1000, std::round(rgb[1] * 1000) / 1000, std::round(rgb[2] * 1000) / 1000});
+          }
+          colormaps[name] = samples;
+        }
         send_text(nlohmann::json({{"type", "hello.ok"},
                                   {"id", id},
                                   {"version", kVersion},
@@ -136,6 +146,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
                                     {"max_image_side", l.max_image_side},
                                     {"max_isovalues", l.max_isovalues},
                                     {"max_tf_points", l.max_tf_points}}},
+                                  {"colormaps", colormaps},
                                   {"defaults",
                                    {{"budget", o.still_budget},
                                     {"interaction_budget", o.interaction_budget},

@@ -1,0 +1,59 @@
+// Orbit / pan / zoom camera about a target, as the server's camera.set takes it.
+const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+const scale = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
+const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+const norm = (a) => scale(a, 1 / (Math.hypot(...a) || 1));
+
+function rotate(v, axis, angle) {  // Rodrigues
+  const k = norm(axis);
+  const c = Math.cos(angle), s = Math.sin(angle);
+  return add(add(scale(v, c), scale(cross(k, v), s)), scale(k, dot(k, v) * (1 - c)));
+}
+
+export class OrbitCamera {
+  constructor(view) {
+    this.set(view);
+  }
+
+  set(view) {
+    this.eye = [...view.eye];
+    this.target = [...view.target];
+    this.up = [...(view.up ?? [0, 1, 0])];
+    this.fov = view.fov ?? 30;
+  }
+
+  get() {
+    return { eye: [...this.eye], target: [...this.target], up: [...this.up], fov: this.fov };
+  }
+
+  // dx, dy: fractions of the view's height
+  orbit(dx, dy) {
+    let offset = sub(this.eye, this.target);
+    offset = rotate(offset, this.up, -dx * Math.PI);
+    const sideNow = norm(cross(this.up, offset));
+    const tilted = rotate(offset, sideNow, -dy * Math.PI);
+    // stop short of the poles so up stays meaningful
+    if (Math.abs(dot(norm(tilted), norm(this.up))) < 0.995) offset = tilted;
+    this.eye = add(this.target, offset);
+  }
+
+  pan(dx, dy) {
+    const offset = sub(this.eye, this.target);
+    const distance = Math.hypot(...offset);
+    const height = 2 * distance * Math.tan((this.fov * Math.PI) / 360);
+    const right = norm(cross(offset, this.up));
+    const upScreen = norm(cross(right, offset));
+    const move = add(scale(right, dx * height), scale(upScreen, -dy * height));
+    this.eye = add(this.eye, move);
+    this.target = add(this.target, move);
+  }
+
+  zoom(factor) {
+    const offset = sub(this.eye, this.target);
+    const distance = Math.hypot(...offset);
+    const next = Math.min(Math.max(distance * factor, 1e-6), 1e9);
+    this.eye = add(this.target, scale(offset, next / distance));
+  }
+}
