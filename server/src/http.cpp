@@ -154,6 +154,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void read_body(const Target& target) {
     if (target.path == "/api/v1/uploads" && parser_->get().method() == http::verb::post) return start_upload(target);
     // every other request has a small body (or none)
+    const auto length = parser_->content_length();
+    if (length && *length > server_.options.max_request_body_bytes)
+      return reply_then_close(error_response(parser_->get().version(), false, 413, "too_large",
+                                             "request body of " + std::to_string(*length) + " bytes; the limit is " + std::to_string(server_.options.max_request_body_bytes)));
     body_parser_.emplace(std::move(*parser_));
     body_parser_->body_limit(server_.options.max_request_body_bytes);
     http::async_read(stream_, buffer_, *body_parser_, [self = shared_from_this(), target](beast::error_code read_ec, size_t) {

@@ -76,20 +76,27 @@ void JobRunner::load() {
     if (!in) continue;
     nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
     if (j.is_discarded() || !j.is_object() || !j.contains("id")) continue;
+    // a job file is ours, but may be damaged: take what reads, skip what does not
+    auto text = [&](const char* key) { return j.contains(key) && j[key].is_string() ? j[key].get<std::string>() : std::string(); };
+    auto number = [&](const char* key) { return j.contains(key) && j[key].is_number() ? j[key].get<double>() : 0.0; };
     auto job = std::make_shared<Job>();
-    job->id = j.value("id", "");
+    job->id = text("id");
     if (job->id != entry.path().filename().string()) continue;
-    job->source = j.value("source", "");
-    job->name = j.value("name", "");
-    job->options = j.value("options", nlohmann::json::object());
-    job->state = j.value("state", "failed");
-    job->stage = j.value("stage", "");
-    job->error = j.value("error", "");
-    job->percent = j.value("percent", 0.0);
-    job->created = j.value("created", 0.0);
-    job->started = j.value("started", 0.0);
-    job->finished = j.value("finished", 0.0);
-    for (const auto& line : j.value("log_tail", std::vector<std::string>{})) job->log_tail.push_back(line);
+    job->source = text("source");
+    job->name = text("name");
+    if (j.contains("options") && j["options"].is_object()) job->options = j["options"];
+    job->state = text("state");
+    if (std::find(std::begin(kStates), std::end(kStates), job->state) == std::end(kStates)) job->state = "failed";
+    job->stage = text("stage");
+    job->error = text("error");
+    job->percent = number("percent");
+    job->elapsed_s = number("elapsed_s");
+    job->created = number("created");
+    job->started = number("started");
+    job->finished = number("finished");
+    if (j.contains("log_tail") && j["log_tail"].is_array())
+      for (const auto& line : j["log_tail"])
+        if (line.is_string()) job->log_tail.push_back(line.get<std::string>());
     if (job->state == "running") {
       job->state = "failed";
       job->error = "the server stopped while this job ran; submit it again";

@@ -41,7 +41,9 @@ TEST(ProtocolVectors, EveryControlMessageParsesOrIsRefusedWithItsCode) {
   for (const auto& vector : file["messages"]) {
     SCOPED_TRACE(vector["name"].get<std::string>());
     const std::string text = text_of(vector);
-    if (vector.contains("length")) EXPECT_EQ(text.size(), vector["length"].get<size_t>());
+    if (vector.contains("length")) {
+      EXPECT_EQ(text.size(), vector["length"].get<size_t>());
+    }
     if (vector.contains("error")) {
       try {
         parse_message(text, limits);

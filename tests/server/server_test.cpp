@@ -1,0 +1,484 @@
+// The real server on an ephemeral loopback port, driven by a real WebSocket client (Beast)
+// and HTTP requests: frames, latest-wins, stills, hostile messages, limits, auth, path
+// traversal, uploads and the job lifecycle, a restart, and a 4-client load test.
+#include <signal.h>
+#include <turbojpeg.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "tetrascope/server/client.h"
+#include "tetrascope/server/loadtest.h"
+#include "tetrascope/server/server.h"
+#include "test_paths.h"
+
+namespace tetrascope::server {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using tetrascope::testing::scratch_dir;
+using tetrascope::testing::shared_data;
+using tetrascope::testing::source_dir;
+using tetrascope::testing::tetrascope_binary;
+
+// The sample store is made once for the whole suite.
+const fs::path& sample_store() {
+  static const fs::path store = [] {
+    const fs::path dir = scratch_dir("server-sample-store") / "disk";
+    const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + dir.string() +
+                                " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
+    EXPECT_EQ(std::system(command.c_str()), 0);
+    return dir;
+  }();
+  return store;
+}
+
+ServerOptions options_for(const fs::path& data) {
+  ServerOptions o;
+  o.data_dir = data;
+  o.web_root = source_dir() / "web-client";
+  o.protocol_root = source_dir() / "protocol";
+  o.port = 0;
+  o.render_workers = 1;
+  o.job_binary = tetrascope_binary();
+  o.cache_bytes = 256ull << 20;
+  o.still_budget = 100000;
+  o.interaction_budget = 5000;
+  o.max_fps = 60;
+  return o;
+}
+
+class ServerTest : public ::testing::Test {
+ protected:
+  void start(ServerOptions o) {
+    server_ = std::make_unique<Server>(o);
+    base_ = "http://127.0.0.1:" + std::to_string(server_->port());
+    ws_ = "ws://127.0.0.1:" + std::to_string(server_->port()) + "/api/v1/session";
+  }
+  void start() { start(options_for(data_dir())); }
+  fs::path data_dir() {
+    if (data_.empty()) {
+      data_ = scratch_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+      fs::copy(sample_store(), data_ / "disk", fs::copy_options::recursive);
+    }
+    return data_;
+  }
+  // hello, view.resize, dataset.open; returns dataset.info
+  nlohmann::json open(SessionClient& c, uint32_t width = 320, uint32_t height = 240) {
+    c.send("hello", {{"version", 1}});
+    c.expect("hello.ok");
+    c.send("view.resize", {{"width", width}, {"height", height}});
+    c.send("dataset.open", {{"name", "disk"}});
+    return c.expect("dataset.info", 60s);
+  }
+  struct Frame {
+    protocol::FrameHeader header;
+    std::string jpeg;
+  };
+  static Frame next_frame(SessionClient& c, std::chrono::milliseconds timeout = 60s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto m = c.read(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
+      if (!m) break;
+      if (!m->binary) {
+        auto j = nlohmann::json::parse(m->data);
+        EXPECT_NE(j["type"], "error") << m->data;
+        continue;
+      }
+      Frame f;
+      f.header = protocol::decode_frame_header(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(m->data.data()), m->data.size()), protocol::Limits{});
+      f.jpeg = m->data.substr(protocol::kFrameHeaderBytes);
+      return f;
+    }
+    ADD_FAILURE() << "no frame within the timeout";
+    return {};
+  }
+  static Frame next_still(SessionClient& c) {
+    for (;;) {
+      Frame f = next_frame(c);
+      if (f.header.still || f.header.width == 0) return f;
+    }
+  }
+  static nlohmann::json camera(double azimuth, bool interacting = true) {
+    return {{"eye", {30 * std::cos(azimuth), 30 * std::sin(azimuth), 5.0}}, {"target", {0, 0, 0}}, {"up", {0, 0, 1}}, {"fov", 30}, {"interacting", interacting}};
+  }
+  nlohmann::json get_json(const std::string& path, const std::string& token = "") {
+    const HttpResult r = http_request(base_ + path, "GET", "", token);
+    EXPECT_EQ(r.status, 200) << path << ": " << r.body;
+    return nlohmann::json::parse(r.body);
+  }
+  nlohmann::json wait_job(const std::string& id, const std::function<bool(const nlohmann::json&)>& until, std::chrono::seconds timeout = 300s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    nlohmann::json job;
+    while (std::chrono::steady_clock::now() < deadline) {
+      job = get_json("/api/v1/jobs/" + id);
+      if (until(job)) return job;
+      std::this_thread::sleep_for(50ms);
+    }
+    ADD_FAILURE() << "job " << id << " never reached the state wanted: " << job.dump();
+    return job;
+  }
+  std::string upload(const fs::path& file, const std::string& name) {
+    std::ifstream in(file, std::ios::binary);
+    const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const HttpResult r = http_request(base_ + "/api/v1/uploads?name=" + name, "POST", body, "", "application/octet-stream");
+    EXPECT_EQ(r.status, 201) << r.body;
+    return nlohmann::json::parse(r.body).value("path", "");
+  }
+
+  fs::path data_;
+  std::unique_ptr<Server> server_;
+  std::string base_, ws_;
+};
+
+TEST_F(ServerTest, FramesArriveAndDecode) {
+  start();
+  SessionClient c(ws_);
+  const auto info = open(c);
+  EXPECT_EQ(info["name"], "disk");
+  EXPECT_EQ(info["tets"], 44832);
+  ASSERT_FALSE(info["attributes"].empty());
+  EXPECT_EQ(info["attributes"][0]["histogram"].size(), 64u);
+  const Frame f = next_still(c);
+  EXPECT_TRUE(f.header.still);
+  EXPECT_EQ(f.header.width, 320u);
+  EXPECT_EQ(f.header.height, 240u);
+  EXPECT_EQ(f.header.tets, 44832u);  // the whole mesh fits the still budget
+  // the payload is a JPEG of that size
+  tjhandle tj = tjInitDecompress();
+  int w = 0, h = 0, sub = 0, space = 0;
+  ASSERT_EQ(tjDecompressHeader3(tj, reinterpret_cast<const unsigned char*>(f.jpeg.data()), f.jpeg.size(), &w, &h, &sub, &space), 0);
+  std::vector<unsigned char> rgb(size_t(w) * h * 3);
+  ASSERT_EQ(tjDecompress2(tj, reinterpret_cast<const unsigned char*>(f.jpeg.data()), f.jpeg.size(), rgb.data(), w, 0, h, TJPF_RGB, 0), 0);
+  tjDestroy(tj);
+  EXPECT_EQ(w, 320);
+  EXPECT_EQ(h, 240);
+  // not a blank image: the volume covers part of the view with colours unlike the background
+  size_t lit = 0;
+  for (size_t i = 0; i < rgb.size(); i += 3)
+    if (std::abs(int(rgb[i + 1]) - 26) > 30) ++lit;
+  EXPECT_GT(lit, rgb.size() / 3 / 10);
+}
+
+TEST_F(ServerTest, LatestWinsUnderABurstAndAStillFollows) {
+  start();
+  SessionClient c(ws_);
+  open(c);
+  next_still(c);
+  uint32_t last = 0;
+  for (int i = 0; i < 60; ++i) last = c.send("camera.set", camera(0.02 * i));
+  std::vector<Frame> frames;
+  for (;;) {
+    Frame f = next_frame(c);
+    ASSERT_GT(f.header.width, 0u);
+    frames.push_back(f);
+    if (f.header.still) break;
+  }
+  // the burst rendered far fewer times than it had messages, and the still shows the last one
+  size_t interaction = 0;
+  for (const auto& f : frames) interaction += !f.header.still;
+  EXPECT_LT(interaction, 20u);
+  EXPECT_EQ(frames.back().header.message_id, last);
+  EXPECT_EQ(frames.back().header.width, 320u);
+  // interaction frames are smaller (interaction_scale) and cheaper (interaction budget)
+  if (interaction > 0) {
+    EXPECT_EQ(frames.front().header.width, 160u);
+    EXPECT_LT(frames.front().header.tets, frames.back().header.tets);
+  }
+  // frame numbers increase
+  for (size_t i = 1; i < frames.size(); ++i) EXPECT_GT(frames[i].header.frame_number, frames[i - 1].header.frame_number);
+}
+
+TEST_F(ServerTest, ACameraJumpRendersAStillAtOnce) {
+  start();
+  SessionClient c(ws_);
+  open(c);
+  next_still(c);
+  const uint32_t id = c.send("camera.set", camera(1.0, false));
+  const Frame f = next_frame(c);
+  EXPECT_TRUE(f.header.still);
+  EXPECT_EQ(f.header.message_id, id);
+}
+
+std::string error_code_of(SessionClient& c, uint32_t* id = nullptr) {
+  const auto j = c.expect("error");
+  if (id) *id = j["id"].is_null() ? 0 : j["id"].get<uint32_t>();
+  EXPECT_FALSE(j["message"].get<std::string>().empty());
+  return j["code"];
+}
+
+TEST_F(ServerTest, BadOversizedAndOutOfOrderMessagesGetErrorsAndTheSessionLivesOn) {
+  start();
+  SessionClient c(ws_);
+  c.send_text(R"({"type":"ping","id":1})");
+  EXPECT_EQ(error_code_of(c), "hello_first");
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  c.send_text("{not json");
+  EXPECT_EQ(error_code_of(c), "bad_json");
+  c.send_text(R"({"type":"ping","id":2,"pad":")" + std::string(70000, 'x') + "\"}");
+  EXPECT_EQ(error_code_of(c), "too_large");
+  c.send_binary("\x01\x02\x03");
+  EXPECT_EQ(error_code_of(c), "binary_message");
+  uint32_t id = 0;
+  c.send_text(R"({"type":"camera.explode","id":7})");
+  EXPECT_EQ(error_code_of(c, &id), "unknown_type");
+  EXPECT_EQ(id, 7u);
+  c.send("camera.set", camera(0));  // before dataset.open
+  EXPECT_EQ(error_code_of(c), "no_dataset");
+  c.send("dataset.open", {{"name", "nonexistent"}});
+  EXPECT_EQ(error_code_of(c), "not_found");
+  c.send("dataset.open", {{"name", "../disk"}});
+  EXPECT_EQ(error_code_of(c), "not_found");
+  c.send("view.resize", {{"width", 4097}, {"height", 100}});
+  EXPECT_EQ(error_code_of(c), "bad_field");
+  open(c);
+  c.send("tf.set", {{"attribute", "no_such_field"}});
+  EXPECT_EQ(error_code_of(c), "not_found");
+  c.send("tf.set", {{"colormap", "rainbow-unicorn"}});
+  EXPECT_EQ(error_code_of(c), "bad_field");
+  // still alive: pings answer and frames come
+  const uint32_t ping = c.send("ping");
+  EXPECT_EQ(c.expect("pong")["id"], ping);
+  EXPECT_TRUE(next_still(c).header.still);
+  EXPECT_FALSE(c.closed());
+}
+
+TEST_F(ServerTest, AClientThatKeepsSendingGarbageIsClosedWithPolicyViolation) {
+  auto o = options_for(data_dir());
+  o.limits.max_bad_messages = 5;
+  start(o);
+  SessionClient c(ws_);
+  for (int i = 0; i < 6; ++i) c.send_text("garbage");
+  bool closed = false;
+  try {
+    for (int i = 0; i < 20; ++i) c.read(2s);
+  } catch (const std::runtime_error&) {
+    closed = true;
+  }
+  EXPECT_TRUE(closed);
+  EXPECT_EQ(c.close_code(), 1008);
+}
+
+TEST_F(ServerTest, MessagesPerSecondAreLimited) {
+  auto o = options_for(data_dir());
+  o.limits.max_messages_per_second = 20;
+  o.limits.max_bad_messages = 100;
+  start(o);
+  SessionClient c(ws_);
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  for (int i = 0; i < 29; ++i) c.send("ping");  // with hello: 30 in well under a second
+  int pongs = 0, limited = 0;
+  while (pongs + limited < 29) {
+    auto m = c.read(5s);
+    ASSERT_TRUE(m.has_value());
+    const auto j = nlohmann::json::parse(m->data);
+    if (j["type"] == "pong") ++pongs;
+    else if (j["type"] == "error" && j["code"] == "rate_limited") ++limited;
+  }
+  EXPECT_EQ(pongs, 19);  // at the limit
+  EXPECT_EQ(limited, 10);  // past it
+}
+
+TEST_F(ServerTest, SessionsPerServerAreLimited) {
+  auto o = options_for(data_dir());
+  o.limits.max_sessions = 2;
+  start(o);
+  SessionClient a(ws_), b(ws_);
+  a.send("ping");  // sessions exist once accepted
+  EXPECT_THROW(SessionClient c(ws_), std::runtime_error);
+  b.close();
+  std::this_thread::sleep_for(300ms);
+  EXPECT_NO_THROW(SessionClient d(ws_));
+}
+
+TEST_F(ServerTest, ATokenIsRequiredWhenSet) {
+  auto o = options_for(data_dir());
+  o.token = "s3cret-token";
+  start(o);
+  EXPECT_EQ(http_request(base_ + "/api/v1/health", "GET").status, 401);
+  EXPECT_EQ(http_request(base_ + "/api/v1/health", "GET", "", "wrong-token!").status, 401);
+  EXPECT_EQ(http_request(base_ + "/api/v1/health", "GET", "", "s3cret-token").status, 200);
+  EXPECT_EQ(http_request(base_ + "/api/v1/datasets?token=s3cret-token", "GET").status, 200);
+  EXPECT_EQ(http_request(base_ + "/metrics", "GET").status, 401);
+  EXPECT_THROW(SessionClient c(ws_), std::runtime_error);
+  EXPECT_THROW(SessionClient c(ws_ + "?token=nope"), std::runtime_error);
+  SessionClient ok(ws_, "s3cret-token");
+  open(ok);
+  SessionClient by_query(ws_ + "?token=s3cret-token");
+  by_query.send("hello", {{"version", 1}});
+  by_query.expect("hello.ok");
+  // binding beyond loopback needs a token
+  auto open_bind = options_for(data_dir());
+  open_bind.bind = "0.0.0.0";
+  EXPECT_THROW(Server s(open_bind), std::invalid_argument);
+}
+
+TEST_F(ServerTest, PathsOutsideTheDataFolderAreRefused) {
+  start();
+  const fs::path outside = scratch_dir("server-outside");
+  std::ofstream(outside / "secret.vtk") << "# vtk DataFile Version 3.0\n";
+  fs::create_directories(data_dir() / "uploads");
+  fs::create_symlink(outside / "secret.vtk", data_dir() / "uploads" / "link.vtk");
+  for (const std::string source : {"../secret.vtk", "/etc/passwd", "uploads/../../secret.vtk", "uploads/link.vtk"}) {
+    const HttpResult r = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "x"}}).dump());
+    EXPECT_EQ(r.status, 403) << source << ": " << r.body;
+  }
+  EXPECT_EQ(http_request(base_ + "/api/v1/uploads?name=../evil.vtk", "POST", "data").status, 400);
+  EXPECT_EQ(http_request(base_ + "/api/v1/uploads?name=.hidden", "POST", "data").status, 400);
+  EXPECT_EQ(http_request(base_ + "/../../etc/passwd", "GET").status, 404);
+  EXPECT_EQ(http_request(base_ + "/%2e%2e/CMakeLists.txt", "GET").status, 404);
+  EXPECT_EQ(http_request(base_ + "/protocol/../CMakeLists.txt", "GET").status, 404);
+  EXPECT_EQ(http_request(base_ + "/api/v1/datasets/..%2F..%2Fetc", "GET").status, 404);
+  EXPECT_FALSE(fs::exists(data_dir() / "x"));
+  // what is inside is served
+  EXPECT_EQ(http_request(base_ + "/", "GET").status, 200);
+  EXPECT_EQ(http_request(base_ + "/protocol/js/codec.js", "GET").status, 200);
+  const HttpResult api = http_request(base_ + "/api/v1/openapi.yaml", "GET");
+  EXPECT_EQ(api.status, 200);
+  EXPECT_NE(api.body.find("openapi:"), std::string::npos);
+}
+
+TEST_F(ServerTest, UploadsPastTheLimitAreRefusedAndLeaveNothing) {
+  auto o = options_for(data_dir());
+  o.max_upload_bytes = 1000;
+  start(o);
+  EXPECT_EQ(http_request(base_ + "/api/v1/uploads?name=big.vtk", "POST", std::string(5000, 'x'), "", "application/octet-stream").status, 413);
+  EXPECT_EQ(http_request(base_ + "/api/v1/uploads?name=ok.vtk", "POST", std::string(1000, 'x'), "", "application/octet-stream").status, 201);
+  EXPECT_FALSE(fs::exists(data_dir() / "uploads" / "big.vtk"));
+  EXPECT_FALSE(fs::exists(data_dir() / "uploads" / ".big.vtk.part"));
+  EXPECT_EQ(fs::file_size(data_dir() / "uploads" / "ok.vtk"), 1000u);
+  // a REST body past its limit
+  o.max_request_body_bytes = 100;
+  server_.reset();
+  start(o);
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", std::string(200, ' ')).status, 413);
+}
+
+TEST_F(ServerTest, AJobTurnsAnUploadIntoADatasetThatOpensAndRenders) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to the checkout";
+  start();
+  const std::string source = upload(shared_data() / "fea_bracket.vtk", "fea_bracket.vtk");
+  EXPECT_EQ(source, "uploads/fea_bracket.vtk");
+  HttpResult r = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "bracket"}, {"options", {{"base_tets", 5000}}}}).dump());
+  ASSERT_EQ(r.status, 202) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"];
+  // a second job for the same name is refused while the first runs
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "bracket"}}).dump()).status, 409);
+  const auto job = wait_job(id, [](const nlohmann::json& j) { return j["state"] != "queued" && j["state"] != "running"; });
+  ASSERT_EQ(job["state"], "done") << job.dump();
+  EXPECT_EQ(job["percent"], 100.0);
+  const auto datasets = get_json("/api/v1/datasets")["datasets"];
+  bool listed = false;
+  for (const auto& d : datasets)
+    if (d["name"] == "bracket") listed = d["state"] == "ready";
+  EXPECT_TRUE(listed) << datasets.dump();
+  SessionClient c(ws_);
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  c.send("view.resize", {{"width", 200}, {"height", 150}});
+  c.send("dataset.open", {{"name", "bracket"}});
+  EXPECT_GT(c.expect("dataset.info", 60s)["tets"].get<uint64_t>(), 10000u);
+  const Frame f = next_still(c);
+  EXPECT_EQ(f.header.width, 200u);
+  EXPECT_GT(f.header.tets, 0u);
+  // bad job requests
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", "{nope").status, 400);
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "bracket"}}).dump()).status, 409);  // exists
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", "uploads/none.vtk"}, {"name", "n"}}).dump()).status, 404);
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "n"}, {"options", {{"rm_rf", 1}}}}).dump()).status, 400);
+  EXPECT_EQ(http_request(base_ + "/api/v1/jobs/nonexistent", "GET").status, 404);
+}
+
+TEST_F(ServerTest, AJobKilledMidwayIsReportedFailedAndLeavesNoHalfStore) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to the checkout";
+  start();
+  const std::string source = upload(shared_data() / "nasa_oxygen_post.vtk", "oxygen.vtk");
+  HttpResult r = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "oxygen"}}).dump());
+  ASSERT_EQ(r.status, 202) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"];
+  const auto running = wait_job(id, [](const nlohmann::json& j) { return !j["pid"].is_null() || j["state"] != "running"; }, 60s);
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  std::this_thread::sleep_for(300ms);  // into its work
+  ASSERT_EQ(::kill(running["pid"].get<int>(), SIGKILL), 0);
+  const auto job = wait_job(id, [](const nlohmann::json& j) { return j["state"] != "running"; });
+  EXPECT_EQ(job["state"], "failed");
+  EXPECT_NE(job["error"].get<std::string>().find("signal 9"), std::string::npos) << job.dump();
+  EXPECT_FALSE(fs::exists(data_dir() / "oxygen"));
+  EXPECT_FALSE(fs::exists(data_dir() / ".jobs" / id / "out"));
+  for (const auto& d : get_json("/api/v1/datasets")["datasets"]) EXPECT_NE(d["name"], "oxygen");
+  // the server carries on
+  EXPECT_EQ(get_json("/api/v1/health")["status"], "ok");
+}
+
+TEST_F(ServerTest, JobsAreReportedCorrectlyAfterARestart) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to the checkout";
+  start();
+  const std::string source = upload(shared_data() / "nasa_oxygen_post.vtk", "oxygen.vtk");
+  const std::string small = upload(tetrascope::testing::sample_mesh(), "small.vtk");
+  HttpResult done = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", small}, {"name", "small"}}).dump());
+  ASSERT_EQ(done.status, 202) << done.body;
+  const std::string done_id = nlohmann::json::parse(done.body)["id"];
+  wait_job(done_id, [](const nlohmann::json& j) { return j["state"] == "done"; });
+  HttpResult r = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "oxygen"}}).dump());
+  ASSERT_EQ(r.status, 202) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"];
+  wait_job(id, [](const nlohmann::json& j) { return !j["pid"].is_null(); }, 60s);
+  server_.reset();  // the server stops while the job runs
+  fs::create_directories(data_dir() / ".jobs" / "damaged");
+  std::ofstream(data_dir() / ".jobs" / "damaged" / "job.json") << "{\"id\": 7, \"state\": [";
+  start();
+  const auto job = get_json("/api/v1/jobs/" + id);
+  ASSERT_EQ(job["state"], "failed") << job.dump();
+  EXPECT_NE(job["error"].get<std::string>().find("server stopped"), std::string::npos);
+  EXPECT_EQ(get_json("/api/v1/jobs/" + done_id)["state"], "done");
+  EXPECT_FALSE(fs::exists(data_dir() / "oxygen"));
+  EXPECT_TRUE(fs::exists(data_dir() / "small" / "manifest.json"));
+}
+
+TEST_F(ServerTest, MetricsCountSessionsAndFrames) {
+  start();
+  {
+    SessionClient c(ws_);
+    open(c);
+    next_still(c);
+  }
+  const HttpResult m = http_request(base_ + "/metrics", "GET");
+  EXPECT_EQ(m.status, 200);
+  EXPECT_NE(m.body.find("tetrascope_sessions_total 1"), std::string::npos) << m.body;
+  EXPECT_NE(m.body.find("tetrascope_frames_total{kind=\"still\"} "), std::string::npos);
+  EXPECT_EQ(m.body.find("tetrascope_frames_total{kind=\"still\"} 0\n"), std::string::npos);
+  EXPECT_NE(m.body.find("tetrascope_render_ms_bucket{le=\"+Inf\"}"), std::string::npos);
+  EXPECT_NE(m.body.find("tetrascope_cache_misses_total"), std::string::npos);
+  EXPECT_NE(m.body.find("tetrascope_jobs{state=\"running\"} 0"), std::string::npos);
+}
+
+TEST_F(ServerTest, LoadtestWithFourClientsHasNoErrorsAndEveryClientGetsFrames) {
+  start();
+  LoadtestOptions o;
+  o.url = ws_;
+  o.dataset = "disk";
+  o.clients = 4;
+  o.duration_s = 10;
+  o.width = 320;
+  o.height = 240;
+  const nlohmann::json r = run_loadtest(o);
+  EXPECT_EQ(r["errors"], 0) << r.dump();
+  EXPECT_EQ(r["clients_without_frames"], 0) << r.dump();
+  EXPECT_GT(r["latency_ms"]["samples"].get<uint64_t>(), 4u);
+  for (const auto& c : r["per_client"]) EXPECT_GT(c["frames"].get<uint64_t>(), 0u);
+  // out of bounds
+  o.clients = 65;
+  EXPECT_THROW(run_loadtest(o), std::invalid_argument);
+  o.clients = 1;
+  o.url = "ws://example.com:80/api/v1/session";
+  EXPECT_THROW(run_loadtest(o), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tetrascope::server
