@@ -162,6 +162,18 @@ Frustum view_frustum(const Camera& c, double near_plane, double far_plane) {
   return f;
 }
 
+std::array<float, 3> TransferFunction::user_color(double value) const {
+  auto rgb = [](const std::array<double, 4>& c) { return std::array<float, 3>{float(c[1]), float(c[2]), float(c[3])}; };
+  if (value <= colors.front()[0]) return rgb(colors.front());
+  if (value >= colors.back()[0]) return rgb(colors.back());
+  size_t i = 1;
+  while (value > colors[i][0]) ++i;
+  const double span = colors[i][0] - colors[i - 1][0], t = span > 0 ? (value - colors[i - 1][0]) / span : 1;
+  std::array<float, 3> out{};
+  for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(colors[i - 1][k + 1] + t * (colors[i][k + 1] - colors[i - 1][k + 1]));
+  return out;
+}
+
 double TransferFunction::alpha(double value) const {
   if (opacity.empty()) {
     if (!range) return 1;
@@ -204,8 +216,22 @@ TransferFunction TransferFunction::from_json(const nlohmann::json& j) {
         if (!tf.opacity.empty() && v < tf.opacity.back()[0]) throw std::invalid_argument("transfer function: opacity points must ascend in value");
         tf.opacity.push_back({v, a});
       }
-    } else if (key == "colors" || key == "name") {
-      // used by the renderer / client
+    } else if (key == "colors") {
+      if (!value.is_array() || value.size() > 256) throw std::invalid_argument("transfer function: \"colors\" must be a list of at most 256 [value, r, g, b] points");
+      for (const auto& point : value) {
+        if (!point.is_array() || point.size() != 4) throw std::invalid_argument("transfer function: colour points are [value, r, g, b]");
+        std::array<double, 4> c{};
+        for (size_t k = 0; k < 4; ++k) {
+          if (!point[k].is_number()) throw std::invalid_argument("transfer function: colour points are [value, r, g, b]");
+          c[k] = point[k].get<double>();
+        }
+        if (!std::isfinite(c[0]) || !(c[1] >= 0 && c[1] <= 1 && c[2] >= 0 && c[2] <= 1 && c[3] >= 0 && c[3] <= 1))
+          throw std::invalid_argument("transfer function: colour values must be finite and r, g, b in [0, 1]");
+        if (!tf.colors.empty() && c[0] < tf.colors.back()[0]) throw std::invalid_argument("transfer function: colour points must ascend in value");
+        tf.colors.push_back(c);
+      }
+    } else if (key == "name") {
+      // a label for the client
     } else {
       throw std::invalid_argument("transfer function: unknown key \"" + key + "\"");
     }
@@ -219,6 +245,11 @@ nlohmann::json TransferFunction::to_json() const {
   nlohmann::json points = nlohmann::json::array();
   for (const auto& p : opacity) points.push_back({p[0], p[1]});
   j["opacity"] = points;
+  if (!colors.empty()) {
+    nlohmann::json c = nlohmann::json::array();
+    for (const auto& p : colors) c.push_back({p[0], p[1], p[2], p[3]});
+    j["colors"] = c;
+  }
   return j;
 }
 

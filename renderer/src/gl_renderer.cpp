@@ -306,7 +306,7 @@ class GlRenderer final : public Renderer {
     }
     if (!(hi > lo)) hi = lo + 1;
     if (!known_colormap(s.tf.colormap)) throw std::invalid_argument("unknown colormap '" + s.tf.colormap + "' (viridis, plasma, cool-warm, grayscale)");
-    update_colormap(s.tf.colormap);
+    update_colormap(s.tf, lo, hi);
 
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
     glViewport(0, 0, static_cast<GLsizei>(s.width), static_cast<GLsizei>(s.height));
@@ -580,16 +580,19 @@ class GlRenderer final : public Renderer {
     fb_height_ = h;
   }
 
-  void update_colormap(const std::string& name) {
-    if (name == colormap_name_) return;
+  // the colour texture over [lo, hi]: the named colormap, or the user's colour points
+  void update_colormap(const lod::TransferFunction& tf, double lo, double hi) {
+    std::string key = tf.colormap;
+    if (!tf.colors.empty()) key = tf.to_json()["colors"].dump() + "|" + std::to_string(lo) + "|" + std::to_string(hi);
+    if (key == colormap_name_) return;
     std::vector<uint8_t> texels(256 * 4);
     for (int i = 0; i < 256; ++i) {
-      auto c = colormap(name, i / 255.0);
+      auto c = tf.colors.empty() ? colormap(tf.colormap, i / 255.0) : tf.user_color(lo + (hi - lo) * i / 255.0);
       for (int k = 0; k < 3; ++k) texels[4 * i + k] = static_cast<uint8_t>(std::lround(c[k] * 255));
       texels[4 * i + 3] = 255;
     }
     glTextureSubImage1D(colormap_texture_, 0, 0, 256, GL_RGBA, GL_UNSIGNED_BYTE, texels.data());
-    colormap_name_ = name;
+    colormap_name_ = key;
   }
 
   void update_table(const lod::TransferFunction& tf, double lo, double hi, double unit, double max_length) {

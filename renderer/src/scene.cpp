@@ -152,7 +152,7 @@ struct Classified {
 Classified classify(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double t) {
   const double value = lo + std::clamp(t, 0.0, 1.0) * (hi - lo);
   const double alpha = std::clamp(tf.alpha(value), 0.0, 0.999999);
-  return {colormap(tf.colormap, t), -std::log(1 - alpha) / unit_distance};
+  return {tf.colors.empty() ? colormap(tf.colormap, t) : tf.user_color(value), -std::log(1 - alpha) / unit_distance};
 }
 }  // namespace
 

@@ -103,6 +103,30 @@ TEST(Render, LinearFieldInABoxMatchesExactly) {
   EXPECT_GE(renderer::psnr(gl().render(s), renderer::reference_render(scene, s)), 38.0);
 }
 
+TEST(Render, UserColourPointsReplaceTheColormap) {
+  // f = x: colours from red (x = 0) to blue (x = 1); the GPU path and the reference agree,
+  // and the image holds both reddish and bluish pixels (no colormap has both)
+  const storage::TetMesh m = box(6);
+  const auto scene = renderer::SceneMesh::from(m, "f");
+  auto s = settings_for(scene, 96);
+  s.tf = lod::TransferFunction::from_json(nlohmann::json::parse(R"({"attribute": "f", "range": [0, 1], "opacity": [[0, 0.5], [1, 0.5]],
+                                                                    "colors": [[0, 1, 0, 0], [1, 0, 0, 1]]})"));
+  ASSERT_EQ(s.tf.colors.size(), 2u);
+  gl().set_mesh(scene);
+  const renderer::Image image = gl().render(s);
+  EXPECT_GE(renderer::psnr(image, renderer::reference_render(scene, s)), 35.0);
+  size_t reddish = 0, bluish = 0;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) {
+    const int r = image.rgba[i], g = image.rgba[i + 1], b = image.rgba[i + 2];
+    reddish += r > b + 40 && r > g + 40;
+    bluish += b > r + 40 && b > g + 40;
+  }
+  EXPECT_GT(reddish, 100u);
+  EXPECT_GT(bluish, 100u);
+  EXPECT_THROW(lod::TransferFunction::from_json(nlohmann::json::parse(R"({"colors": [[0, 1, 0, 2]]})")), std::invalid_argument);
+  EXPECT_THROW(lod::TransferFunction::from_json(nlohmann::json::parse(R"({"colors": [[1, 1, 0, 0], [0, 0, 0, 1]]})")), std::invalid_argument);
+}
+
 TEST(Render, EveryModeMatchesItsGoldenImage) {
   const storage::TetMesh m = storage::load_mesh(sample_mesh());
   const auto scene = renderer::SceneMesh::from(m, "Temp");

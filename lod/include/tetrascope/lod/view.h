@@ -41,17 +41,20 @@ Frustum view_frustum(const Camera& camera, double near_plane, double far_plane);
 // Transfer function: a colormap and a piecewise-linear opacity over a value range of one
 // attribute. JSON (the same the browser sends):
 //   {"attribute": "Temp", "range": [lo, hi], "colormap": "viridis",
-//    "opacity": [[value, alpha], ...]}
-// values in the attribute's own units; alpha in [0, 1]; outside the points the end alphas
-// hold; without "opacity" a ramp from 0 to 1 over the range; without "range" the
-// attribute's full range.
+//    "opacity": [[value, alpha], ...], "colors": [[value, r, g, b], ...]}
+// values in the attribute's own units; alpha and r, g, b in [0, 1]; outside the points the
+// end values hold; without "opacity" a ramp from 0 to 1 over the range; "colors" (user
+// colour points) replace the colormap; without "range" the attribute's full range.
 struct TransferFunction {
   std::string attribute;
   std::optional<std::array<double, 2>> range;
   std::string colormap = "viridis";
   std::vector<std::array<double, 2>> opacity;  // (value, alpha), ascending values
+  std::vector<std::array<double, 4>> colors;   // (value, r, g, b), ascending values; empty: the colormap
   // Opacity at a value.
   double alpha(double value) const;
+  // The user colour at a value (colors must not be empty).
+  std::array<float, 3> user_color(double value) const;
   static TransferFunction from_json(const nlohmann::json& j);  // throws std::invalid_argument
   nlohmann::json to_json() const;
 };
