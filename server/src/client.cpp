@@ -147,7 +147,6 @@ int SessionClient::close_code() const { return impl_->code; }
 
 void SessionClient::close() {
   if (impl_->is_closed) return;
-  beast::error_code ec;
   beast::get_lowest_layer(impl_->ws).expires_after(std::chrono::seconds(2));
   impl_->ws.async_close(websocket::close_code::normal, [](beast::error_code) {});
   impl_->io.restart();

@@ -279,6 +279,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     for (const auto& [code, count] : m.errors()) out += "tetrascope_errors_total{code=\"" + code + "\"} " + std::to_string(count) + "\n";
     m.render_ms.write(out, "tetrascope_render_ms", "cut update, assembly and drawing of a frame, ms");
     m.encode_ms.write(out, "tetrascope_encode_ms", "JPEG/PNG encoding of a frame, ms");
+    m.cut_ms.write(out, "tetrascope_cut_update_ms", "cut update of a frame, ms");
+    m.assemble_ms.write(out, "tetrascope_assemble_ms", "assembly of a changed cut's mesh and scene, ms (0: unchanged)");
+    m.upload_ms.write(out, "tetrascope_upload_ms", "scene upload to a render context, ms (0: the context held it)");
+    m.draw_ms.write(out, "tetrascope_draw_ms", "drawing and readback of a frame, ms");
     uint64_t hits = 0, misses = 0, resident = 0;
     server_.datasets->cache_stats(hits, misses, resident);
     gauge("tetrascope_cache_hits_total", "counter", "segment cache hits", double(hits));

@@ -12,7 +12,7 @@ namespace tetrascope::server {
 
 class Histogram {
  public:
-  static constexpr std::array<double, 12> kBucketsMs{1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000};
+  static constexpr std::array<double, 12> kBucketsMs{0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000};
   void observe(double ms);
   void write(std::string& out, const std::string& name, const std::string& help) const;
 
@@ -28,7 +28,7 @@ struct Metrics {
   std::atomic<uint64_t> sessions_total{0}, sessions_refused{0};
   std::atomic<uint64_t> frames_interaction{0}, frames_still{0}, frames_dropped{0}, frame_bytes{0};
   std::atomic<uint64_t> messages{0}, http_requests{0};
-  Histogram render_ms, encode_ms;
+  Histogram render_ms, encode_ms, cut_ms, assemble_ms, upload_ms, draw_ms;
   void count_error(const std::string& code);
   std::map<std::string, uint64_t> errors() const;
 

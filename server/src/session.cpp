@@ -319,6 +319,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       RenderedFrame frame = view_.render(snapshot, kind == Pending::kStill, worker, number);
       server_.metrics.render_ms.observe(frame.header.render_ms);
       server_.metrics.encode_ms.observe(frame.header.encode_ms);
+      server_.metrics.cut_ms.observe(frame.cut_ms);
+      server_.metrics.assemble_ms.observe(frame.assemble_ms);
+      server_.metrics.upload_ms.observe(frame.upload_ms);
+      server_.metrics.draw_ms.observe(frame.draw_ms);
       ++(kind == Pending::kStill ? server_.metrics.frames_still : server_.metrics.frames_interaction);
       server_.metrics.frame_bytes += frame.bytes.size();
       net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(frame.bytes)]() mutable { self->send_frame(std::move(bytes)); });

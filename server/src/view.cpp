@@ -58,8 +58,12 @@ RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& w
     for (double v : settings.isovalues) criteria.isovalues.push_back((v - lo) / span);
   }
   criteria.frustum = lod::view_frustum(settings.camera, 0, 1e30);
+  RenderedFrame frame;
+  auto step = std::chrono::steady_clock::now();
   const auto changes = cut_->update(criteria, still ? state.budget : state.interaction_budget);
+  frame.cut_ms = ms_since(step);
   const bool cut_changed = !changes.added.empty() || !changes.removed.empty();
+  step = std::chrono::steady_clock::now();
   if (!scene_ || cut_changed || attribute_ != tf.attribute || second_ != state.color_by) {
     const auto mesh = lod::assemble_cut(*d.store, *d.cache, *cut_, false).mesh;
     scene_ = std::make_shared<const renderer::SceneMesh>(renderer::SceneMesh::from(mesh, tf.attribute, state.color_by));
@@ -67,17 +71,21 @@ RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& w
     second_ = state.color_by;
     scene_generation_ = next_generation++;
   }
+  frame.assemble_ms = ms_since(step);
   settings.iso_by_second = !state.color_by.empty();
+  step = std::chrono::steady_clock::now();
   if (worker.scene_generation != scene_generation_) {
     worker.renderer->set_mesh(*scene_);
     worker.scene_generation = scene_generation_;
   }
+  frame.upload_ms = ms_since(step);
+  step = std::chrono::steady_clock::now();
   const renderer::Image image = worker.renderer->render(settings);
+  frame.draw_ms = ms_since(step);
   const double render_ms = ms_since(start);
   const auto encode_start = std::chrono::steady_clock::now();
   const bool png = still && state.png_stills;
   std::vector<uint8_t> payload = png ? renderer::encode_png(image) : renderer::encode_jpeg(image, still ? state.still_quality : state.interaction_quality);
-  RenderedFrame frame;
   frame.header.frame_number = frame_number;
   frame.header.message_id = state.message_id;
   frame.header.width = image.width;
