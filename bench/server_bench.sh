@@ -5,9 +5,15 @@
 # seconds each (default 20). Records input-to-frame latency p50/p95/p99, fps (total, per
 # client min/max), KB per interaction and still frame, errors and the server's RSS (before,
 # after, peak) in bench/results/server.json.
+#   SCALE=0.375 CLIENTS="1" bench/server_bench.sh   another interaction scale (results in
+#   bench/results/server-scale-0.375.json), other client counts
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration="${1:-20}"
+scale="${SCALE:-0.5}"
+clients_list="${CLIENTS:-1 4 16}"
+results=bench/results/server.json
+[[ "$scale" == "0.5" ]] || results="bench/results/server-scale-$scale.json"
 cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null
 bin=build/release/apps/tetrascope
 mkdir -p bench/out/serve-data
@@ -18,9 +24,9 @@ ln -sfn "$PWD/bench/out/blade5m-small-base.mt" bench/out/serve-data/blade5m
 port=18080
 rows=()
 for dataset in blade1m blade5m; do
-  for clients in 1 4 16; do
+  for clients in $clients_list; do
     # a fresh server per run: RSS growth is that run's
-    $bin serve --data bench/out/serve-data --port $port --workers 2 --cache-mb 1024 > bench/out/serve.log 2>&1 &
+    $bin serve --data bench/out/serve-data --port $port --workers 2 --cache-mb 1024 --interaction-scale "$scale" > bench/out/serve.log 2>&1 &
     server=$!
     for _ in $(seq 50); do curl -sf "http://127.0.0.1:$port/api/v1/health" > /dev/null && break; sleep 0.2; done
     j=$($bin loadtest --url "ws://127.0.0.1:$port/api/v1/session" --dataset $dataset --clients $clients --duration "$duration" --size 1024x768 --json | tail -1) || true
@@ -32,17 +38,17 @@ j = json.loads(sys.argv[1]); j.pop('per_client'); j['store'] = '$dataset'
 # mean ms per frame of each step, from the server's histograms (_sum / _count)
 m = sys.argv[2]
 for step in ['cut_update', 'assemble', 'upload', 'draw', 'encode']:
-    total = float(re.search(r'tetrascope_%s_ms_sum (\\S+)' % step, m).group(1))
-    count = float(re.search(r'tetrascope_%s_ms_count (\\S+)' % step, m).group(1))
+    total = float(re.search(r'^tetrascope_%s_ms_sum (\\S+)' % step, m, re.M).group(1))
+    count = float(re.search(r'^tetrascope_%s_ms_count (\\S+)' % step, m, re.M).group(1))
     j['server_mean_%s_ms' % step] = total / count if count else None
-j['frames_dropped'] = int(float(re.search(r'tetrascope_frames_dropped_total (\\S+)', m).group(1)))
+j['frames_dropped'] = int(float(re.search(r'^tetrascope_frames_dropped_total (\\S+)', m, re.M).group(1)))
 print(json.dumps(j))" "$j" "$metrics")")
     echo "${rows[-1]}"
   done
 done
-python3 - "${rows[@]}" <<'PY'
+python3 - "$results" "$scale" "${rows[@]}" <<'PY'
 import json, sys, datetime
 json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, Mesa llvmpipe, loopback",
-           "server": "tetrascope serve --workers 2 --cache-mb 1024 (interaction: 15000 tets, half size, JPEG q60; still: 500000 tets, q90)",
-           "runs": [json.loads(r) for r in sys.argv[1:]]}, open("bench/results/server.json", "w"), indent=2)
+           "server": "tetrascope serve --workers 2 --cache-mb 1024 --interaction-scale %s (interaction: 15000 tets, JPEG q60; still: 500000 tets, q90)" % sys.argv[2],
+           "runs": [json.loads(r) for r in sys.argv[3:]]}, open(sys.argv[1], "w"), indent=2)
 PY
