@@ -168,7 +168,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
           throw ProtocolError(code::kNotFound, std::string("cannot open '") + m->name + "': " + e.what(), id);
         }
         nlohmann::json info = dataset->info;
-        const lod::Camera camera = lod::default_camera(dataset->store->manifest().bounds);
+        const lod::Camera camera = opening_camera(dataset->store->manifest().bounds);
         info["type"] = "dataset.info";
         info["id"] = id;
         info["camera"] = {{"eye", camera.eye}, {"target", camera.target}, {"up", camera.up}, {"fov", camera.fov_degrees}};

@@ -15,6 +15,8 @@ double ms_since(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
+lod::Camera opening_camera(const storage::Bounds& bounds) { return lod::parse_camera("azimuth=30,elevation=20,distance=1.95,fov=30", bounds); }
+
 RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number) {
   const auto start = std::chrono::steady_clock::now();
   const Dataset& d = *state.dataset;
@@ -39,7 +41,7 @@ RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& w
   const double scale = still ? 1.0 : state.interaction_scale;
   settings.width = std::max<uint32_t>(16, static_cast<uint32_t>(std::lround(state.width * scale)));
   settings.height = std::max<uint32_t>(16, static_cast<uint32_t>(std::lround(state.height * scale)));
-  settings.camera = state.camera_set ? state.camera : lod::default_camera(manifest.bounds);
+  settings.camera = state.camera_set ? state.camera : opening_camera(manifest.bounds);
   settings.camera.aspect = double(settings.width) / settings.height;
   settings.dvr = state.dvr;
   settings.iso = state.iso;

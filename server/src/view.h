@@ -49,6 +49,10 @@ struct RenderedFrame {
   double cut_ms = 0, assemble_ms = 0, upload_ms = 0, draw_ms = 0;
 };
 
+// The view a dataset opens with: from azimuth 30°, elevation 20°, far enough (1.95 box
+// diagonals) for the whole bounding sphere to fit the 30° field of view.
+lod::Camera opening_camera(const storage::Bounds& bounds);
+
 class ViewRenderer {
  public:
   // Updates the cut for the view (still: the full budget, else the interaction budget),
