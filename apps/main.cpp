@@ -614,7 +614,7 @@ int run_serve(const std::vector<std::string>& raw) {
   o.max_fps = positive_number(args, "--max-fps", 30);
   o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));
-  o.interaction_scale = positive_number(args, "--interaction-scale", 0.5);
+  o.interaction_scale = positive_number(args, "--interaction-scale", 0.375);
   if (o.interaction_scale < 0.25 || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   tetrascope::server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),

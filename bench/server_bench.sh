@@ -5,15 +5,15 @@
 # seconds each (default 20). Records input-to-frame latency p50/p95/p99, fps (total, per
 # client min/max), KB per interaction and still frame, errors and the server's RSS (before,
 # after, peak) in bench/results/server.json.
-#   SCALE=0.375 CLIENTS="1" bench/server_bench.sh   another interaction scale (results in
-#   bench/results/server-scale-0.375.json), other client counts
+#   SCALE=0.5 CLIENTS="1" bench/server_bench.sh   another interaction scale (results in
+#   bench/results/server-scale-0.5.json), other client counts
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration="${1:-20}"
-scale="${SCALE:-0.5}"
+scale="${SCALE:-0.375}"
 clients_list="${CLIENTS:-1 4 16}"
 results=bench/results/server.json
-[[ "$scale" == "0.5" ]] || results="bench/results/server-scale-$scale.json"
+[[ "$scale" == "0.375" ]] || results="bench/results/server-scale-$scale.json"
 cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null
 bin=build/release/apps/tetrascope
 mkdir -p bench/out/serve-data

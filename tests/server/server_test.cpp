@@ -186,7 +186,7 @@ TEST_F(ServerTest, LatestWinsUnderABurstAndAStillFollows) {
   EXPECT_EQ(frames.back().header.width, 320u);
   // interaction frames are smaller (interaction_scale) and cheaper (interaction budget)
   if (interaction > 0) {
-    EXPECT_EQ(frames.front().header.width, 160u);
+    EXPECT_EQ(frames.front().header.width, static_cast<uint32_t>(std::lround(320 * ServerOptions{}.interaction_scale)));
     EXPECT_LT(frames.front().header.tets, frames.back().header.tets);
   }
   // frame numbers increase

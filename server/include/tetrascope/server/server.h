@@ -37,7 +37,7 @@ struct ServerOptions {
   uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
   uint64_t still_budget = 500000;
   int interaction_quality = 60, still_quality = 90;
-  double interaction_scale = 0.5;      // of the view size, for interaction frames (fragments dominate on llvmpipe)
+  double interaction_scale = 0.375;    // of the view size, for interaction frames (fragments dominate on llvmpipe; bench/server_bench.sh)
   std::chrono::milliseconds still_delay{150};
   std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
 };
