@@ -167,10 +167,17 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       for (uint32_t v = 0; v < n; ++v) {
         double sum = 0;
         if (!criteria.isovalues.empty()) {
+          // The isosurface crosses the segment where its values straddle the isovalue: the
+          // error that matters is that of the values nearest it on either side (a histogram
+          // of a coarse segment has few filled bins, so the isovalue's own bin is often empty).
           auto h = dag_.spatial_histogram(v, criteria.channel);
           for (double iso : criteria.isovalues) {
             const int bin = std::clamp(static_cast<int>(iso * bins), 0, static_cast<int>(bins) - 1);
-            for (int b = std::max(0, bin - 1); b <= std::min<int>(bins - 1, bin + 1); ++b) sum = std::max<double>(sum, h[b]);
+            int below = bin, above = bin;
+            while (below >= 0 && h[below] <= 0) --below;
+            while (above < static_cast<int>(bins) && h[above] <= 0) ++above;
+            if (below < 0 || above >= static_cast<int>(bins)) continue;  // all on one side: the surface misses it
+            for (int b = below; b <= above; ++b) sum = std::max<double>(sum, h[b]);
           }
         } else {
           auto h = dag_.field_histogram(v, criteria.channel);

@@ -208,6 +208,29 @@ TEST(Multires, UpdateHonoursTheBudgetAndReportsWhatChanged) {
   EXPECT_EQ(cut.tet_count(), coarsest);
 }
 
+TEST(Multires, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {
+  // A viewer's cut goes through many criteria (volume, then an isosurface); the cut a new
+  // criterion settles on must not depend on where the cut was before.
+  const Built& b = built("sample");
+  auto store = storage::Store::open(b.store);
+  auto dag = lod::open_dag(*store);
+  lod::TransferFunction tf;
+  tf.attribute = "Temp";
+  auto volume = lod::criteria_for(*store, *dag, tf);
+  auto iso = volume;
+  iso.isovalues = {0.5};  // exactly on a bin edge, where no vertex value lies
+  const lod::Camera camera = lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds);
+  for (auto* c : {&volume, &iso}) c->frustum = lod::view_frustum(camera, 0, 1e30);
+  lod::Cut fresh(*dag);
+  fresh.update(iso, 500000);
+  lod::Cut refined(*dag);
+  refined.update(volume, 500000);
+  EXPECT_EQ(refined.tet_count(), b.report.levels.front().tets);
+  refined.update(iso, 500000);
+  EXPECT_GT(fresh.tet_count(), lod::Cut(*dag).tet_count()) << "the isosurface's segments refine";
+  EXPECT_EQ(refined.active_patches(), fresh.active_patches());
+}
+
 TEST(Multires, HistogramsAreMonotoneAndBoundTheMeasuredError) {
   const Built& b = built("sample");
   auto store = storage::Store::open(b.store);
