@@ -247,6 +247,8 @@ function sendMode() {
     parts.push('dvr');
   }
   send('mode.set', { mode: parts.join('+'), wireframe: $('wireframe').checked, box: $('box').checked });
+  // the renderer blends isosurfaces only without the volume; with it they are opaque
+  $('iso-opacity').disabled = $('mode-dvr').checked;
 }
 
 function isovalue() {
