@@ -19,6 +19,7 @@
 #include "tetrascope/lod/mesh_error.h"
 #include "tetrascope/lod/multires.h"
 #include "tetrascope/lod/segmentation.h"
+#include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/server.h"
@@ -376,12 +377,8 @@ int run_cut(const std::vector<std::string>& raw) {
   tetrascope::lod::TransferFunction tf;
   if (args.has("--tf")) tf = read_tf(args.get("--tf"));
   if (args.has("--attribute")) tf.attribute = args.get("--attribute");
-  tetrascope::lod::CutCriteria criteria = tetrascope::lod::criteria_for(*store, *dag, tf);
-  if (args.has("--iso")) {
-    const auto& a = store->manifest().attributes.at(criteria.channel);
-    const double lo = a.components == 1 ? a.min : 0, span = a.max > lo ? a.max - lo : 1;
-    for (double v : number_list("--iso", args.get("--iso"))) criteria.isovalues.push_back((v - lo) / span);
-  }
+  const std::vector<double> isovalues = args.has("--iso") ? number_list("--iso", args.get("--iso")) : std::vector<double>{};
+  tetrascope::lod::CutCriteria criteria = tetrascope::lod::criteria_for(*store, *dag, tf, isovalues);
   if (args.has("--camera")) {
     tetrascope::lod::Camera camera = tetrascope::lod::parse_camera(args.get("--camera"), store->manifest().bounds);
     if (args.has("--size")) {
@@ -418,16 +415,13 @@ int run_render(const std::vector<std::string>& raw) {
   }
   r::RenderSettings settings;
   const std::string mode = args.get("--mode", "dvr");
-  settings.dvr = settings.iso = settings.surface = false;
-  for (size_t at = 0; at <= mode.size();) {
-    size_t plus = mode.find('+', at);
-    if (plus == std::string::npos) plus = mode.size();
-    const std::string m = mode.substr(at, plus - at);
-    if (m == "dvr") settings.dvr = true;
-    else if (m == "iso") settings.iso = true;
-    else if (m == "surface") settings.surface = true;
-    else throw std::invalid_argument("--mode: unknown mode '" + m + "' (dvr, iso, surface, or combinations such as dvr+iso)");
-    at = plus + 1;
+  try {
+    const tetrascope::protocol::Modes modes = tetrascope::protocol::parse_modes(mode);
+    settings.dvr = modes.dvr;
+    settings.iso = modes.iso;
+    settings.surface = modes.surface;
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--mode: ") + e.what());
   }
   settings.wireframe = args.has("--wireframe");
   settings.box = args.has("--box");
@@ -596,7 +590,7 @@ int run_serve(const std::vector<std::string>& raw) {
   o.data_dir = args.get("--data");
   const std::filesystem::path source = TETRA_SOURCE_DIR;
   o.web_root = args.has("--web") ? std::filesystem::path(args.get("--web")) : source / "web-client";
-  o.protocol_root = o.web_root.parent_path() / "protocol";
+  o.protocol_root = (o.web_root / "..").lexically_normal() / "protocol";  // a trailing '/' on --web too
   const uint32_t port = args.number("--port", 8080);
   if (port > 65535) throw std::invalid_argument("--port must be 0 to 65535");
   o.port = static_cast<uint16_t>(port);

@@ -294,7 +294,7 @@ size_t ResidentSegments::update(const Cut& cut, storage::SegmentCache& cache) {
   return added;
 }
 
-CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf) {
+CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf, std::span<const double> isovalues) {
   CutCriteria c;
   const auto& attributes = store.manifest().attributes;
   uint32_t channel = 0;
@@ -305,8 +305,10 @@ CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const Tran
     channel = 0;
   }
   c.channel = channel;
-  if (channel >= dag.channel_count()) return c;
+  if (attributes.empty()) return c;
   const double lo = attributes[channel].components == 1 ? attributes[channel].min : 0, hi = attributes[channel].max;
+  for (double v : isovalues) c.isovalues.push_back((v - lo) / (hi > lo ? hi - lo : 1));
+  if (channel >= dag.channel_count()) return c;
   TransferFunction f = tf;
   if (!f.range) f.range = std::array<double, 2>{lo, hi > lo ? hi : lo + 1};
   c.opacity.resize(dag.bins());

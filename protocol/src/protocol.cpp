@@ -149,16 +149,13 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     ModeSet m;
     const std::string mode = f.string("mode", 64).value_or("");
     if (mode.empty()) f.fail("mode", "missing");
-    m.dvr = m.iso = m.surface = false;
-    for (size_t at = 0; at <= mode.size();) {
-      size_t plus = mode.find('+', at);
-      if (plus == std::string::npos) plus = mode.size();
-      const std::string part = mode.substr(at, plus - at);
-      if (part == "dvr") m.dvr = true;
-      else if (part == "iso" || part == "isosurface") m.iso = true;
-      else if (part == "surface") m.surface = true;
-      else f.fail("mode", "unknown mode '" + part + "' (dvr, iso, surface or combinations such as dvr+iso)");
-      at = plus + 1;
+    try {
+      const Modes modes = parse_modes(mode);
+      m.dvr = modes.dvr;
+      m.iso = modes.iso;
+      m.surface = modes.surface;
+    } catch (const std::invalid_argument& e) {
+      f.fail("mode", e.what());
     }
     m.wireframe = f.boolean("wireframe");
     m.box = f.boolean("box");
@@ -212,6 +209,21 @@ uint64_t get(const uint8_t* at, size_t bytes) {
 }
 
 }  // namespace
+
+Modes parse_modes(std::string_view text) {
+  Modes m;
+  for (size_t at = 0; at <= text.size();) {
+    size_t plus = text.find('+', at);
+    if (plus == std::string_view::npos) plus = text.size();
+    const std::string_view part = text.substr(at, plus - at);
+    if (part == "dvr") m.dvr = true;
+    else if (part == "iso" || part == "isosurface") m.iso = true;
+    else if (part == "surface") m.surface = true;
+    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface or combinations such as dvr+iso)");
+    at = plus + 1;
+  }
+  return m;
+}
 
 Envelope parse_message(std::string_view text, const Limits& limits) {
   if (text.size() > limits.max_message_bytes)

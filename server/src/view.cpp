@@ -53,12 +53,7 @@ RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& w
   settings.isovalues = state.isovalues;
   if (settings.iso && settings.isovalues.empty()) settings.isovalues = {0.5 * ((*tf.range)[0] + (*tf.range)[1])};
 
-  lod::CutCriteria criteria = lod::criteria_for(*d.store, *d.dag, tf);
-  if (settings.iso) {
-    const auto& a = manifest.attributes.at(criteria.channel);
-    const double lo = a.components == 1 ? a.min : 0, span = a.max > lo ? a.max - lo : 1;
-    for (double v : settings.isovalues) criteria.isovalues.push_back((v - lo) / span);
-  }
+  lod::CutCriteria criteria = lod::criteria_for(*d.store, *d.dag, tf, settings.iso ? std::span<const double>(settings.isovalues) : std::span<const double>());
   criteria.frustum = lod::view_frustum(settings.camera, 0, 1e30);
   RenderedFrame frame;
   auto step = std::chrono::steady_clock::now();

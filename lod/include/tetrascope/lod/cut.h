@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -115,7 +116,8 @@ struct CutMesh {
 CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true);
 
 // The criteria of a transfer function over a store's attribute (the manifest's range maps
-// the function's values onto the histogram bins).
-CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf);
+// the function's values onto the histogram bins), and of isosurfaces at `isovalues`
+// (attribute units; normalised here over the same range).
+CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf, std::span<const double> isovalues = {});
 
 }  // namespace tetrascope::lod

@@ -84,6 +84,13 @@ struct CameraSet {
 struct TfSet {
   nlohmann::json tf;  // checked: attribute, colormap, range, opacity, colors (lod::TransferFunction's JSON)
 };
+// What to draw: "dvr", "iso" (or "isosurface") and "surface" joined by '+', as mode.set and
+// `tetrascope render --mode` take them. Throws std::invalid_argument naming an unknown part.
+struct Modes {
+  bool dvr = false, iso = false, surface = false;
+};
+Modes parse_modes(std::string_view text);
+
 struct ModeSet {
   bool dvr = true, iso = false, surface = false;
   std::optional<bool> wireframe, box;
