@@ -14,6 +14,8 @@
 
 #include "tetrascope/storage/mesh_error.h"
 
+#include "tetrascope/storage/parse_number.h"
+
 namespace tetrascope::storage::detail {
 
 class InputFile {
@@ -98,10 +100,7 @@ class Cursor {
   uint64_t line_ = 1;
 };
 
-// Parses a whole token as a number; false when it is not one.
-bool parse_number(std::string_view token, double& out);
-bool parse_number(std::string_view token, int64_t& out);
-bool parse_number(std::string_view token, uint64_t& out);
+using tetrascope::parse_number;
 
 std::string quote_text(std::string_view text);  // 'text', shortened to 40 characters
 
