@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# The best picture per tet (multi-triangulation fidelity): for each case (mesh, camera, transfer
+# function or isosurface), the image of the store's cut at budgets of 5/10/25/50% of the input
+# and of the whole mesh decimated to the same number of tets by `tetrascope simplify`, each
+# compared with the image of the full mesh (PSNR, dB). Volume cases use the exact CPU integrator
+# (`render --reference`), so renderer errors stay out; isosurface cases use the GL renderer
+# (the same renderer on both sides). Also the coarsest level against a decimation of its size.
+# Writes bench/results/fidelity.json.
+#   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
+# Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50"),
+#      PREPROCESS_ARGS (extra options for `tetrascope preprocess`, to compare builds),
+#      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after").
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null
+bin=build/release/apps/tetrascope
+out=bench/out/fidelity
+mkdir -p "$out" bench/results
+size=${FIDELITY_SIZE:-256x192}
+budgets=${FIDELITY_BUDGETS:-"5 10 25 50"}
+tag=${FIDELITY_TAG:-current}
+py=/usr/bin/python3
+data=../shared/data
+
+# name | mesh | camera | mode | unit distance | transfer function (JSON) or isovalue
+cases=(
+  "onera-wing-broad|$data/onera_m6_potential.vtk|eye=2.2,2.4,1.8,target=0.6,0.7,0,up=0,1,0,fov=40|dvr|0.05|{\"attribute\":\"pressure_coefficient\",\"range\":[-0.72,0.75],\"colormap\":\"viridis\",\"opacity\":[[-0.72,0.9],[-0.25,0.5],[-0.1,0],[0.1,0],[0.3,0.5],[0.75,0.9]]}"
+  "onera-wing-narrow|$data/onera_m6_potential.vtk|eye=2.2,2.4,1.8,target=0.6,0.7,0,up=0,1,0,fov=40|dvr|0.05|{\"attribute\":\"pressure_coefficient\",\"range\":[-0.72,0.75],\"colormap\":\"viridis\",\"opacity\":[[-0.72,0.9],[-0.4,0.6],[-0.3,0],[0.75,0]]}"
+  "onera-wing-iso|$data/onera_m6_potential.vtk|eye=2.2,2.4,1.8,target=0.6,0.7,0,up=0,1,0,fov=40|iso|0|pressure_coefficient=-0.2"
+  "oxygen-post-outside|$data/nasa_oxygen_post.vtk|azimuth=30,elevation=20|dvr|0|{\"attribute\":\"VelocityMagnitude\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[1.39,0.4]]}"
+  "oxygen-post-inside|$data/nasa_oxygen_post.vtk|eye=0,-6,2.4,target=0,6,2.4,fov=60|dvr|0|{\"attribute\":\"VelocityMagnitude\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[0.5,0],[1.39,0.6]]}"
+  "bracket-outside|$data/fea_bracket.vtk|azimuth=30,elevation=20|dvr|0|{\"attribute\":\"von_mises_stress_psi\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[21,0.5]]}"
+  "blade1m-outside|bench/out/blade1m.vtk|azimuth=30,elevation=20|dvr|0|"
+  "blade1m-inside|bench/out/blade1m.vtk|azimuth=30,elevation=20,distance=0.25|dvr|0|"
+)
+
+psnr() { "$py" bench/psnr.py "$1" "$2"; }
+tets_of() { "$py" -c 'import json,sys; print(json.loads(sys.stdin.read().strip().splitlines()[-1])["tets"])'; }
+
+rows=()
+for spec in "${cases[@]}"; do
+  IFS='|' read -r name mesh camera mode unit tf <<< "$spec"
+  if (($# > 0)) && [[ " $* " != *" $name "* ]]; then continue; fi
+  [[ -s "$mesh" ]] || { echo "skip $name: no $mesh"; continue; }
+  base=$(basename "${mesh%.vtk}")
+  store="$out/$base${PREPROCESS_ARGS:+-custom}.store"
+  [[ -d "$store" ]] || "$bin" preprocess "$mesh" -o "$store" --progress none ${PREPROCESS_ARGS:-} > /dev/null
+  input_tets=$("$bin" info --json "$mesh" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
+  if [[ -z "$tf" ]]; then  # the first attribute, opacity 0 to 0.3 over its range
+    tf=$("$bin" info --json "$mesh" | "$py" -c 'import json,sys; a=json.load(sys.stdin)["attributes"][0]; print(json.dumps({"attribute":a["name"],"colormap":"viridis","opacity":[[a["min"],0],[a["max"],0.3]]}))')
+  fi
+  args=(--camera "$camera" --size "$size")
+  if [[ "$mode" == iso ]]; then
+    args+=(--mode iso --attribute "${tf%%=*}" --iso "${tf#*=}")
+    image() { "$bin" render "$1" -o "$2.png" "${args[@]}" "${@:3}" --json; }
+    shown() { echo "$1.png"; }
+  else
+    echo "$tf" > "$out/$name.tf.json"
+    args+=(--tf "$out/$name.tf.json")
+    [[ "$unit" != 0 ]] && args+=(--unit-distance "$unit")
+    image() { "$bin" render "$1" -o "$2.png" "${args[@]}" "${@:3}" --reference --json; }
+    shown() { echo "$1.reference.png"; }
+  fi
+  image "$mesh" "$out/$name.full" > /dev/null
+  full=$(shown "$out/$name.full")
+  coarsest=$("$bin" info --json "$store" | "$py" -c 'import json,sys; j=json.load(sys.stdin); print(j["multiresolution"]["levels"][-1]["tets"])')
+  for pct in coarsest $budgets; do
+    budget=$coarsest
+    [[ "$pct" != coarsest ]] && budget=$((input_tets * pct / 100))
+    tets=$(image "$store" "$out/$name.cut$pct" --budget "$budget" | tets_of)
+    cut_db=$(psnr "$full" "$(shown "$out/$name.cut$pct")")
+    dec="$out/$base.dec$tets.vtk"
+    [[ -s "$dec" ]] || "$bin" simplify "$mesh" -o "$dec" --tets "$tets" > /dev/null
+    dec_tets=$("$bin" info --json "$dec" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
+    image "$dec" "$out/$name.dec$pct" > /dev/null
+    dec_db=$(psnr "$full" "$(shown "$out/$name.dec$pct")")
+    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db}"
+    echo "$row"
+    rows+=("$row")
+  done
+done
+"$py" - "$size" "${rows[@]}" <<'PY'
+import datetime, json, os, sys
+path = "bench/results/fidelity.json"
+old = json.load(open(path)) if os.path.exists(path) else {"runs": []}
+rows = [json.loads(r) for r in sys.argv[2:]]
+keys = {(r["case"], r["tag"], r["budget"]) for r in rows}
+kept = [r for r in old.get("runs", []) if (r["case"], r["tag"], r["budget"]) not in keys]
+json.dump({"date": datetime.date.today().isoformat(), "size": sys.argv[1],
+           "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; decimation by tetrascope simplify --tets (the cut's tet count)",
+           "runs": kept + rows}, open(path, "w"), indent=1)
+PY
