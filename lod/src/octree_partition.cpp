@@ -186,4 +186,32 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
   return result;
 }
 
+SegmentPartition partition_segments(std::span<const float> xyz, uint32_t parts, uint32_t leaf_vertices, int seed,
+                                    std::span<const float> tets_per_vertex) {
+  const uint64_t vertex_count = xyz.size() / 3;
+  PartitionOptions options;
+  options.seed = seed;
+  options.parts = std::max<uint32_t>(1, parts);
+  options.leaf_vertices = leaf_vertices ? leaf_vertices
+                                        : static_cast<uint32_t>(std::clamp<uint64_t>(vertex_count / (8 * uint64_t{options.parts}), kMinAutoLeafVertices,
+                                                                                      kMaxAutoLeafVertices));
+  VertexPartition partition = partition_vertices(xyz, options, tets_per_vertex);
+  std::vector<uint64_t> part_vertices(partition.parts, 0);
+  for (uint32_t p : partition.part_of_vertex) ++part_vertices[p];
+  std::vector<uint32_t> by_size;
+  for (uint32_t p = 0; p < partition.parts; ++p)
+    if (part_vertices[p] > 0) by_size.push_back(p);
+  std::stable_sort(by_size.begin(), by_size.end(), [&](uint32_t a, uint32_t b) { return part_vertices[a] < part_vertices[b]; });
+  std::vector<uint32_t> segment_of_part(partition.parts, 0);
+  for (uint32_t s = 0; s < by_size.size(); ++s) segment_of_part[by_size[s]] = s;
+  SegmentPartition out;
+  out.segments = static_cast<uint32_t>(by_size.size());
+  out.leaves = static_cast<uint32_t>(partition.leaves.size());
+  out.leaf_vertices = options.leaf_vertices;
+  out.contiguous = partition.contiguous;
+  out.segment_of_vertex.resize(vertex_count);
+  for (uint64_t v = 0; v < vertex_count; ++v) out.segment_of_vertex[v] = segment_of_part[partition.part_of_vertex[v]];
+  return out;
+}
+
 }  // namespace tetrascope::lod

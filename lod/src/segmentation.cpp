@@ -24,16 +24,17 @@
 #include <numeric>
 #include <optional>
 #include <atomic>
-#include <exception>
-#include <thread>
 #include <stdexcept>
+#include <thread>
 
 #include "tetrascope/lod/octree_partition.h"
 #include "tetrascope/lod/streaming_order.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/parallel_for.h"
 #include "tetrascope/storage/sha256.h"
 #include "tetrascope/storage/store_format.h"
 #include "tetrascope/storage/store_writer.h"
+#include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::lod {
 namespace {
@@ -95,129 +96,6 @@ class TetSpill {
   std::vector<uint64_t> counts_;
   uint64_t written_ = 0;
 };
-
-constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // face f is opposite vertex f
-
-struct FaceKey {
-  uint32_t v[3];
-  uint32_t segment;
-  uint32_t face;  // raw tet * 4 + face within the segment's spill order
-  bool operator<(const FaceKey& o) const {
-    if (v[0] != o.v[0]) return v[0] < o.v[0];
-    if (v[1] != o.v[1]) return v[1] < o.v[1];
-    if (v[2] != o.v[2]) return v[2] < o.v[2];
-    if (segment != o.segment) return segment < o.segment;
-    return face < o.face;
-  }
-  bool same_face(const FaceKey& o) const { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
-};
-
-// Faces of a segment's tets (global vertex ids) sorted so that shared faces are adjacent.
-void sorted_faces(uint32_t segment, const std::vector<uint32_t>& tets, std::vector<FaceKey>& faces) {
-  const size_t count = tets.size() / 4;
-  faces.resize(4 * count);
-  for (size_t t = 0; t < count; ++t) {
-    for (int f = 0; f < 4; ++f) {
-      FaceKey& k = faces[4 * t + f];
-      for (int i = 0; i < 3; ++i) k.v[i] = tets[4 * t + kFace[f][i]];
-      std::sort(k.v, k.v + 3);
-      k.segment = segment;
-      k.face = static_cast<uint32_t>(4 * t + f);
-    }
-  }
-  std::sort(faces.begin(), faces.end());
-}
-
-constexpr uint32_t kNoPartner = 0xFFFFFFFFu;
-
-// Per-thread scratch for pairing a segment's faces.
-struct PairScratch {
-  std::vector<uint32_t> local_of;  // global vertex -> dense local id, all kNoPartner between calls
-  std::vector<uint32_t> touched;
-  std::vector<std::pair<uint64_t, uint32_t>> keys;
-  std::vector<FaceKey> faces;      // fallback for segments of 2^21 vertices or more
-};
-
-// partner[raw face] = the raw face of the same segment sharing its three vertices, or
-// kNoPartner (segment border or mesh boundary). Faces shared by more than two tets pair the
-// first two. Keys pack three 21-bit local vertex ids, so the sort is on 64-bit integers.
-void pair_faces(uint32_t segment, const std::vector<uint32_t>& tets, PairScratch& scratch, std::vector<uint32_t>& partner) {
-  const size_t faces = tets.size();
-  partner.assign(faces, kNoPartner);
-  uint32_t next = 0;
-  for (uint32_t g : tets) {
-    if (scratch.local_of[g] == kNoPartner) {
-      scratch.local_of[g] = next++;
-      scratch.touched.push_back(g);
-    }
-  }
-  auto pair_runs = [&](auto& list, auto same) {
-    for (size_t i = 0; i + 1 < list.size();) {
-      if (same(list[i], list[i + 1])) {
-        uint32_t a = list[i].face_id(), b = list[i + 1].face_id();
-        partner[a] = b;
-        partner[b] = a;
-        i += 2;
-        while (i < list.size() && same(list[i], list[i - 1])) ++i;
-      } else {
-        ++i;
-      }
-    }
-  };
-  if (next < (1u << 21)) {
-    auto& keys = scratch.keys;
-    keys.resize(faces);
-    for (size_t t = 0; t < faces / 4; ++t) {
-      for (int f = 0; f < 4; ++f) {
-        uint64_t v[3];
-        for (int i = 0; i < 3; ++i) v[i] = scratch.local_of[tets[4 * t + kFace[f][i]]];
-        if (v[0] > v[1]) std::swap(v[0], v[1]);
-        if (v[1] > v[2]) std::swap(v[1], v[2]);
-        if (v[0] > v[1]) std::swap(v[0], v[1]);
-        keys[4 * t + f] = {v[0] << 42 | v[1] << 21 | v[2], static_cast<uint32_t>(4 * t + f)};
-      }
-    }
-    std::sort(keys.begin(), keys.end());
-    struct Entry {
-      const std::pair<uint64_t, uint32_t>* p;
-      uint32_t face_id() const { return p->second; }
-    };
-    std::vector<Entry> view(keys.size());
-    for (size_t i = 0; i < keys.size(); ++i) view[i].p = &keys[i];
-    pair_runs(view, [](const Entry& a, const Entry& b) { return a.p->first == b.p->first; });
-  } else {
-    sorted_faces(segment, tets, scratch.faces);
-    struct Entry {
-      const FaceKey* k;
-      uint32_t face_id() const { return k->face; }
-    };
-    std::vector<Entry> view(scratch.faces.size());
-    for (size_t i = 0; i < view.size(); ++i) view[i].k = &scratch.faces[i];
-    pair_runs(view, [](const Entry& a, const Entry& b) { return a.k->same_face(*b.k); });
-  }
-  for (uint32_t g : scratch.touched) scratch.local_of[g] = kNoPartner;
-  scratch.touched.clear();
-}
-
-// Runs work(item, worker) for items 0..count-1 on `workers` threads, items interleaved.
-template <typename Work>
-void parallel_for(size_t count, unsigned workers, Work&& work) {
-  std::vector<std::thread> threads;
-  std::vector<std::exception_ptr> errors(workers);
-  for (unsigned w = 0; w < workers; ++w) {
-    threads.emplace_back([&, w] {
-      try {
-        for (size_t i = w; i < count; i += workers) work(i, w);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    });
-  }
-  for (auto& t : threads) t.join();
-  for (auto& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
-}
 
 struct Link {  // a border face of one segment (raw numbering) and its partner
   uint32_t face, segment, remote_face;
@@ -289,14 +167,8 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   // ---- partition ----
   report_progress("partition", 0);
   const uint64_t estimated_tets = std::max<uint64_t>(header.cell_count, 1);
-  PartitionOptions partition_options;
-  partition_options.seed = options.seed;
-  partition_options.parts = options.segments ? options.segments
-                                             : static_cast<uint32_t>(std::max<uint64_t>(1, (estimated_tets + options.segment_tets / 2) / options.segment_tets));
-  // METIS balances whole leaves, so a segment should span several of them
-  partition_options.leaf_vertices = options.leaf_vertices
-      ? options.leaf_vertices
-      : static_cast<uint32_t>(std::clamp<uint64_t>(vertex_count / (8 * uint64_t{partition_options.parts}), kMinLeafVertices, 2000));
+  const uint32_t parts = options.segments ? options.segments
+                                          : static_cast<uint32_t>(std::max<uint64_t>(1, (estimated_tets + options.segment_tets / 2) / options.segment_tets));
   // A vertex's share of the tets (incident tets / 4), from a first pass over the tets, lets
   // METIS balance tets as well as vertices: near the mesh boundary a vertex has fewer tets.
   std::vector<float> tets_per_vertex(vertex_count, 0.0f);
@@ -308,24 +180,12 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
       report_progress("partition", std::min(0.9, 0.9 * double(counted.first + counted.count) / double(estimated_tets)));
     }
   }
-  VertexPartition partition = partition_vertices(xyz, partition_options, tets_per_vertex);
+  SegmentPartition partition = partition_segments(xyz, parts, options.leaf_vertices, options.seed, tets_per_vertex);
   std::vector<float>().swap(tets_per_vertex);
-  // number segments by ascending vertex count (§6.1.1); empty parts are dropped
-  std::vector<uint64_t> part_vertices(partition.parts, 0);
-  for (uint32_t p : partition.part_of_vertex) ++part_vertices[p];
-  std::vector<uint32_t> by_size;
-  for (uint32_t p = 0; p < partition.parts; ++p) {
-    if (part_vertices[p] > 0) by_size.push_back(p);
-  }
-  std::stable_sort(by_size.begin(), by_size.end(), [&](uint32_t a, uint32_t b) { return part_vertices[a] < part_vertices[b]; });
-  const uint32_t segment_count = static_cast<uint32_t>(by_size.size());
-  std::vector<uint32_t> segment_of_part(partition.parts, 0);
-  for (uint32_t s = 0; s < segment_count; ++s) segment_of_part[by_size[s]] = s;
-  std::vector<uint32_t> segment_of_vertex(vertex_count);
-  for (uint64_t v = 0; v < vertex_count; ++v) segment_of_vertex[v] = segment_of_part[partition.part_of_vertex[v]];
-  const uint32_t leaf_count = static_cast<uint32_t>(partition.leaves.size());
+  const uint32_t segment_count = partition.segments;
+  const std::vector<uint32_t> segment_of_vertex = std::move(partition.segment_of_vertex);
+  const uint32_t leaf_count = partition.leaves;
   const bool contiguous = partition.contiguous;
-  partition = VertexPartition();  // free it
   // owned vertices of every segment, ascending global id
   std::vector<uint64_t> owned_begin(segment_count + 1, 0);
   for (uint32_t s : segment_of_vertex) ++owned_begin[s + 1];
@@ -348,8 +208,8 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   while (stream->next_tets(tets)) {
     for (size_t t = 0; t < tets.count; ++t) {
       const uint32_t* tet = tets.tets.data() + 4 * t;
-      uint32_t s0 = segment_of_vertex[tet[0]], s1 = segment_of_vertex[tet[1]], s2 = segment_of_vertex[tet[2]], s3 = segment_of_vertex[tet[3]];
-      uint32_t s = std::min({s0, s1, s2, s3});
+      const uint32_t s0 = segment_of_vertex[tet[0]], s1 = segment_of_vertex[tet[1]], s2 = segment_of_vertex[tet[2]], s3 = segment_of_vertex[tet[3]];
+      const uint32_t s = segment_of_tet(segment_of_vertex, tet);
       spill.add(s, tet);
       for (uint32_t o : {s0, s1, s2, s3}) {
         if (o != s) pairs.push_back(uint64_t{s} << 32 | o);
@@ -373,9 +233,9 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   // ---- pass 3: pair faces inside segments, then across them ----
   report_progress("match faces", 0);
   const unsigned workers = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
-  std::vector<PairScratch> scratch(workers);
-  for (auto& sc : scratch) sc.local_of.assign(vertex_count, kNoPartner);
-  std::vector<std::vector<FaceKey>> unpaired_by_worker(workers);
+  std::vector<FacePairingScratch> scratch(workers);  // one per worker: parallel_for hands out worker indices
+  for (auto& sc : scratch) sc.local_of.assign(vertex_count, kNoOppositeFace);
+  std::vector<std::vector<OpenFace>> unpaired_by_worker(workers);
   // the in-segment pairing is kept on disk for pass 4 (16 bytes a tet, not in memory)
   std::vector<uint64_t> partner_offset(segment_count + 1, 0);
   for (uint32_t s = 0; s < segment_count; ++s) partner_offset[s + 1] = partner_offset[s] + 16 * spill.count(s);
@@ -406,16 +266,11 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     const uint32_t s = static_cast<uint32_t>(item);
     std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
-    pair_faces(s, segment_tets, scratch[w], partner);
+    pair_faces(segment_tets, scratch[w], partner);
     transfer(true, s, partner);
     for (uint32_t face = 0; face < partner.size(); ++face) {
-      if (partner[face] != kNoPartner) continue;
-      FaceKey k;
-      for (int i = 0; i < 3; ++i) k.v[i] = segment_tets[4 * size_t{face / 4} + kFace[face % 4][i]];
-      std::sort(k.v, k.v + 3);
-      k.segment = s;
-      k.face = face;
-      unpaired_by_worker[w].push_back(k);
+      if (partner[face] != kNoOppositeFace) continue;
+      unpaired_by_worker[w].push_back({face_key(tet_face(segment_tets, face / 4, int(face % 4))), s, face});
     }
     std::array<float, 6>& b = bounds[s];
     b = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
@@ -431,28 +286,22 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     if (w == 0) report_progress("match faces", 0.7 * (matched.load() + 1) / segment_count);
     ++matched;
   });
-  std::vector<FaceKey> unpaired;
+  std::vector<OpenFace> unpaired;
   for (auto& list : unpaired_by_worker) {
     unpaired.insert(unpaired.end(), list.begin(), list.end());
-    std::vector<FaceKey>().swap(list);
+    std::vector<OpenFace>().swap(list);
   }
-  std::sort(unpaired.begin(), unpaired.end());
   std::vector<std::vector<Link>> links(segment_count);
   std::vector<std::vector<uint32_t>> border_tets(segment_count);  // raw tet ids with a border face, ascending
-  for (size_t i = 0; i < unpaired.size();) {
-    size_t j = i + 1;
-    while (j < unpaired.size() && unpaired[j].same_face(unpaired[i])) ++j;
-    if (j - i == 2 && unpaired[i].segment != unpaired[i + 1].segment) {
-      const FaceKey &a = unpaired[i], &b = unpaired[i + 1];
-      links[a.segment].push_back({a.face, b.segment, b.face});
-      links[b.segment].push_back({b.face, a.segment, a.face});
-      border_tets[a.segment].push_back(a.face / 4);
-      border_tets[b.segment].push_back(b.face / 4);
-      pairs.push_back(uint64_t{a.segment} << 32 | b.segment);
-    }
-    i = j;
-  }
-  std::vector<FaceKey>().swap(unpaired);
+  pair_open_faces(unpaired, [&](const OpenFace& a, const OpenFace& b) {
+    if (a.segment == b.segment) return;
+    links[a.segment].push_back({a.face, b.segment, b.face});
+    links[b.segment].push_back({b.face, a.segment, a.face});
+    border_tets[a.segment].push_back(a.face / 4);
+    border_tets[b.segment].push_back(b.face / 4);
+    pairs.push_back(uint64_t{a.segment} << 32 | b.segment);
+  });
+  std::vector<OpenFace>().swap(unpaired);
   for (auto& list : border_tets) {
     std::sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
@@ -486,7 +335,7 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   report.min_vertices = report.min_tets = std::numeric_limits<uint32_t>::max();
   // Builds segment s into `data` with worker w's scratch.
   auto build_segment = [&](uint32_t s, unsigned w, storage::SegmentData& data) {
-    PairScratch& sc = scratch[w];
+    FacePairingScratch& sc = scratch[w];
     std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
     const uint32_t raw_count = static_cast<uint32_t>(segment_tets.size() / 4);
@@ -532,11 +381,11 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
       uint32_t t = final_tet(s, raw);
       for (int k = 0; k < 4; ++k) data.tets[4 * size_t{t} + k] = local_of[segment_tets[4 * size_t{raw} + k]];
     }
-    for (uint32_t g : data.global_ids) local_of[g] = kNoPartner;
+    for (uint32_t g : data.global_ids) local_of[g] = kNoOppositeFace;
     // opposites: inside the segment from the local pairing, borders from the links
     data.opposites.assign(segment_tets.size(), storage::store::kMeshBoundary);
     for (uint32_t face = 0; face < partner.size(); ++face) {
-      if (partner[face] == kNoPartner) continue;
+      if (partner[face] == kNoOppositeFace) continue;
       data.opposites[final_tet(s, face / 4) * 4 + face % 4] = final_tet(s, partner[face] / 4) * 4 + partner[face] % 4;
     }
     for (const Link& link : links[s]) {
@@ -592,7 +441,7 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     }
   }
   manifest["bounds"] = {{"min", {all[0], all[1], all[2]}}, {"max", {all[3], all[4], all[5]}}};
-  manifest["build"] = {{"leaf_vertices", partition_options.leaf_vertices}, {"segment_tets", options.segment_tets}, {"segments_requested", options.segments},
+  manifest["build"] = {{"leaf_vertices", partition.leaf_vertices}, {"segment_tets", options.segment_tets}, {"segments_requested", options.segments},
                        {"seed", options.seed}, {"octree_leaves", leaf_count}, {"metis_contiguous", contiguous}};
   manifest["stream"] = {{"tags", order.tags}, {"max_workload_segments", order.max_workload}};
   report.vertices = vertex_count;

@@ -18,8 +18,8 @@
 #include <thread>
 #include <unordered_map>
 
-#include "tet_faces.h"
 #include "tetrascope/lod/quadric.h"
+#include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::lod {
 namespace {
@@ -239,7 +239,7 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
   }
   const double length = std::cbrt(std::max(total_volume / std::max<size_t>(tet_count, 1), 1e-300));  // characteristic tet size
   // boundary faces: face quadrics, and edge quadrics on sharp boundary edges
-  const std::vector<std::array<uint32_t, 3>> boundary = detail::boundary_faces(tets_);
+  const std::vector<FaceVertices> boundary = boundary_faces_by_key(tets_);
   struct EdgeNormal {
     uint32_t a, b;
     double n[3];
