@@ -109,6 +109,46 @@ struct Normaliser {  // per attribute channel: scalars to [0, 1], vectors by the
   std::vector<bool> vector;
 };
 
+// Distances from sample points of one boundary surface to another.
+struct SurfaceDistance {
+  double hausdorff = 0, sum = 0;
+  uint64_t samples = 0;
+};
+
+// `samples` area-weighted random points of `from` (a surface of from_mesh) plus its vertices,
+// measured to `to`.
+void sample_surface_distance(const storage::TetMesh& from_mesh, const Surface& from, const Surface& to, uint32_t samples, std::mt19937& rng,
+                             SurfaceDistance& out) {
+  const auto& tris = from.triangles();
+  if (tris.empty()) return;
+  std::vector<double> area(tris.size());
+  double total = 0;
+  for (size_t i = 0; i < tris.size(); ++i) {
+    Vec3 n = cross(vertex(from_mesh, tris[i][1]) - vertex(from_mesh, tris[i][0]), vertex(from_mesh, tris[i][2]) - vertex(from_mesh, tris[i][0]));
+    total += std::sqrt(dot(n, n));
+    area[i] = total;
+  }
+  std::uniform_real_distribution<double> unit(0, 1);
+  auto measure = [&](const Vec3& p) {
+    uint32_t tri;
+    double w[3];
+    double d = to.nearest(p, &tri, w);
+    out.hausdorff = std::max(out.hausdorff, d);
+    out.sum += d;
+    ++out.samples;
+  };
+  for (uint32_t s = 0; s < samples; ++s) {
+    size_t i = std::lower_bound(area.begin(), area.end(), unit(rng) * total) - area.begin();
+    i = std::min(i, tris.size() - 1);
+    double u = unit(rng), v = unit(rng);
+    if (u + v > 1) { u = 1 - u; v = 1 - v; }
+    Vec3 a = vertex(from_mesh, tris[i][0]), b = vertex(from_mesh, tris[i][1]), c = vertex(from_mesh, tris[i][2]);
+    measure({a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1]), a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])});
+  }
+  for (const auto& t : tris)  // the surface's vertices, where extremes usually sit
+    for (uint32_t corner : t) measure(vertex(from_mesh, corner));
+}
+
 }  // namespace
 
 nlohmann::json MeshErrorReport::to_json() const {
@@ -234,43 +274,12 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
   r.mean_all = std::sqrt(total2 / std::max<uint64_t>(1, r.vertices));
   // domain error: sample each boundary surface and measure the distance to the other
   std::mt19937 rng(1);
-  double hausdorff = 0, distance_sum = 0;
-  uint64_t samples = 0;
-  auto sample = [&](const storage::TetMesh& from_mesh, const Surface& from, const Surface& to) {
-    const auto& tris = from.triangles();
-    if (tris.empty()) return;
-    std::vector<double> area(tris.size());
-    double total = 0;
-    for (size_t i = 0; i < tris.size(); ++i) {
-      Vec3 n = cross(vertex(from_mesh, tris[i][1]) - vertex(from_mesh, tris[i][0]), vertex(from_mesh, tris[i][2]) - vertex(from_mesh, tris[i][0]));
-      total += std::sqrt(dot(n, n));
-      area[i] = total;
-    }
-    std::uniform_real_distribution<double> unit(0, 1);
-    auto measure = [&](const Vec3& p) {
-      uint32_t tri;
-      double w[3];
-      double d = to.nearest(p, &tri, w);
-      hausdorff = std::max(hausdorff, d);
-      distance_sum += d;
-      ++samples;
-    };
-    for (uint32_t s = 0; s < samples_per_surface; ++s) {
-      size_t i = std::lower_bound(area.begin(), area.end(), unit(rng) * total) - area.begin();
-      i = std::min(i, tris.size() - 1);
-      double u = unit(rng), v = unit(rng);
-      if (u + v > 1) { u = 1 - u; v = 1 - v; }
-      Vec3 a = vertex(from_mesh, tris[i][0]), b = vertex(from_mesh, tris[i][1]), c = vertex(from_mesh, tris[i][2]);
-      measure({a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1]), a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])});
-    }
-    for (const auto& t : tris)  // the surface's vertices, where extremes usually sit
-      for (uint32_t corner : t) measure(vertex(from_mesh, corner));
-  };
-  sample(original, original_surface, simplified_surface);
-  sample(simplified, simplified_surface, original_surface);
-  r.hausdorff = hausdorff;
-  r.mean_distance = samples ? distance_sum / samples : 0;
-  r.samples = samples;
+  SurfaceDistance distance;
+  sample_surface_distance(original, original_surface, simplified_surface, samples_per_surface, rng, distance);
+  sample_surface_distance(simplified, simplified_surface, original_surface, samples_per_surface, rng, distance);
+  r.hausdorff = distance.hausdorff;
+  r.mean_distance = distance.samples ? distance.sum / distance.samples : 0;
+  r.samples = distance.samples;
   return r;
 }
 
