@@ -16,8 +16,9 @@
 #include <unistd.h>
 
 #include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/mesh_error.h"
-#include "tetrascope/lod/multires.h"
+#include "tetrascope/lod/error_measure.h"
+#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/mt_build.h"
 #include "tetrascope/lod/segmentation.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/render.h"

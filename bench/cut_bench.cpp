@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/multires.h"
+#include "tetrascope/lod/dag.h"
 #include "tetrascope/storage/store.h"
 
 using namespace tetrascope;

@@ -10,16 +10,16 @@
 #include <limits>
 #include <vector>
 
-namespace tetrascope::lod::detail {
+#include "tetrascope/storage/vec3.h"
 
-using Vec = std::array<double, 3>;
+namespace tetrascope::lod::detail {
 
 // Items with bounding boxes in a uniform grid; queries visit the cells near a point.
 class BoxGrid {
  public:
-  void build(const std::vector<std::array<Vec, 2>>& boxes) {
-    Vec lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
-    Vec hi{-lo[0], -lo[1], -lo[2]};
+  void build(const std::vector<std::array<Vec3, 2>>& boxes) {
+    Vec3 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
+    Vec3 hi{-lo[0], -lo[1], -lo[2]};
     for (const auto& b : boxes)
       for (int k = 0; k < 3; ++k) {
         lo[k] = std::min(lo[k], b[0][k]);
@@ -31,7 +31,7 @@ class BoxGrid {
     cell_ = extent / cells * (1 + 1e-9);
     for (int k = 0; k < 3; ++k) n_[k] = std::max(1, static_cast<int>((hi[k] - lo[k]) / cell_) + 1);
     start_.assign(static_cast<size_t>(n_[0]) * n_[1] * n_[2] + 1, 0);
-    auto range = [&](const std::array<Vec, 2>& b, int lo_c[3], int hi_c[3]) {
+    auto range = [&](const std::array<Vec3, 2>& b, int lo_c[3], int hi_c[3]) {
       for (int k = 0; k < 3; ++k) {
         lo_c[k] = clamp_cell(k, b[0][k]);
         hi_c[k] = clamp_cell(k, b[1][k]);
@@ -61,7 +61,7 @@ class BoxGrid {
   double cell() const { return cell_; }
   // Calls visit(item) for items in cells at Chebyshev ring r around the point's cell; false when r is past the grid.
   template <typename Visit>
-  bool ring(const Vec& p, int r, Visit&& visit) const {
+  bool ring(const Vec3& p, int r, Visit&& visit) const {
     int c[3];
     for (int k = 0; k < 3; ++k) c[k] = clamp_cell(k, p[k]);
     bool any = false;
@@ -82,7 +82,7 @@ class BoxGrid {
   }
 
  private:
-  Vec lo_{};
+  Vec3 lo_{};
   double cell_ = 1;
   int n_[3] = {1, 1, 1};
   std::vector<uint32_t> start_, items_;

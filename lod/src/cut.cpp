@@ -7,7 +7,7 @@
 #include <queue>
 #include <unordered_map>
 
-#include "tet_faces.h"
+#include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::lod {
 
@@ -328,10 +328,7 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   const auto& attributes = store.manifest().attributes;
   for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components}, {}});
   std::unordered_map<uint32_t, uint32_t> vertex_of;
-  struct Open {
-    uint32_t v[3], face;
-  };
-  std::vector<Open> open;
+  std::vector<OpenFace> open;  // faces glued to another patch's or segment's
   for (uint32_t p : out.patches) {
     const dag::Patch& patch = dag.patch(p);
     auto segment = cache.get(patch.floor);
@@ -371,23 +368,18 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
         if (o != kMeshBoundary && o != kSegmentBorder && o / 4 >= patch.tet_begin && o / 4 < patch.tet_begin + patch.tet_count) {
           out.opposites[here] = (first + o / 4 - patch.tet_begin) * 4 + o % 4;
         } else if (o != kMeshBoundary) {  // another patch's face, or another segment's
-          Open face{{}, here};
-          for (int i = 0; i < 3; ++i) face.v[i] = out.global_ids[out.mesh.tets[4 * size_t{here / 4} + detail::kTetFace[f][i]]];
-          std::sort(face.v, face.v + 3);
-          open.push_back(face);
+          FaceVertices face = tet_face(out.mesh.tets, here / 4, int(f));
+          for (uint32_t& v : face) v = out.global_ids[v];
+          open.push_back({face_key(face), p, here});
         }
       }
     }
   }
   if (adjacency) {
-    std::sort(open.begin(), open.end(), [](const Open& a, const Open& b) { return std::tie(a.v[0], a.v[1], a.v[2], a.face) < std::tie(b.v[0], b.v[1], b.v[2], b.face); });
-    for (size_t i = 0; i + 1 < open.size(); ++i) {
-      if (std::equal(open[i].v, open[i].v + 3, open[i + 1].v)) {
-        out.opposites[open[i].face] = open[i + 1].face;
-        out.opposites[open[i + 1].face] = open[i].face;
-        ++i;
-      }
-    }
+    pair_open_faces(open, [&](const OpenFace& a, const OpenFace& b) {
+      out.opposites[a.face] = b.face;
+      out.opposites[b.face] = a.face;
+    });
   }
   return out;
 }

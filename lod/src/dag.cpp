@@ -5,8 +5,8 @@
 #include <fstream>
 #include <iterator>
 
-#include "tet_faces.h"
-#include "tetrascope/lod/multires.h"
+#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/lod/dag.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::lod {
@@ -165,10 +165,9 @@ std::vector<std::string> verify_dag(const storage::Store& store, const Dag& dag,
       for (uint32_t t = range.first; t < range.first + range.second; ++t)
         for (int f = 0; f < 4; ++f) {
           if (v.opposites[4 * size_t{t} + f] == storage::store::kMeshBoundary) continue;
-          const auto& c = detail::kTetFace[f];
-          Face face{v.global_ids[v.tets[4 * size_t{t} + c[0]]], v.global_ids[v.tets[4 * size_t{t} + c[1]]], v.global_ids[v.tets[4 * size_t{t} + c[2]]]};
-          std::sort(face.begin(), face.end());
-          faces.push_back(face);
+          Face face = tet_face(v.tets, t, f);
+          for (uint32_t& g : face) g = v.global_ids[g];
+          faces.push_back(face_key(face));
         }
     }
     std::sort(faces.begin(), faces.end());

@@ -24,6 +24,37 @@ struct Node {
   int depth;
 };
 
+// The leaf graph in CSR form: leaves whose boxes share a face (a leaf's high face lies on
+// another's low face, per axis and coordinate, and the two overlap across it).
+void leaf_adjacency(VertexPartition& result) {
+  const size_t leaves = result.leaves.size();
+  std::vector<std::vector<uint32_t>> neighbours(leaves);
+  for (int axis = 0; axis < 3; ++axis) {
+    std::unordered_map<uint32_t, std::vector<uint32_t>> low_faces;
+    for (uint32_t l = 0; l < leaves; ++l) low_faces[result.leaves[l].lo[axis]].push_back(l);
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    for (uint32_t a = 0; a < leaves; ++a) {
+      const OctreeLeaf& A = result.leaves[a];
+      auto it = low_faces.find(A.hi[axis]);
+      if (it == low_faces.end()) continue;
+      for (uint32_t b : it->second) {
+        const OctreeLeaf& B = result.leaves[b];
+        if (A.lo[u] < B.hi[u] && B.lo[u] < A.hi[u] && A.lo[v] < B.hi[v] && B.lo[v] < A.hi[v]) {
+          neighbours[a].push_back(b);
+          neighbours[b].push_back(a);
+        }
+      }
+    }
+  }
+  result.adjacency_begin.assign(1, 0);
+  for (auto& list : neighbours) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    result.adjacency.insert(result.adjacency.end(), list.begin(), list.end());
+    result.adjacency_begin.push_back(static_cast<uint32_t>(result.adjacency.size()));
+  }
+}
+
 }  // namespace
 
 VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options, std::span<const float> tets_per_vertex) {
@@ -102,33 +133,8 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
     }
   }
 
-  // face adjacency: leaves whose low face lies on a plane, per axis and coordinate
+  leaf_adjacency(result);
   const size_t leaves = result.leaves.size();
-  std::vector<std::vector<uint32_t>> neighbours(leaves);
-  for (int axis = 0; axis < 3; ++axis) {
-    std::unordered_map<uint32_t, std::vector<uint32_t>> low_faces;
-    for (uint32_t l = 0; l < leaves; ++l) low_faces[result.leaves[l].lo[axis]].push_back(l);
-    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-    for (uint32_t a = 0; a < leaves; ++a) {
-      const OctreeLeaf& A = result.leaves[a];
-      auto it = low_faces.find(A.hi[axis]);
-      if (it == low_faces.end()) continue;
-      for (uint32_t b : it->second) {
-        const OctreeLeaf& B = result.leaves[b];
-        if (A.lo[u] < B.hi[u] && B.lo[u] < A.hi[u] && A.lo[v] < B.hi[v] && B.lo[v] < A.hi[v]) {
-          neighbours[a].push_back(b);
-          neighbours[b].push_back(a);
-        }
-      }
-    }
-  }
-  result.adjacency_begin.assign(1, 0);
-  for (auto& list : neighbours) {
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-    result.adjacency.insert(result.adjacency.end(), list.begin(), list.end());
-    result.adjacency_begin.push_back(static_cast<uint32_t>(result.adjacency.size()));
-  }
 
   const uint32_t parts = std::max<uint32_t>(1, std::min<uint32_t>(options.parts, static_cast<uint32_t>(leaves)));
   result.parts = parts;
@@ -184,6 +190,34 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
   result.part_of_vertex.resize(n);
   for (size_t i = 0; i < n; ++i) result.part_of_vertex[i] = result.part_of_leaf[result.leaf_of_vertex[i]];
   return result;
+}
+
+SegmentPartition partition_segments(std::span<const float> xyz, uint32_t parts, uint32_t leaf_vertices, int seed,
+                                    std::span<const float> tets_per_vertex) {
+  const uint64_t vertex_count = xyz.size() / 3;
+  PartitionOptions options;
+  options.seed = seed;
+  options.parts = std::max<uint32_t>(1, parts);
+  options.leaf_vertices = leaf_vertices ? leaf_vertices
+                                        : static_cast<uint32_t>(std::clamp<uint64_t>(vertex_count / (8 * uint64_t{options.parts}), kMinAutoLeafVertices,
+                                                                                      kMaxAutoLeafVertices));
+  VertexPartition partition = partition_vertices(xyz, options, tets_per_vertex);
+  std::vector<uint64_t> part_vertices(partition.parts, 0);
+  for (uint32_t p : partition.part_of_vertex) ++part_vertices[p];
+  std::vector<uint32_t> by_size;
+  for (uint32_t p = 0; p < partition.parts; ++p)
+    if (part_vertices[p] > 0) by_size.push_back(p);
+  std::stable_sort(by_size.begin(), by_size.end(), [&](uint32_t a, uint32_t b) { return part_vertices[a] < part_vertices[b]; });
+  std::vector<uint32_t> segment_of_part(partition.parts, 0);
+  for (uint32_t s = 0; s < by_size.size(); ++s) segment_of_part[by_size[s]] = s;
+  SegmentPartition out;
+  out.segments = static_cast<uint32_t>(by_size.size());
+  out.leaves = static_cast<uint32_t>(partition.leaves.size());
+  out.leaf_vertices = options.leaf_vertices;
+  out.contiguous = partition.contiguous;
+  out.segment_of_vertex.resize(vertex_count);
+  for (uint64_t v = 0; v < vertex_count; ++v) out.segment_of_vertex[v] = segment_of_part[partition.part_of_vertex[v]];
+  return out;
 }
 
 }  // namespace tetrascope::lod

@@ -24,16 +24,17 @@
 #include <numeric>
 #include <optional>
 #include <atomic>
-#include <exception>
-#include <thread>
 #include <stdexcept>
+#include <thread>
 
 #include "tetrascope/lod/octree_partition.h"
 #include "tetrascope/lod/streaming_order.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/parallel_for.h"
 #include "tetrascope/storage/sha256.h"
 #include "tetrascope/storage/store_format.h"
 #include "tetrascope/storage/store_writer.h"
+#include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::lod {
 namespace {
@@ -96,397 +97,229 @@ class TetSpill {
   uint64_t written_ = 0;
 };
 
-constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // face f is opposite vertex f
-
-struct FaceKey {
-  uint32_t v[3];
-  uint32_t segment;
-  uint32_t face;  // raw tet * 4 + face within the segment's spill order
-  bool operator<(const FaceKey& o) const {
-    if (v[0] != o.v[0]) return v[0] < o.v[0];
-    if (v[1] != o.v[1]) return v[1] < o.v[1];
-    if (v[2] != o.v[2]) return v[2] < o.v[2];
-    if (segment != o.segment) return segment < o.segment;
-    return face < o.face;
-  }
-  bool same_face(const FaceKey& o) const { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
-};
-
-// Faces of a segment's tets (global vertex ids) sorted so that shared faces are adjacent.
-void sorted_faces(uint32_t segment, const std::vector<uint32_t>& tets, std::vector<FaceKey>& faces) {
-  const size_t count = tets.size() / 4;
-  faces.resize(4 * count);
-  for (size_t t = 0; t < count; ++t) {
-    for (int f = 0; f < 4; ++f) {
-      FaceKey& k = faces[4 * t + f];
-      for (int i = 0; i < 3; ++i) k.v[i] = tets[4 * t + kFace[f][i]];
-      std::sort(k.v, k.v + 3);
-      k.segment = segment;
-      k.face = static_cast<uint32_t>(4 * t + f);
-    }
-  }
-  std::sort(faces.begin(), faces.end());
-}
-
-constexpr uint32_t kNoPartner = 0xFFFFFFFFu;
-
-// Per-thread scratch for pairing a segment's faces.
-struct PairScratch {
-  std::vector<uint32_t> local_of;  // global vertex -> dense local id, all kNoPartner between calls
-  std::vector<uint32_t> touched;
-  std::vector<std::pair<uint64_t, uint32_t>> keys;
-  std::vector<FaceKey> faces;      // fallback for segments of 2^21 vertices or more
-};
-
-// partner[raw face] = the raw face of the same segment sharing its three vertices, or
-// kNoPartner (segment border or mesh boundary). Faces shared by more than two tets pair the
-// first two. Keys pack three 21-bit local vertex ids, so the sort is on 64-bit integers.
-void pair_faces(uint32_t segment, const std::vector<uint32_t>& tets, PairScratch& scratch, std::vector<uint32_t>& partner) {
-  const size_t faces = tets.size();
-  partner.assign(faces, kNoPartner);
-  uint32_t next = 0;
-  for (uint32_t g : tets) {
-    if (scratch.local_of[g] == kNoPartner) {
-      scratch.local_of[g] = next++;
-      scratch.touched.push_back(g);
-    }
-  }
-  auto pair_runs = [&](auto& list, auto same) {
-    for (size_t i = 0; i + 1 < list.size();) {
-      if (same(list[i], list[i + 1])) {
-        uint32_t a = list[i].face_id(), b = list[i + 1].face_id();
-        partner[a] = b;
-        partner[b] = a;
-        i += 2;
-        while (i < list.size() && same(list[i], list[i - 1])) ++i;
-      } else {
-        ++i;
-      }
-    }
-  };
-  if (next < (1u << 21)) {
-    auto& keys = scratch.keys;
-    keys.resize(faces);
-    for (size_t t = 0; t < faces / 4; ++t) {
-      for (int f = 0; f < 4; ++f) {
-        uint64_t v[3];
-        for (int i = 0; i < 3; ++i) v[i] = scratch.local_of[tets[4 * t + kFace[f][i]]];
-        if (v[0] > v[1]) std::swap(v[0], v[1]);
-        if (v[1] > v[2]) std::swap(v[1], v[2]);
-        if (v[0] > v[1]) std::swap(v[0], v[1]);
-        keys[4 * t + f] = {v[0] << 42 | v[1] << 21 | v[2], static_cast<uint32_t>(4 * t + f)};
-      }
-    }
-    std::sort(keys.begin(), keys.end());
-    struct Entry {
-      const std::pair<uint64_t, uint32_t>* p;
-      uint32_t face_id() const { return p->second; }
-    };
-    std::vector<Entry> view(keys.size());
-    for (size_t i = 0; i < keys.size(); ++i) view[i].p = &keys[i];
-    pair_runs(view, [](const Entry& a, const Entry& b) { return a.p->first == b.p->first; });
-  } else {
-    sorted_faces(segment, tets, scratch.faces);
-    struct Entry {
-      const FaceKey* k;
-      uint32_t face_id() const { return k->face; }
-    };
-    std::vector<Entry> view(scratch.faces.size());
-    for (size_t i = 0; i < view.size(); ++i) view[i].k = &scratch.faces[i];
-    pair_runs(view, [](const Entry& a, const Entry& b) { return a.k->same_face(*b.k); });
-  }
-  for (uint32_t g : scratch.touched) scratch.local_of[g] = kNoPartner;
-  scratch.touched.clear();
-}
-
-// Runs work(item, worker) for items 0..count-1 on `workers` threads, items interleaved.
-template <typename Work>
-void parallel_for(size_t count, unsigned workers, Work&& work) {
-  std::vector<std::thread> threads;
-  std::vector<std::exception_ptr> errors(workers);
-  for (unsigned w = 0; w < workers; ++w) {
-    threads.emplace_back([&, w] {
-      try {
-        for (size_t i = w; i < count; i += workers) work(i, w);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    });
-  }
-  for (auto& t : threads) t.join();
-  for (auto& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
-}
-
 struct Link {  // a border face of one segment (raw numbering) and its partner
   uint32_t face, segment, remote_face;
 };
 
-}  // namespace
-
-nlohmann::json SegmentationReport::to_json() const {
-  return {{"vertices", vertices}, {"tetrahedra", tets}, {"segments", segments}, {"octree_leaves", leaves},
-          {"vertices_per_segment", {{"min", min_vertices}, {"avg", avg_vertices}, {"max", max_vertices}}},
-          {"tets_per_segment", {{"min", min_tets}, {"avg", avg_tets}, {"max", max_tets}}},
-          {"max_tets_over_avg", avg_tets > 0 ? max_tets / avg_tets : 0.0},
-          {"max_workload_segments", max_workload},
-          {"max_workload_fraction", segments ? double(max_workload) / segments : 0.0},
-          {"metis_contiguous", contiguous}, {"store_bytes", store_bytes}, {"seconds", seconds}};
-}
-
-SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path,
-                                const SegmentationOptions& options, storage::Progress* progress) {
-  using clock = std::chrono::steady_clock;
-  const auto start = clock::now();
-  if (options.leaf_vertices != 0 && (options.leaf_vertices < kMinLeafVertices || options.leaf_vertices > kMaxLeafVertices)) {
-    throw std::invalid_argument("--leaf-vertices must be " + std::to_string(kMinLeafVertices) + " to " + std::to_string(kMaxLeafVertices));
+// A temporary file, closed and removed when this goes.
+struct FileCloser {
+  FileCloser(const std::filesystem::path& p) : fd(::open(p.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600)), path(p) {}
+  FileCloser(const FileCloser&) = delete;
+  int fd;
+  std::filesystem::path path;
+  ~FileCloser() {
+    if (fd >= 0) ::close(fd);
+    std::error_code ignored;
+    std::filesystem::remove(path, ignored);
   }
-  if (options.segments == 0 && options.segment_tets < kMinSegmentTets) {
-    throw std::invalid_argument("--segment-tets must be at least " + std::to_string(kMinSegmentTets));
-  }
-  if (options.segments > storage::store::kMaxSegments) throw std::invalid_argument("--segments is too large");
-  auto report_progress = [&](const char* stage, double fraction) {
+};
+
+// One run of segment_mesh: the passes share the vertices, the partition and the spill files.
+struct Segmentation {
+  Segmentation(const std::filesystem::path& mesh, const std::filesystem::path& store, const SegmentationOptions& o, storage::Progress* p)
+      : mesh_path(mesh), store_path(store), options(o), progress(p) {}
+
+  void report_progress(const char* stage, double fraction) const {
     if (!progress) return;
     if (fraction == 0) progress->begin(stage);
     else progress->update(fraction);
-  };
+  }
 
-  // fingerprint the source while we work
-  std::filesystem::path hashed = mesh_path;
-  if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
-  auto sha256 = std::async(std::launch::async, [hashed] { return storage::sha256_file(hashed); });
+  // Pass 1: the vertices (kept in memory) and every attribute's range.
+  void read_vertices() {
+    report_progress("read vertices", 0);
+    stream = storage::MeshStream::open(mesh_path);
+    header = stream->header();
+    vertex_count = header.vertex_count;
+    if (vertex_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no vertices");
+    floats_per_vertex = 0;
+    for (const auto& a : header.attributes) floats_per_vertex += a.components;
+    attributes.resize(header.attributes.size());
+    for (size_t a = 0; a < attributes.size(); ++a) attributes[a].reserve(vertex_count * header.attributes[a].components);
+    ranges.assign(header.attributes.size(), std::array<double, 2>{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+    storage::VertexChunk chunk;
+    while (stream->next_vertices(chunk)) {
+      for (size_t a = 0; a < attributes.size(); ++a) {
+        const uint32_t c = header.attributes[a].components;
+        attributes[a].insert(attributes[a].end(), chunk.attributes[a].begin(), chunk.attributes[a].end());
+        for (size_t i = 0; i < chunk.count; ++i) {
+          double value = 0;
+          for (uint32_t k = 0; k < c; ++k) value += double(chunk.attributes[a][i * c + k]) * chunk.attributes[a][i * c + k];
+          value = c == 1 ? double(chunk.attributes[a][i]) : std::sqrt(value);
+          if (!std::isfinite(value)) continue;
+          ranges[a][0] = std::min(ranges[a][0], value);
+          ranges[a][1] = std::max(ranges[a][1], value);
+        }
+      }
+      report_progress("read vertices", double(chunk.first + chunk.count) / double(vertex_count));
+    }
+    xyz = stream->xyz();
+  }
 
-  // ---- pass 1: vertices ----
-  report_progress("read vertices", 0);
-  auto stream = storage::MeshStream::open(mesh_path);
-  const storage::MeshHeader header = stream->header();
-  const uint64_t vertex_count = header.vertex_count;
-  if (vertex_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no vertices");
-  uint32_t floats_per_vertex = 0;
-  for (const auto& a : header.attributes) floats_per_vertex += a.components;
-  std::vector<std::vector<float>> attributes(header.attributes.size());
-  for (size_t a = 0; a < attributes.size(); ++a) attributes[a].reserve(vertex_count * header.attributes[a].components);
-  std::vector<std::array<double, 2>> ranges(header.attributes.size(), {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
-  storage::VertexChunk chunk;
-  while (stream->next_vertices(chunk)) {
-    for (size_t a = 0; a < attributes.size(); ++a) {
-      const uint32_t c = header.attributes[a].components;
-      attributes[a].insert(attributes[a].end(), chunk.attributes[a].begin(), chunk.attributes[a].end());
-      for (size_t i = 0; i < chunk.count; ++i) {
-        double value = 0;
-        for (uint32_t k = 0; k < c; ++k) value += double(chunk.attributes[a][i * c + k]) * chunk.attributes[a][i * c + k];
-        value = c == 1 ? double(chunk.attributes[a][i]) : std::sqrt(value);
-        if (!std::isfinite(value)) continue;
-        ranges[a][0] = std::min(ranges[a][0], value);
-        ranges[a][1] = std::max(ranges[a][1], value);
+  // Octree + METIS over the vertices (the step preprocess shares); owned vertices per segment.
+  void partition() {
+    report_progress("partition", 0);
+    estimated_tets = std::max<uint64_t>(header.cell_count, 1);
+    const uint32_t parts = options.segments ? options.segments
+                                            : static_cast<uint32_t>(std::max<uint64_t>(1, (estimated_tets + options.segment_tets / 2) / options.segment_tets));
+    // A vertex's share of the tets (incident tets / 4), from a first pass over the tets, lets
+    // METIS balance tets as well as vertices: near the mesh boundary a vertex has fewer tets.
+    std::vector<float> tets_per_vertex(vertex_count, 0.0f);
+    {
+      auto count_stream = storage::MeshStream::open(mesh_path);
+      storage::TetChunk counted;
+      while (count_stream->next_tets(counted)) {
+        for (uint32_t v : counted.tets) tets_per_vertex[v] += 0.25f;
+        report_progress("partition", std::min(0.9, 0.9 * double(counted.first + counted.count) / double(estimated_tets)));
       }
     }
-    report_progress("read vertices", double(chunk.first + chunk.count) / double(vertex_count));
-  }
-  const std::span<const float> xyz = stream->xyz();
-
-  // ---- partition ----
-  report_progress("partition", 0);
-  const uint64_t estimated_tets = std::max<uint64_t>(header.cell_count, 1);
-  PartitionOptions partition_options;
-  partition_options.seed = options.seed;
-  partition_options.parts = options.segments ? options.segments
-                                             : static_cast<uint32_t>(std::max<uint64_t>(1, (estimated_tets + options.segment_tets / 2) / options.segment_tets));
-  // METIS balances whole leaves, so a segment should span several of them
-  partition_options.leaf_vertices = options.leaf_vertices
-      ? options.leaf_vertices
-      : static_cast<uint32_t>(std::clamp<uint64_t>(vertex_count / (8 * uint64_t{partition_options.parts}), kMinLeafVertices, 2000));
-  // A vertex's share of the tets (incident tets / 4), from a first pass over the tets, lets
-  // METIS balance tets as well as vertices: near the mesh boundary a vertex has fewer tets.
-  std::vector<float> tets_per_vertex(vertex_count, 0.0f);
-  {
-    auto count_stream = storage::MeshStream::open(mesh_path);
-    storage::TetChunk counted;
-    while (count_stream->next_tets(counted)) {
-      for (uint32_t v : counted.tets) tets_per_vertex[v] += 0.25f;
-      report_progress("partition", std::min(0.9, 0.9 * double(counted.first + counted.count) / double(estimated_tets)));
+    SegmentPartition partition = partition_segments(xyz, parts, options.leaf_vertices, options.seed, tets_per_vertex);
+    std::vector<float>().swap(tets_per_vertex);
+    segment_count = partition.segments;
+    segment_of_vertex = std::move(partition.segment_of_vertex);
+    leaf_count = partition.leaves;
+    contiguous = partition.contiguous;
+    leaf_vertices = partition.leaf_vertices;
+    // owned vertices of every segment, ascending global id
+    owned_begin.assign(segment_count + 1, 0);
+    for (uint32_t s : segment_of_vertex) ++owned_begin[s + 1];
+    for (uint32_t s = 0; s < segment_count; ++s) owned_begin[s + 1] += owned_begin[s];
+    owned.resize(vertex_count);
+    {
+      std::vector<uint64_t> fill(owned_begin.begin(), owned_begin.end() - 1);
+      for (uint64_t v = 0; v < vertex_count; ++v) owned[fill[segment_of_vertex[v]]++] = static_cast<uint32_t>(v);
     }
   }
-  VertexPartition partition = partition_vertices(xyz, partition_options, tets_per_vertex);
-  std::vector<float>().swap(tets_per_vertex);
-  // number segments by ascending vertex count (§6.1.1); empty parts are dropped
-  std::vector<uint64_t> part_vertices(partition.parts, 0);
-  for (uint32_t p : partition.part_of_vertex) ++part_vertices[p];
-  std::vector<uint32_t> by_size;
-  for (uint32_t p = 0; p < partition.parts; ++p) {
-    if (part_vertices[p] > 0) by_size.push_back(p);
-  }
-  std::stable_sort(by_size.begin(), by_size.end(), [&](uint32_t a, uint32_t b) { return part_vertices[a] < part_vertices[b]; });
-  const uint32_t segment_count = static_cast<uint32_t>(by_size.size());
-  std::vector<uint32_t> segment_of_part(partition.parts, 0);
-  for (uint32_t s = 0; s < segment_count; ++s) segment_of_part[by_size[s]] = s;
-  std::vector<uint32_t> segment_of_vertex(vertex_count);
-  for (uint64_t v = 0; v < vertex_count; ++v) segment_of_vertex[v] = segment_of_part[partition.part_of_vertex[v]];
-  const uint32_t leaf_count = static_cast<uint32_t>(partition.leaves.size());
-  const bool contiguous = partition.contiguous;
-  partition = VertexPartition();  // free it
-  // owned vertices of every segment, ascending global id
-  std::vector<uint64_t> owned_begin(segment_count + 1, 0);
-  for (uint32_t s : segment_of_vertex) ++owned_begin[s + 1];
-  for (uint32_t s = 0; s < segment_count; ++s) owned_begin[s + 1] += owned_begin[s];
-  std::vector<uint32_t> owned(vertex_count);
-  {
-    std::vector<uint64_t> fill(owned_begin.begin(), owned_begin.end() - 1);
-    for (uint64_t v = 0; v < vertex_count; ++v) owned[fill[segment_of_vertex[v]]++] = static_cast<uint32_t>(v);
-  }
 
-  storage::StoreWriter writer(store_path, options.replace, vertex_count, segment_count, floats_per_vertex);
-
-  // ---- pass 2: tets to segments ----
-  report_progress("assign tets", 0);
-  std::optional<TetSpill> spill_file;
-  spill_file.emplace(writer.temp_directory() / "tets.spill", segment_count);
-  TetSpill& spill = *spill_file;
-  std::vector<uint64_t> pairs;  // (segment << 32 | neighbour) for vertex-sharing segments
-  storage::TetChunk tets;
-  while (stream->next_tets(tets)) {
-    for (size_t t = 0; t < tets.count; ++t) {
-      const uint32_t* tet = tets.tets.data() + 4 * t;
-      uint32_t s0 = segment_of_vertex[tet[0]], s1 = segment_of_vertex[tet[1]], s2 = segment_of_vertex[tet[2]], s3 = segment_of_vertex[tet[3]];
-      uint32_t s = std::min({s0, s1, s2, s3});
-      spill.add(s, tet);
-      for (uint32_t o : {s0, s1, s2, s3}) {
-        if (o != s) pairs.push_back(uint64_t{s} << 32 | o);
+  // Pass 2: every tet to the lowest segment among its vertices, spilled to disk.
+  void assign_tets() {
+    report_progress("assign tets", 0);
+    spill_file.emplace(writer->temp_directory() / "tets.spill", segment_count);
+    TetSpill& spill = *spill_file;
+    storage::TetChunk tets;
+    while (stream->next_tets(tets)) {
+      for (size_t t = 0; t < tets.count; ++t) {
+        const uint32_t* tet = tets.tets.data() + 4 * t;
+        const uint32_t s0 = segment_of_vertex[tet[0]], s1 = segment_of_vertex[tet[1]], s2 = segment_of_vertex[tet[2]], s3 = segment_of_vertex[tet[3]];
+        const uint32_t s = segment_of_tet(segment_of_vertex, tet);
+        spill.add(s, tet);
+        for (uint32_t o : {s0, s1, s2, s3}) {
+          if (o != s) pairs.push_back(uint64_t{s} << 32 | o);
+        }
       }
-    }
-    if (pairs.size() > (1u << 22)) {
-      std::sort(pairs.begin(), pairs.end());
-      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-    }
-    report_progress("assign tets", estimated_tets ? std::min(1.0, double(tets.first + tets.count) / double(estimated_tets)) : 0);
-  }
-  spill.flush_all();
-  const storage::ReadStats read_stats = stream->stats();
-  uint64_t tet_count = 0;
-  for (uint32_t s = 0; s < segment_count; ++s) {
-    tet_count += spill.count(s);
-    if (spill.count(s) > storage::store::kMaxSegmentTets) throw std::runtime_error("a segment got more than 2^30 tets; use more segments");
-  }
-  if (tet_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
-
-  // ---- pass 3: pair faces inside segments, then across them ----
-  report_progress("match faces", 0);
-  const unsigned workers = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
-  std::vector<PairScratch> scratch(workers);
-  for (auto& sc : scratch) sc.local_of.assign(vertex_count, kNoPartner);
-  std::vector<std::vector<FaceKey>> unpaired_by_worker(workers);
-  // the in-segment pairing is kept on disk for pass 4 (16 bytes a tet, not in memory)
-  std::vector<uint64_t> partner_offset(segment_count + 1, 0);
-  for (uint32_t s = 0; s < segment_count; ++s) partner_offset[s + 1] = partner_offset[s] + 16 * spill.count(s);
-  const std::filesystem::path partner_path = writer.temp_directory() / "partners.spill";
-  struct FileCloser {
-    FileCloser(const std::filesystem::path& p) : fd(::open(p.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600)), path(p) {}
-    FileCloser(const FileCloser&) = delete;
-    int fd;
-    std::filesystem::path path;
-    ~FileCloser() {
-      if (fd >= 0) ::close(fd);
-      std::error_code ignored;
-      std::filesystem::remove(path, ignored);
-    }
-  };
-  std::optional<FileCloser> partners;
-  partners.emplace(partner_path);
-  if (partners->fd < 0) throw std::runtime_error(partner_path.string() + ": cannot create spill file");
-  auto transfer = [&](bool write, uint32_t s, std::vector<uint32_t>& partner) {
-    const size_t bytes = 4 * partner.size();
-    ssize_t done = write ? ::pwrite(partners->fd, partner.data(), bytes, static_cast<off_t>(partner_offset[s]))
-                         : ::pread(partners->fd, partner.data(), bytes, static_cast<off_t>(partner_offset[s]));
-    if (done != static_cast<ssize_t>(bytes)) throw std::runtime_error(partner_path.string() + ": spill " + (write ? "write failed (disk full?)" : "read failed"));
-  };
-  std::vector<std::array<float, 6>> bounds(segment_count);
-  std::atomic<uint32_t> matched{0};
-  parallel_for(segment_count, workers, [&](size_t item, unsigned w) {
-    const uint32_t s = static_cast<uint32_t>(item);
-    std::vector<uint32_t> segment_tets, partner;
-    spill.read(s, segment_tets);
-    pair_faces(s, segment_tets, scratch[w], partner);
-    transfer(true, s, partner);
-    for (uint32_t face = 0; face < partner.size(); ++face) {
-      if (partner[face] != kNoPartner) continue;
-      FaceKey k;
-      for (int i = 0; i < 3; ++i) k.v[i] = segment_tets[4 * size_t{face / 4} + kFace[face % 4][i]];
-      std::sort(k.v, k.v + 3);
-      k.segment = s;
-      k.face = face;
-      unpaired_by_worker[w].push_back(k);
-    }
-    std::array<float, 6>& b = bounds[s];
-    b = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
-         std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest()};
-    auto extend = [&](uint32_t v) {
-      for (int k = 0; k < 3; ++k) {
-        b[k] = std::min(b[k], xyz[3 * size_t{v} + k]);
-        b[3 + k] = std::max(b[3 + k], xyz[3 * size_t{v} + k]);
+      if (pairs.size() > (1u << 22)) {
+        std::sort(pairs.begin(), pairs.end());
+        pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
       }
-    };
-    for (uint32_t v : segment_tets) extend(v);
-    for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) extend(owned[i]);
-    if (w == 0) report_progress("match faces", 0.7 * (matched.load() + 1) / segment_count);
-    ++matched;
-  });
-  std::vector<FaceKey> unpaired;
-  for (auto& list : unpaired_by_worker) {
-    unpaired.insert(unpaired.end(), list.begin(), list.end());
-    std::vector<FaceKey>().swap(list);
+      report_progress("assign tets", estimated_tets ? std::min(1.0, double(tets.first + tets.count) / double(estimated_tets)) : 0);
+    }
+    spill.flush_all();
+    read_stats = stream->stats();
+    tet_count = 0;
+    for (uint32_t s = 0; s < segment_count; ++s) {
+      tet_count += spill.count(s);
+      if (spill.count(s) > storage::store::kMaxSegmentTets) throw std::runtime_error("a segment got more than 2^30 tets; use more segments");
+    }
+    if (tet_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
   }
-  std::sort(unpaired.begin(), unpaired.end());
-  std::vector<std::vector<Link>> links(segment_count);
-  std::vector<std::vector<uint32_t>> border_tets(segment_count);  // raw tet ids with a border face, ascending
-  for (size_t i = 0; i < unpaired.size();) {
-    size_t j = i + 1;
-    while (j < unpaired.size() && unpaired[j].same_face(unpaired[i])) ++j;
-    if (j - i == 2 && unpaired[i].segment != unpaired[i + 1].segment) {
-      const FaceKey &a = unpaired[i], &b = unpaired[i + 1];
+
+  // Pass 3: faces paired inside every segment (kept on disk), then across segments (links).
+  void match_faces() {
+    TetSpill& spill = *spill_file;
+    report_progress("match faces", 0);
+    workers = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
+    scratch.resize(workers);  // one per worker: parallel_for hands out worker indices
+    for (auto& sc : scratch) sc.local_of.assign(vertex_count, kNoOppositeFace);
+    std::vector<std::vector<OpenFace>> unpaired_by_worker(workers);
+    // the in-segment pairing is kept on disk for pass 4 (16 bytes a tet, not in memory)
+    partner_offset.assign(segment_count + 1, 0);
+    for (uint32_t s = 0; s < segment_count; ++s) partner_offset[s + 1] = partner_offset[s] + 16 * spill.count(s);
+    partner_path = writer->temp_directory() / "partners.spill";
+    partners.emplace(partner_path);
+    if (partners->fd < 0) throw std::runtime_error(partner_path.string() + ": cannot create spill file");
+    bounds.resize(segment_count);
+    std::atomic<uint32_t> matched{0};
+    parallel_for(segment_count, workers, [&](size_t item, unsigned w) {
+      const uint32_t s = static_cast<uint32_t>(item);
+      std::vector<uint32_t> segment_tets, partner;
+      spill.read(s, segment_tets);
+      pair_faces(segment_tets, scratch[w], partner);
+      transfer(true, s, partner);
+      for (uint32_t face = 0; face < partner.size(); ++face) {
+        if (partner[face] != kNoOppositeFace) continue;
+        unpaired_by_worker[w].push_back({face_key(tet_face(segment_tets, face / 4, int(face % 4))), s, face});
+      }
+      std::array<float, 6>& b = bounds[s];
+      b = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
+           std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest()};
+      auto extend = [&](uint32_t v) {
+        for (int k = 0; k < 3; ++k) {
+          b[k] = std::min(b[k], xyz[3 * size_t{v} + k]);
+          b[3 + k] = std::max(b[3 + k], xyz[3 * size_t{v} + k]);
+        }
+      };
+      for (uint32_t v : segment_tets) extend(v);
+      for (uint64_t i = owned_begin[s]; i < owned_begin[s + 1]; ++i) extend(owned[i]);
+      if (w == 0) report_progress("match faces", 0.7 * (matched.load() + 1) / segment_count);
+      ++matched;
+    });
+    std::vector<OpenFace> unpaired;
+    for (auto& list : unpaired_by_worker) {
+      unpaired.insert(unpaired.end(), list.begin(), list.end());
+      std::vector<OpenFace>().swap(list);
+    }
+    links.resize(segment_count);
+    border_tets.resize(segment_count);
+    pair_open_faces(unpaired, [&](const OpenFace& a, const OpenFace& b) {
+      if (a.segment == b.segment) return;
       links[a.segment].push_back({a.face, b.segment, b.face});
       links[b.segment].push_back({b.face, a.segment, a.face});
       border_tets[a.segment].push_back(a.face / 4);
       border_tets[b.segment].push_back(b.face / 4);
       pairs.push_back(uint64_t{a.segment} << 32 | b.segment);
+    });
+    std::vector<OpenFace>().swap(unpaired);
+    for (auto& list : border_tets) {
+      std::sort(list.begin(), list.end());
+      list.erase(std::unique(list.begin(), list.end()), list.end());
     }
-    i = j;
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    neighbours.resize(segment_count);
+    for (uint64_t p : pairs) {
+      uint32_t a = static_cast<uint32_t>(p >> 32), b = static_cast<uint32_t>(p);
+      neighbours[a].push_back(b);
+      neighbours[b].push_back(a);
+    }
+    std::vector<uint64_t>().swap(pairs);
+    for (auto& list : neighbours) {
+      std::sort(list.begin(), list.end());
+      list.erase(std::unique(list.begin(), list.end()), list.end());
+    }
+    order = streaming_order(neighbours, bounds);
   }
-  std::vector<FaceKey>().swap(unpaired);
-  for (auto& list : border_tets) {
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
+
+  // The in-segment pairing of segment s to (write) or from the partner spill file.
+  void transfer(bool write, uint32_t s, std::vector<uint32_t>& partner) const {
+    const size_t bytes = 4 * partner.size();
+    ssize_t done = write ? ::pwrite(partners->fd, partner.data(), bytes, static_cast<off_t>(partner_offset[s]))
+                         : ::pread(partners->fd, partner.data(), bytes, static_cast<off_t>(partner_offset[s]));
+    if (done != static_cast<ssize_t>(bytes)) throw std::runtime_error(partner_path.string() + ": spill " + (write ? "write failed (disk full?)" : "read failed"));
   }
+
   // raw tet -> position after moving border tets to the front (stable)
-  auto final_tet = [&](uint32_t s, uint32_t raw) -> uint32_t {
+  uint32_t final_tet(uint32_t s, uint32_t raw) const {
     const auto& list = border_tets[s];
     auto it = std::lower_bound(list.begin(), list.end(), raw);
     uint32_t rank = static_cast<uint32_t>(it - list.begin());
     if (it != list.end() && *it == raw) return rank;
     return static_cast<uint32_t>(list.size()) + raw - rank;
-  };
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  std::vector<std::vector<uint32_t>> neighbours(segment_count);
-  for (uint64_t p : pairs) {
-    uint32_t a = static_cast<uint32_t>(p >> 32), b = static_cast<uint32_t>(p);
-    neighbours[a].push_back(b);
-    neighbours[b].push_back(a);
   }
-  std::vector<uint64_t>().swap(pairs);
-  for (auto& list : neighbours) {
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-  }
-  StreamOrder order = streaming_order(neighbours, bounds);
 
-  // ---- pass 4: write segments in streaming order ----
-  report_progress("write segments", 0);
-  SegmentationReport report;
-  report.min_vertices = report.min_tets = std::numeric_limits<uint32_t>::max();
   // Builds segment s into `data` with worker w's scratch.
-  auto build_segment = [&](uint32_t s, unsigned w, storage::SegmentData& data) {
-    PairScratch& sc = scratch[w];
+  void build_segment(uint32_t s, unsigned w, storage::SegmentData& data) {
+    const TetSpill& spill = *spill_file;
+    FacePairingScratch& sc = scratch[w];
     std::vector<uint32_t> segment_tets, partner;
     spill.read(s, segment_tets);
     const uint32_t raw_count = static_cast<uint32_t>(segment_tets.size() / 4);
@@ -532,11 +365,11 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
       uint32_t t = final_tet(s, raw);
       for (int k = 0; k < 4; ++k) data.tets[4 * size_t{t} + k] = local_of[segment_tets[4 * size_t{raw} + k]];
     }
-    for (uint32_t g : data.global_ids) local_of[g] = kNoPartner;
+    for (uint32_t g : data.global_ids) local_of[g] = kNoOppositeFace;
     // opposites: inside the segment from the local pairing, borders from the links
     data.opposites.assign(segment_tets.size(), storage::store::kMeshBoundary);
     for (uint32_t face = 0; face < partner.size(); ++face) {
-      if (partner[face] == kNoPartner) continue;
+      if (partner[face] == kNoOppositeFace) continue;
       data.opposites[final_tet(s, face / 4) * 4 + face % 4] = final_tet(s, partner[face] / 4) * 4 + partner[face] % 4;
     }
     for (const Link& link : links[s]) {
@@ -546,73 +379,158 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
     }
     std::sort(data.links.begin(), data.links.end(), [](const BorderLink& a, const BorderLink& b) { return a.face < b.face; });
     std::copy(bounds[s].begin(), bounds[s].end(), data.bounds);
-  };
-  // build `workers` segments at once, write them in streaming order
-  std::vector<storage::SegmentData> built(workers);
-  for (size_t step = 0; step < order.order.size(); step += workers) {
-    const size_t batch = std::min<size_t>(workers, order.order.size() - step);
-    parallel_for(batch, static_cast<unsigned>(batch), [&](size_t i, unsigned w) { build_segment(order.order[step + i], w, built[i]); });
-    for (size_t i = 0; i < batch; ++i) {
-      const storage::SegmentData& data = built[i];
-      writer.add_segment(data);
-      const uint32_t nv = static_cast<uint32_t>(data.global_ids.size()), nt = static_cast<uint32_t>(data.tets.size() / 4);
-      report.min_vertices = std::min(report.min_vertices, nv);
-      report.max_vertices = std::max(report.max_vertices, nv);
-      report.min_tets = std::min(report.min_tets, nt);
-      report.max_tets = std::max(report.max_tets, nt);
-      report.avg_vertices += double(nv) / segment_count;
-    }
-    report_progress("write segments", double(step + batch) / segment_count);
   }
 
-  // ---- manifest ----
-  nlohmann::json manifest;
-  manifest["format"] = "tetrascope-store";
-  manifest["version"] = storage::store::kFormatVersion;
-  std::error_code ec;
-  manifest["source"] = {{"file", std::filesystem::absolute(mesh_path).string()}, {"format", storage::format_name(header.format)},
-                        {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", sha256.get()}};
-  manifest["counts"] = {{"vertices", vertex_count}, {"tetrahedra", tet_count}, {"segments", segment_count},
-                        {"degenerate_tetrahedra", read_stats.degenerate}, {"reoriented_tetrahedra", read_stats.inverted}};
-  nlohmann::json attribute_list = nlohmann::json::array();
-  for (size_t a = 0; a < header.attributes.size(); ++a) {
-    double lo = std::isfinite(ranges[a][0]) ? ranges[a][0] : 0, hi = std::isfinite(ranges[a][1]) ? ranges[a][1] : 0;
-    attribute_list.push_back({{"name", header.attributes[a].name}, {"components", header.attributes[a].components}, {"min", lo}, {"max", hi},
-                              {"range_of", header.attributes[a].components == 1 ? "value" : "magnitude"},
-                              // normalised = (value - offset) * scale maps the range to [0, 1]
-                              {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
-  }
-  manifest["attributes"] = attribute_list;
-  std::array<double, 6> all{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
-                            std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest()};
-  for (const auto& b : bounds) {
-    for (int k = 0; k < 3; ++k) {
-      all[k] = std::min<double>(all[k], b[k]);
-      all[3 + k] = std::max<double>(all[3 + k], b[3 + k]);
+  // Pass 4: the segments, built two at a time, written in streaming order.
+  void write_segments() {
+    report_progress("write segments", 0);
+    report.min_vertices = report.min_tets = std::numeric_limits<uint32_t>::max();
+    // build `workers` segments at once, write them in streaming order
+    std::vector<storage::SegmentData> built(workers);
+    for (size_t step = 0; step < order.order.size(); step += workers) {
+      const size_t batch = std::min<size_t>(workers, order.order.size() - step);
+      parallel_for(batch, static_cast<unsigned>(batch), [&](size_t i, unsigned w) { build_segment(order.order[step + i], w, built[i]); });
+      for (size_t i = 0; i < batch; ++i) {
+        const storage::SegmentData& data = built[i];
+        writer->add_segment(data);
+        const uint32_t nv = static_cast<uint32_t>(data.global_ids.size()), nt = static_cast<uint32_t>(data.tets.size() / 4);
+        report.min_vertices = std::min(report.min_vertices, nv);
+        report.max_vertices = std::max(report.max_vertices, nv);
+        report.min_tets = std::min(report.min_tets, nt);
+        report.max_tets = std::max(report.max_tets, nt);
+        report.avg_vertices += double(nv) / segment_count;
+      }
+      report_progress("write segments", double(step + batch) / segment_count);
     }
   }
-  manifest["bounds"] = {{"min", {all[0], all[1], all[2]}}, {"max", {all[3], all[4], all[5]}}};
-  manifest["build"] = {{"leaf_vertices", partition_options.leaf_vertices}, {"segment_tets", options.segment_tets}, {"segments_requested", options.segments},
-                       {"seed", options.seed}, {"octree_leaves", leaf_count}, {"metis_contiguous", contiguous}};
-  manifest["stream"] = {{"tags", order.tags}, {"max_workload_segments", order.max_workload}};
-  report.vertices = vertex_count;
-  report.tets = tet_count;
-  report.segments = segment_count;
-  report.leaves = leaf_count;
-  report.avg_tets = double(tet_count) / segment_count;
-  report.max_workload = order.max_workload;
-  report.contiguous = contiguous;
-  report.store_bytes = writer.bytes_written();
-  manifest["segmentation"] = report.to_json();
-  manifest["segmentation"].erase("seconds");
-  manifest["segmentation"].erase("store_bytes");
-  report_progress("write segments", 1);
-  spill_file.reset();  // removes the spill files before the directory is renamed
-  partners.reset();
-  writer.finish(neighbours, manifest);
-  report.seconds = std::chrono::duration<double>(clock::now() - start).count();
+
+  // manifest.json, and the store renamed into place.
+  void finish() {
+    nlohmann::json manifest;
+    manifest["format"] = "tetrascope-store";
+    manifest["version"] = storage::store::kFormatVersion;
+    std::error_code ec;
+    manifest["source"] = {{"file", std::filesystem::absolute(mesh_path).string()}, {"format", storage::format_name(header.format)},
+                          {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", sha256.get()}};
+    manifest["counts"] = {{"vertices", vertex_count}, {"tetrahedra", tet_count}, {"segments", segment_count},
+                          {"degenerate_tetrahedra", read_stats.degenerate}, {"reoriented_tetrahedra", read_stats.inverted}};
+    nlohmann::json attribute_list = nlohmann::json::array();
+    for (size_t a = 0; a < header.attributes.size(); ++a) {
+      double lo = std::isfinite(ranges[a][0]) ? ranges[a][0] : 0, hi = std::isfinite(ranges[a][1]) ? ranges[a][1] : 0;
+      attribute_list.push_back({{"name", header.attributes[a].name}, {"components", header.attributes[a].components}, {"min", lo}, {"max", hi},
+                                {"range_of", header.attributes[a].components == 1 ? "value" : "magnitude"},
+                                // normalised = (value - offset) * scale maps the range to [0, 1]
+                                {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
+    }
+    manifest["attributes"] = attribute_list;
+    std::array<double, 6> all{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
+                              std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest()};
+    for (const auto& b : bounds) {
+      for (int k = 0; k < 3; ++k) {
+        all[k] = std::min<double>(all[k], b[k]);
+        all[3 + k] = std::max<double>(all[3 + k], b[3 + k]);
+      }
+    }
+    manifest["bounds"] = {{"min", {all[0], all[1], all[2]}}, {"max", {all[3], all[4], all[5]}}};
+    manifest["build"] = {{"leaf_vertices", leaf_vertices}, {"segment_tets", options.segment_tets}, {"segments_requested", options.segments},
+                         {"seed", options.seed}, {"octree_leaves", leaf_count}, {"metis_contiguous", contiguous}};
+    manifest["stream"] = {{"tags", order.tags}, {"max_workload_segments", order.max_workload}};
+    report.vertices = vertex_count;
+    report.tets = tet_count;
+    report.segments = segment_count;
+    report.leaves = leaf_count;
+    report.avg_tets = double(tet_count) / segment_count;
+    report.max_workload = order.max_workload;
+    report.contiguous = contiguous;
+    report.store_bytes = writer->bytes_written();
+    manifest["segmentation"] = report.to_json();
+    manifest["segmentation"].erase("seconds");
+    manifest["segmentation"].erase("store_bytes");
+    report_progress("write segments", 1);
+    spill_file.reset();  // removes the spill files before the directory is renamed
+    partners.reset();
+    writer->finish(neighbours, manifest);
+  }
+
+  const std::filesystem::path mesh_path, store_path;
+  const SegmentationOptions& options;
+  storage::Progress* progress;
+  std::future<std::string> sha256;  // of the source, computed while we work
+  std::filesystem::path hashed;     // the file hashed
+  // pass 1
+  std::unique_ptr<storage::MeshStream> stream;
+  storage::MeshHeader header;
+  uint64_t vertex_count = 0;
+  uint32_t floats_per_vertex = 0;
+  std::vector<std::vector<float>> attributes;
+  std::vector<std::array<double, 2>> ranges;
+  std::span<const float> xyz;
+  // partition
+  uint64_t estimated_tets = 0;
+  uint32_t segment_count = 0, leaf_count = 0, leaf_vertices = 0;
+  bool contiguous = false;
+  std::vector<uint32_t> segment_of_vertex;
+  std::vector<uint64_t> owned_begin;
+  std::vector<uint32_t> owned;  // owned vertices of every segment, ascending global id
+  std::optional<storage::StoreWriter> writer;
+  // pass 2
+  std::optional<TetSpill> spill_file;
+  std::vector<uint64_t> pairs;  // (segment << 32 | neighbour) for vertex-sharing segments
+  storage::ReadStats read_stats;
+  uint64_t tet_count = 0;
+  // pass 3
+  unsigned workers = 1;
+  std::vector<FacePairingScratch> scratch;  // one per worker: parallel_for hands out worker indices
+  std::vector<uint64_t> partner_offset;
+  std::filesystem::path partner_path;
+  std::optional<FileCloser> partners;
+  std::vector<std::array<float, 6>> bounds;
+  std::vector<std::vector<Link>> links;
+  std::vector<std::vector<uint32_t>> border_tets;  // raw tet ids with a border face, ascending
+  std::vector<std::vector<uint32_t>> neighbours;
+  StreamOrder order;
+  // pass 4
+  SegmentationReport report;
+};
+
+}  // namespace
+
+nlohmann::json SegmentationReport::to_json() const {
+  return {{"vertices", vertices}, {"tetrahedra", tets}, {"segments", segments}, {"octree_leaves", leaves},
+          {"vertices_per_segment", {{"min", min_vertices}, {"avg", avg_vertices}, {"max", max_vertices}}},
+          {"tets_per_segment", {{"min", min_tets}, {"avg", avg_tets}, {"max", max_tets}}},
+          {"max_tets_over_avg", avg_tets > 0 ? max_tets / avg_tets : 0.0},
+          {"max_workload_segments", max_workload},
+          {"max_workload_fraction", segments ? double(max_workload) / segments : 0.0},
+          {"metis_contiguous", contiguous}, {"store_bytes", store_bytes}, {"seconds", seconds}};
+}
+
+SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path,
+                                const SegmentationOptions& options, storage::Progress* progress) {
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  if (options.leaf_vertices != 0 && (options.leaf_vertices < kMinLeafVertices || options.leaf_vertices > kMaxLeafVertices)) {
+    throw std::invalid_argument("--leaf-vertices must be " + std::to_string(kMinLeafVertices) + " to " + std::to_string(kMaxLeafVertices));
+  }
+  if (options.segments == 0 && options.segment_tets < kMinSegmentTets) {
+    throw std::invalid_argument("--segment-tets must be at least " + std::to_string(kMinSegmentTets));
+  }
+  if (options.segments > storage::store::kMaxSegments) throw std::invalid_argument("--segments is too large");
+  Segmentation run(mesh_path, store_path, options, progress);
+  // fingerprint the source while we work
+  run.hashed = mesh_path;
+  if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) run.hashed.replace_extension(".ele");
+  run.sha256 = std::async(std::launch::async, [hashed = run.hashed] { return storage::sha256_file(hashed); });
+  run.read_vertices();
+  run.partition();
+  run.writer.emplace(store_path, options.replace, run.vertex_count, run.segment_count, run.floats_per_vertex);
+  run.assign_tets();
+  run.match_faces();
+  run.write_segments();
+  run.finish();
+  run.report.seconds = std::chrono::duration<double>(clock::now() - start).count();
   if (progress) progress->finish();
-  return report;
+  return run.report;
 }
 
 }  // namespace tetrascope::lod

@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tetrascope/lod/multires.h"
+#include "tetrascope/lod/dag.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::server {

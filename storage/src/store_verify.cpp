@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "tetrascope/storage/store.h"
+#include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::storage {
 
@@ -21,15 +22,13 @@ nlohmann::json VerifyReport::to_json() const {
 }
 
 namespace {
-constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 constexpr size_t kMaxProblems = 20;
 
-std::array<uint32_t, 3> face_vertices(const SegmentView& v, uint32_t face) {
-  const uint32_t t = face / 4, f = face % 4;
-  std::array<uint32_t, 3> g;
-  for (int i = 0; i < 3; ++i) g[i] = v.global_ids[v.tets[4 * size_t{t} + kFace[f][i]]];
-  std::sort(g.begin(), g.end());
-  return g;
+// The face's key in global vertex ids (comparable across segments).
+FaceVertices face_vertices(const SegmentView& v, uint32_t face) {
+  FaceVertices g = tet_face(v.tets, face / 4, int(face % 4));
+  for (uint32_t& id : g) id = v.global_ids[id];
+  return face_key(g);
 }
 }  // namespace
 

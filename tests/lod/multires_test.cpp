@@ -16,7 +16,8 @@
 #include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/multires.h"
+#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/mt_build.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store_verify.h"
 

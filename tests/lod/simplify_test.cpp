@@ -11,7 +11,7 @@
 #include "fixture_writers.h"
 #include "mesh_checks.h"
 #include "test_paths.h"
-#include "tetrascope/lod/mesh_error.h"
+#include "tetrascope/lod/error_measure.h"
 #include "tetrascope/lod/quadric.h"
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/mesh_stream.h"

@@ -15,7 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "tetrascope/lod/multires.h"
+#include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/view.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/store.h"

@@ -1,55 +1,20 @@
-// The multi-triangulation of dissertation §6.3: `tetrascope preprocess` builds it into a
-// store (segments.bin holds every level's segments, dag.bin the DAG and the error
-// histograms), and a Dag read back from a store drives the runtime cut (cut.h).
+// The runtime DAG of the multi-triangulation (dissertation §6.3): dag.bin of a store read
+// back and checked, then used by the cut (cut.h). The store itself is written by
+// `tetrascope preprocess` (mt_build.h).
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "tetrascope/lod/dag_format.h"
-#include "tetrascope/storage/progress.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::lod {
-
-struct PreprocessOptions {
-  uint32_t segment_tets = 16384;  // target tets a segment, at every level
-  uint64_t base_tets = 100000;    // stop when a level has at most this many tets (or one segment)
-  double level_ratio = 0.25;      // each segment is simplified to this share of its tets
-  uint32_t histogram_bins = 256;  // N
-  uint32_t threads = 2;           // segments simplified at once
-  uint32_t max_levels = 24;
-  int seed = 1;
-  bool replace = false;
-};
-
-struct LevelReport {
-  uint32_t level = 0, segments = 0, patches = 0;
-  uint64_t tets = 0, vertices = 0;
-};
-
-struct PreprocessReport {
-  uint64_t input_vertices = 0, input_tets = 0;
-  std::vector<LevelReport> levels;
-  uint32_t segments = 0, patches = 0;
-  uint64_t store_bytes = 0, dag_bytes = 0;
-  double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
-  nlohmann::json to_json() const;
-};
-
-// ingest -> partition (octree + METIS, §6.1) -> per level: partition again (rotated 45° every
-// other level, §6.3.2), patches, simplify every new segment with its border locked, error
-// histograms -> store, written atomically (NAME.tmp/ renamed to NAME/ when complete).
-// Throws storage::MeshError for a bad mesh, std::invalid_argument for bad options,
-// std::runtime_error otherwise; on failure no store directory is left behind.
-PreprocessReport preprocess(const std::filesystem::path& mesh, const std::filesystem::path& store, const PreprocessOptions& options,
-                            storage::Progress* progress = nullptr);
 
 class DagError : public std::runtime_error {
  public:

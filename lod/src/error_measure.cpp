@@ -2,10 +2,7 @@
 // the mean field error Ẽ_M^f (RMS over the original vertices, points outside the simplified
 // mesh projected to its boundary), the largest field error, and the symmetric Hausdorff and
 // mean distance between the two boundary surfaces, sampled.
-#include "tetrascope/lod/mesh_error.h"
-
-#include "box_grid.h"
-#include "tet_faces.h"
+#include "tetrascope/lod/error_measure.h"
 
 #include <algorithm>
 #include <array>
@@ -13,24 +10,24 @@
 #include <limits>
 #include <random>
 
+#include "box_grid.h"
+#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/storage/vec3.h"
+
 namespace tetrascope::lod {
 namespace {
 
 using detail::BoxGrid;
-using detail::Vec;
 
-Vec vertex(const storage::TetMesh& m, uint32_t v) { return {m.x[v], m.y[v], m.z[v]}; }
-Vec sub(const Vec& a, const Vec& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec cross(const Vec& a, const Vec& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+Vec3 vertex(const storage::TetMesh& m, uint32_t v) { return {m.x[v], m.y[v], m.z[v]}; }
 
 // Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5); returns
 // barycentric weights in w.
-Vec closest_on_triangle(const Vec& p, const Vec& a, const Vec& b, const Vec& c, double w[3]) {
-  Vec ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double w[3]) {
+  Vec3 ab = b - a, ac = c - a, ap = p - a;
   double d1 = dot(ab, ap), d2 = dot(ac, ap);
   if (d1 <= 0 && d2 <= 0) { w[0] = 1; w[1] = w[2] = 0; return a; }
-  Vec bp = sub(p, b);
+  Vec3 bp = p - b;
   double d3 = dot(ab, bp), d4 = dot(ac, bp);
   if (d3 >= 0 && d4 <= d3) { w[1] = 1; w[0] = w[2] = 0; return b; }
   double vc = d1 * d4 - d3 * d2;
@@ -39,7 +36,7 @@ Vec closest_on_triangle(const Vec& p, const Vec& a, const Vec& b, const Vec& c, 
     w[0] = 1 - v; w[1] = v; w[2] = 0;
     return {a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]};
   }
-  Vec cp = sub(p, c);
+  Vec3 cp = p - c;
   double d5 = dot(ab, cp), d6 = dot(ac, cp);
   if (d6 >= 0 && d5 <= d6) { w[2] = 1; w[0] = w[1] = 0; return c; }
   double vb = d5 * d2 - d1 * d6;
@@ -62,12 +59,12 @@ Vec closest_on_triangle(const Vec& p, const Vec& a, const Vec& b, const Vec& c, 
 // Nearest points on a triangle surface.
 class Surface {
  public:
-  Surface(const storage::TetMesh& m) : m_(m), triangles_(detail::boundary_faces(m.tets)) {
-    std::vector<std::array<Vec, 2>> boxes;
+  Surface(const storage::TetMesh& m) : m_(m), triangles_(boundary_faces_by_key(m.tets)) {
+    std::vector<std::array<Vec3, 2>> boxes;
     for (const auto& t : triangles_) {
-      Vec lo = vertex(m, t[0]), hi = lo;
+      Vec3 lo = vertex(m, t[0]), hi = lo;
       for (int i = 1; i < 3; ++i) {
-        Vec p = vertex(m, t[i]);
+        Vec3 p = vertex(m, t[i]);
         for (int k = 0; k < 3; ++k) {
           lo[k] = std::min(lo[k], p[k]);
           hi[k] = std::max(hi[k], p[k]);
@@ -79,14 +76,14 @@ class Surface {
   }
   const std::vector<std::array<uint32_t, 3>>& triangles() const { return triangles_; }
   // Distance to the surface; the nearest triangle and barycentric weights.
-  double nearest(const Vec& p, uint32_t* triangle, double w[3]) const {
+  double nearest(const Vec3& p, uint32_t* triangle, double w[3]) const {
     double best = std::numeric_limits<double>::infinity();
     for (int r = 0;; ++r) {
       bool inside = grid_.ring(p, r, [&](uint32_t i) {
         const auto& t = triangles_[i];
         double weights[3];
-        Vec c = closest_on_triangle(p, vertex(m_, t[0]), vertex(m_, t[1]), vertex(m_, t[2]), weights);
-        Vec d = sub(c, p);
+        Vec3 c = closest_on_triangle(p, vertex(m_, t[0]), vertex(m_, t[1]), vertex(m_, t[2]), weights);
+        Vec3 d = c - p;
         double dist = std::sqrt(dot(d, d));
         if (dist < best) {
           best = dist;
@@ -111,6 +108,46 @@ struct Normaliser {  // per attribute channel: scalars to [0, 1], vectors by the
   std::vector<double> offset, scale;
   std::vector<bool> vector;
 };
+
+// Distances from sample points of one boundary surface to another.
+struct SurfaceDistance {
+  double hausdorff = 0, sum = 0;
+  uint64_t samples = 0;
+};
+
+// `samples` area-weighted random points of `from` (a surface of from_mesh) plus its vertices,
+// measured to `to`.
+void sample_surface_distance(const storage::TetMesh& from_mesh, const Surface& from, const Surface& to, uint32_t samples, std::mt19937& rng,
+                             SurfaceDistance& out) {
+  const auto& tris = from.triangles();
+  if (tris.empty()) return;
+  std::vector<double> area(tris.size());
+  double total = 0;
+  for (size_t i = 0; i < tris.size(); ++i) {
+    Vec3 n = cross(vertex(from_mesh, tris[i][1]) - vertex(from_mesh, tris[i][0]), vertex(from_mesh, tris[i][2]) - vertex(from_mesh, tris[i][0]));
+    total += std::sqrt(dot(n, n));
+    area[i] = total;
+  }
+  std::uniform_real_distribution<double> unit(0, 1);
+  auto measure = [&](const Vec3& p) {
+    uint32_t tri;
+    double w[3];
+    double d = to.nearest(p, &tri, w);
+    out.hausdorff = std::max(out.hausdorff, d);
+    out.sum += d;
+    ++out.samples;
+  };
+  for (uint32_t s = 0; s < samples; ++s) {
+    size_t i = std::lower_bound(area.begin(), area.end(), unit(rng) * total) - area.begin();
+    i = std::min(i, tris.size() - 1);
+    double u = unit(rng), v = unit(rng);
+    if (u + v > 1) { u = 1 - u; v = 1 - v; }
+    Vec3 a = vertex(from_mesh, tris[i][0]), b = vertex(from_mesh, tris[i][1]), c = vertex(from_mesh, tris[i][2]);
+    measure({a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1]), a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])});
+  }
+  for (const auto& t : tris)  // the surface's vertices, where extremes usually sit
+    for (uint32_t corner : t) measure(vertex(from_mesh, corner));
+}
 
 }  // namespace
 
@@ -160,11 +197,11 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
     r.fields.push_back({a.info.name, a.info.components, 0, 0});
   }
   // locate the original vertices in the simplified tets
-  std::vector<std::array<Vec, 2>> boxes;
+  std::vector<std::array<Vec3, 2>> boxes;
   for (size_t t = 0; t < simplified.tet_count(); ++t) {
-    Vec lo = vertex(simplified, simplified.tets[4 * t]), hi = lo;
+    Vec3 lo = vertex(simplified, simplified.tets[4 * t]), hi = lo;
     for (int k = 1; k < 4; ++k) {
-      Vec p = vertex(simplified, simplified.tets[4 * t + k]);
+      Vec3 p = vertex(simplified, simplified.tets[4 * t + k]);
       for (int i = 0; i < 3; ++i) {
         lo[i] = std::min(lo[i], p[i]);
         hi[i] = std::max(hi[i], p[i]);
@@ -179,20 +216,20 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
   double total2 = 0;
   std::vector<double> estimate;
   for (uint32_t v = 0; v < original.vertex_count(); ++v) {
-    const Vec p = vertex(original, v);
+    const Vec3 p = vertex(original, v);
     // barycentric location
     uint32_t found = 0xFFFFFFFFu;
     double bary[4] = {0, 0, 0, 0};
     tets.ring(p, 0, [&](uint32_t t) {
       if (found != 0xFFFFFFFFu) return;
       const uint32_t* tet = &simplified.tets[4 * size_t{t}];
-      Vec a = vertex(simplified, tet[0]), b = vertex(simplified, tet[1]), c = vertex(simplified, tet[2]), d = vertex(simplified, tet[3]);
-      double total = dot(sub(b, a), cross(sub(c, a), sub(d, a)));
+      Vec3 a = vertex(simplified, tet[0]), b = vertex(simplified, tet[1]), c = vertex(simplified, tet[2]), d = vertex(simplified, tet[3]);
+      double total = dot(b - a, cross(c - a, d - a));
       if (total == 0) return;
       double w[4];
-      w[1] = dot(sub(p, a), cross(sub(c, a), sub(d, a))) / total;
-      w[2] = dot(sub(b, a), cross(sub(p, a), sub(d, a))) / total;
-      w[3] = dot(sub(b, a), cross(sub(c, a), sub(p, a))) / total;
+      w[1] = dot(p - a, cross(c - a, d - a)) / total;
+      w[2] = dot(b - a, cross(p - a, d - a)) / total;
+      w[3] = dot(b - a, cross(c - a, p - a)) / total;
       w[0] = 1 - w[1] - w[2] - w[3];
       const double eps = -1e-9;
       if (w[0] >= eps && w[1] >= eps && w[2] >= eps && w[3] >= eps) {
@@ -237,43 +274,12 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
   r.mean_all = std::sqrt(total2 / std::max<uint64_t>(1, r.vertices));
   // domain error: sample each boundary surface and measure the distance to the other
   std::mt19937 rng(1);
-  double hausdorff = 0, distance_sum = 0;
-  uint64_t samples = 0;
-  auto sample = [&](const storage::TetMesh& from_mesh, const Surface& from, const Surface& to) {
-    const auto& tris = from.triangles();
-    if (tris.empty()) return;
-    std::vector<double> area(tris.size());
-    double total = 0;
-    for (size_t i = 0; i < tris.size(); ++i) {
-      Vec n = cross(sub(vertex(from_mesh, tris[i][1]), vertex(from_mesh, tris[i][0])), sub(vertex(from_mesh, tris[i][2]), vertex(from_mesh, tris[i][0])));
-      total += std::sqrt(dot(n, n));
-      area[i] = total;
-    }
-    std::uniform_real_distribution<double> unit(0, 1);
-    auto measure = [&](const Vec& p) {
-      uint32_t tri;
-      double w[3];
-      double d = to.nearest(p, &tri, w);
-      hausdorff = std::max(hausdorff, d);
-      distance_sum += d;
-      ++samples;
-    };
-    for (uint32_t s = 0; s < samples_per_surface; ++s) {
-      size_t i = std::lower_bound(area.begin(), area.end(), unit(rng) * total) - area.begin();
-      i = std::min(i, tris.size() - 1);
-      double u = unit(rng), v = unit(rng);
-      if (u + v > 1) { u = 1 - u; v = 1 - v; }
-      Vec a = vertex(from_mesh, tris[i][0]), b = vertex(from_mesh, tris[i][1]), c = vertex(from_mesh, tris[i][2]);
-      measure({a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1]), a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])});
-    }
-    for (const auto& t : tris)  // the surface's vertices, where extremes usually sit
-      for (uint32_t corner : t) measure(vertex(from_mesh, corner));
-  };
-  sample(original, original_surface, simplified_surface);
-  sample(simplified, simplified_surface, original_surface);
-  r.hausdorff = hausdorff;
-  r.mean_distance = samples ? distance_sum / samples : 0;
-  r.samples = samples;
+  SurfaceDistance distance;
+  sample_surface_distance(original, original_surface, simplified_surface, samples_per_surface, rng, distance);
+  sample_surface_distance(simplified, simplified_surface, original_surface, samples_per_surface, rng, distance);
+  r.hausdorff = distance.hausdorff;
+  r.mean_distance = distance.samples ? distance.sum / distance.samples : 0;
+  r.samples = distance.samples;
   return r;
 }
 

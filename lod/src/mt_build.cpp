@@ -1,0 +1,88 @@
+// `tetrascope preprocess`: the multi-triangulation of dissertation §6.3.1-6.3.2, built in
+// stages (mt_stages.h): ingest, levels, histograms, store.
+//
+// Level 0 is the input mesh, partitioned by octree + METIS (§6.1) as `tetrascope segment`
+// does. Level i+1 comes from the mesh M(i) of level i: partition it again (the mesh turned
+// 45° about its longest box axis through the centroid on every odd level, so that the borders
+// frozen at one level fall inside the segments of the next), cut every level-i segment
+// (floor) by the new segments (ceilings) into patches, and simplify each ceiling segment with
+// its border vertices locked. Stop at the base budget or one segment. A vertex keeps its
+// global id while its position and values are unchanged; a moved vertex gets a new id.
+//
+// The whole level-0 mesh is held in memory (16 bytes a tet plus the vertices); every later
+// level is smaller. Segment-wise work (simplification, error measure) runs on `threads`.
+#include "tetrascope/lod/mt_build.h"
+
+#include <chrono>
+#include <future>
+#include <stdexcept>
+#include <string>
+
+#include "mt_stages.h"
+#include "tetrascope/lod/dag_format.h"
+#include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/sha256.h"
+
+namespace tetrascope::lod {
+
+nlohmann::json PreprocessReport::to_json() const {
+  nlohmann::json levels_json = nlohmann::json::array();
+  for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
+  return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
+          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"seconds", seconds},
+          {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
+}
+
+namespace {
+
+void check_options(const PreprocessOptions& options, const std::filesystem::path& store_path) {
+  if (options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be at least 256");
+  if (options.base_tets < 1) throw std::invalid_argument("--base-tets must be at least 1");
+  if (!(options.level_ratio > 0.01 && options.level_ratio < 0.95)) throw std::invalid_argument("--level-ratio must be in (0.01, 0.95)");
+  if (options.histogram_bins < 2 || options.histogram_bins > dag::kMaxBins) throw std::invalid_argument("--bins must be 2 to " + std::to_string(dag::kMaxBins));
+  if (options.threads < 1 || options.threads > 64) throw std::invalid_argument("--threads must be 1 to 64");
+  if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
+  if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
+}
+
+}  // namespace
+
+PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path, const PreprocessOptions& options,
+                            storage::Progress* progress) {
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+  check_options(options, store_path);
+  const mt::StageProgress stage{progress};
+  PreprocessReport report;
+
+  stage("read", 0);
+  std::filesystem::path hashed = mesh_path;
+  if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
+  auto sha256 = std::async(std::launch::async, [hashed] { return storage::sha256_file(hashed); });
+  mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path);
+  report.input_vertices = mesh.input_vertices;
+  report.input_tets = mesh.input_tets;
+  report.read_seconds = seconds_since(start);
+
+  const auto levels_start = clock::now();
+  mt::Hierarchy hierarchy = mt::build_levels(mesh, options, stage);
+  const std::vector<mt::PatchRange> arcs = mt::dag_arcs(hierarchy, static_cast<uint32_t>(mesh.channels.size()) * options.histogram_bins);
+  report.segment_seconds = hierarchy.partition_seconds;
+  report.simplify_seconds = seconds_since(levels_start) - hierarchy.partition_seconds;
+
+  const auto write_start = clock::now();
+  stage("write", 0);
+  const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256.get(); }}, stage);
+  report.levels = written.levels;
+  report.segments = static_cast<uint32_t>(hierarchy.nodes.size());
+  report.patches = static_cast<uint32_t>(arcs.size());
+  report.store_bytes = written.store_bytes;
+  report.dag_bytes = written.dag_bytes;
+  report.write_seconds = seconds_since(write_start);
+  report.seconds = seconds_since(start);
+  if (progress) progress->finish();
+  return report;
+}
+
+}  // namespace tetrascope::lod

@@ -1,0 +1,189 @@
+// Error histograms of the multi-triangulation (dissertation §6.3.4): every original vertex is
+// followed down the levels (the tet of the current level that holds it); a segment's field
+// error in value slot n is the largest difference, at the original vertices it holds whose
+// normalised value falls in slot n, between the original value and the segment's
+// interpolated one; the spatial error divides that by the segment's local gradient (how far
+// the isosurface through the vertex moved). Both are then made monotone: a segment's
+// histogram is at least its children's.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "box_grid.h"
+#include "mt_stages.h"
+#include "tetrascope/lod/dag_format.h"
+#include "tetrascope/storage/vec3.h"
+
+namespace tetrascope::lod::mt {
+namespace {
+
+using detail::BoxGrid;
+
+// Point location in a small tet mesh: the tet that holds p, or the one it is least outside of.
+class Locator {
+ public:
+  Locator(const storage::TetMesh& m) : m_(m) {
+    std::vector<std::array<Vec3, 2>> boxes(m.tet_count());
+    for (size_t t = 0; t < m.tet_count(); ++t) {
+      Vec3 lo = at(m.tets[4 * t]), hi = lo;
+      for (int k = 1; k < 4; ++k) {
+        Vec3 p = at(m.tets[4 * t + k]);
+        for (int i = 0; i < 3; ++i) {
+          lo[i] = std::min(lo[i], p[i]);
+          hi[i] = std::max(hi[i], p[i]);
+        }
+      }
+      boxes[t] = {lo, hi};
+    }
+    if (!boxes.empty()) grid_.build(boxes);
+  }
+  // Returns the tet; bary gets clamped, normalised barycentric weights.
+  uint32_t locate(const Vec3& p, double bary[4]) const {
+    uint32_t best = kNone;
+    double best_low = -std::numeric_limits<double>::infinity();
+    for (int r = 0; r < 64 && (best == kNone || best_low < -1e-9); ++r) {
+      bool any = grid_.ring(p, r, [&](uint32_t t) {
+        if (best_low >= -1e-9) return;
+        double w[4];
+        if (!weights(t, p, w)) return;
+        double low = std::min({w[0], w[1], w[2], w[3]});
+        if (low > best_low) {
+          best_low = low;
+          best = t;
+          std::copy(w, w + 4, bary);
+        }
+      });
+      if (!any || (best != kNone && r >= 1)) break;  // outside: the best of the nearest cells
+    }
+    if (best == kNone) {
+      best = 0;
+      bary[0] = 1;
+      bary[1] = bary[2] = bary[3] = 0;
+    }
+    double sum = 0;
+    for (int k = 0; k < 4; ++k) sum += bary[k] = std::max(bary[k], 0.0);
+    for (int k = 0; k < 4; ++k) bary[k] = sum > 0 ? bary[k] / sum : 0.25;
+    return best;
+  }
+
+ private:
+  Vec3 at(uint32_t v) const { return {m_.x[v], m_.y[v], m_.z[v]}; }
+  bool weights(uint32_t t, const Vec3& p, double w[4]) const {
+    const uint32_t* tet = &m_.tets[4 * size_t{t}];
+    Vec3 a = at(tet[0]), b = at(tet[1]), c = at(tet[2]), d = at(tet[3]);
+    auto det = [](const Vec3& u, const Vec3& v, const Vec3& x) {
+      return u[0] * (v[1] * x[2] - v[2] * x[1]) - u[1] * (v[0] * x[2] - v[2] * x[0]) + u[2] * (v[0] * x[1] - v[1] * x[0]);
+    };
+    const Vec3 ab = b - a, ac = c - a, ad = d - a, ap = p - a;
+    double total = det(ab, ac, ad);
+    if (!(std::fabs(total) > 0)) return false;
+    w[1] = det(ap, ac, ad) / total;
+    w[2] = det(ab, ap, ad) / total;
+    w[3] = det(ab, ac, ap) / total;
+    w[0] = 1 - w[1] - w[2] - w[3];
+    return true;
+  }
+  const storage::TetMesh& m_;
+  BoxGrid grid_;
+};
+
+// How far the isosurface of channel c through a point moved for a value error `err`: err
+// over the channel's gradient in the tet (corners P, in units of the diagonal; Cramer's rule),
+// at most 1.
+double isosurface_displacement(const double P[4][3], const std::vector<double>& corner, uint32_t channels, uint32_t c, double err) {
+  double e[3][3];
+  for (int j = 0; j < 3; ++j)
+    for (int q = 0; q < 3; ++q) e[j][q] = P[j + 1][q] - P[0][q];
+  const double det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+  double g2 = 0;
+  if (std::fabs(det) > 0) {
+    double d[3];
+    for (int j = 0; j < 3; ++j) d[j] = corner[static_cast<size_t>(j + 1) * channels + c] - corner[c];
+    double grad[3];
+    for (int q = 0; q < 3; ++q) {
+      double m3[3][3];
+      for (int r = 0; r < 3; ++r)
+        for (int s = 0; s < 3; ++s) m3[r][s] = s == q ? d[r] : e[r][s];
+      grad[q] = (m3[0][0] * (m3[1][1] * m3[2][2] - m3[1][2] * m3[2][1]) - m3[0][1] * (m3[1][0] * m3[2][2] - m3[1][2] * m3[2][0]) +
+                 m3[0][2] * (m3[1][0] * m3[2][1] - m3[1][1] * m3[2][0])) / det;
+    }
+    g2 = grad[0] * grad[0] + grad[1] * grad[1] + grad[2] * grad[2];
+  }
+  return err > 0 ? (g2 > 0 ? std::min(1.0, err / std::sqrt(g2)) : 1.0) : 0.0;
+}
+
+}  // namespace
+
+CeilingError measure_ceiling_error(const storage::TetMesh& m, std::span<const uint32_t> original_vertices, const IngestedMesh& mesh, uint32_t bins) {
+  const VertexTable& table = mesh.table;
+  const Channels& channels = mesh.channels;
+  const uint32_t C = static_cast<uint32_t>(channels.size()), N = bins;
+  CeilingError out;
+  out.field.assign(size_t{C} * N, 0.0f);
+  out.spatial.assign(size_t{C} * N, 0.0f);
+  Locator locator(m);
+  std::vector<double> original(C), corner(4 * size_t{C});
+  std::vector<float> values(table.floats);
+  out.located_tet.resize(original_vertices.size());
+  for (size_t i = 0; i < original_vertices.size(); ++i) {
+    const uint32_t v = original_vertices[i];
+    double bary[4];
+    const Vec3 p{table.xyz[3 * size_t{v}], table.xyz[3 * size_t{v} + 1], table.xyz[3 * size_t{v} + 2]};
+    const uint32_t t = locator.locate(p, bary);
+    out.located_tet[i] = t;
+    if (C == 0) continue;
+    channels.normalise(&table.values[size_t{v} * table.floats], original.data());
+    const uint32_t* tet = &m.tets[4 * size_t{t}];
+    for (int j = 0; j < 4; ++j) {
+      size_t base = 0;
+      for (size_t a = 0; a < m.attributes.size(); ++a) {
+        const uint32_t c = m.attributes[a].info.components;
+        for (uint32_t q = 0; q < c; ++q) values[base + q] = m.attributes[a].values[size_t{tet[j]} * c + q];
+        base += c;
+      }
+      channels.normalise(values.data(), &corner[static_cast<size_t>(j) * C]);
+    }
+    // corners per unit of the diagonal, for the gradient
+    double P[4][3];
+    for (int j = 0; j < 4; ++j) {
+      P[j][0] = m.x[tet[j]] / mesh.diagonal;
+      P[j][1] = m.y[tet[j]] / mesh.diagonal;
+      P[j][2] = m.z[tet[j]] / mesh.diagonal;
+    }
+    for (uint32_t c = 0; c < C; ++c) {
+      double a = 0;
+      for (int j = 0; j < 4; ++j) a += bary[j] * corner[static_cast<size_t>(j) * C + c];
+      const double err = std::fabs(a - original[c]);
+      const uint32_t bin = std::min<uint32_t>(N - 1, static_cast<uint32_t>(std::clamp(original[c], 0.0, 1.0) * N));
+      float& f = out.field[size_t{c} * N + bin];
+      f = std::max(f, static_cast<float>(err));
+      float& s = out.spatial[size_t{c} * N + bin];
+      s = std::max(s, static_cast<float>(isosurface_displacement(P, corner, C, c, err)));
+    }
+  }
+  return out;
+}
+
+std::vector<PatchRange> dag_arcs(Hierarchy& h, uint32_t values_per_node) {
+  const uint32_t levels = h.level_count();
+  const uint32_t node_count = static_cast<uint32_t>(h.nodes.size());
+  // the coarsest segments hang from the root; patches grouped by ceiling, roots first
+  std::vector<PatchRange> all;
+  for (uint32_t n = h.level_first[levels - 1]; n < node_count; ++n) all.push_back({dag::kRoot, n, 0, static_cast<uint32_t>(h.nodes[n].tets.size() / 4)});
+  std::stable_sort(h.patches.begin(), h.patches.end(), [](const PatchRange& a, const PatchRange& b) { return a.ceiling < b.ceiling; });
+  all.insert(all.end(), h.patches.begin(), h.patches.end());
+  std::vector<PatchRange>().swap(h.patches);
+  // monotone histograms: a segment's error is at least its children's (children have lower ids)
+  const size_t V = values_per_node;
+  for (const PatchRange& p : all) {
+    if (p.ceiling == dag::kRoot) continue;
+    for (size_t i = 0; i < V; ++i) {
+      h.field[size_t{p.ceiling} * V + i] = std::max(h.field[size_t{p.ceiling} * V + i], h.field[size_t{p.floor} * V + i]);
+      h.spatial[size_t{p.ceiling} * V + i] = std::max(h.spatial[size_t{p.ceiling} * V + i], h.spatial[size_t{p.floor} * V + i]);
+    }
+  }
+  return all;
+}
+
+}  // namespace tetrascope::lod::mt

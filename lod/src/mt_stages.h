@@ -1,0 +1,153 @@
+// The stages of `tetrascope preprocess`, in the order mt_build.cpp runs them:
+//   ingest_mesh         (mt_ingest.cpp)        mesh file -> vertex table, level-0 tets, channels
+//   build_levels        (mt_levels.cpp)        level 0 partitioned as `tetrascope segment` does,
+//                                              then coarser levels: partition, patches, simplify
+//   measure_ceiling_error, dag_arcs            error histograms at the original vertices, made
+//                       (mt_histograms.cpp)    monotone along the DAG's arcs
+//   write_mt_store      (mt_store_writer.cpp)  segments.bin, dag.bin and manifest.json
+// Private to lod/.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/progress.h"
+
+namespace tetrascope::lod::mt {
+
+constexpr uint32_t kNone = 0xFFFFFFFFu;
+
+// Every vertex the build knows: the input's, then the ones simplification moved.
+struct VertexTable {
+  std::vector<float> xyz;     // interleaved
+  std::vector<float> values;  // vertex-major, `floats` per vertex
+  uint32_t floats = 0;
+  size_t size() const { return xyz.size() / 3; }
+};
+
+// Normalised value of every histogram channel (an attribute; vectors by magnitude): the
+// input's range maps to [0, 1].
+struct Channels {
+  std::vector<uint32_t> offset, components;  // into a vertex's values
+  std::vector<double> lo, scale;
+  size_t size() const { return offset.size(); }
+  void normalise(const float* values, double* out) const {
+    for (size_t c = 0; c < offset.size(); ++c) {
+      double v = 0;
+      if (components[c] == 1) {
+        v = values[offset[c]];
+      } else {
+        for (uint32_t k = 0; k < components[c]; ++k) v += double(values[offset[c] + k]) * values[offset[c] + k];
+        v = std::sqrt(v);
+      }
+      v = (v - lo[c]) * scale[c];
+      out[c] = std::isfinite(v) ? v : 0.0;  // not clamped: simplified values may leave the range
+    }
+  }
+};
+
+// Progress of the build: begin(name) at fraction 0, update(fraction) after.
+struct StageProgress {
+  storage::Progress* progress = nullptr;
+  void operator()(const char* name, double fraction) const {
+    if (!progress) return;
+    if (fraction == 0) progress->begin(name);
+    else progress->update(fraction);
+  }
+};
+
+// ---- ingest ----
+
+struct IngestedMesh {
+  VertexTable table;
+  std::vector<uint32_t> tets;  // level 0, input vertex ids
+  std::vector<storage::AttributeInfo> attributes;
+  Channels channels;
+  std::vector<std::array<double, 2>> ranges;  // for the simplifier: value range (scalars), [0, longest] (vectors)
+  storage::Bounds bounds;
+  double diagonal = 1;
+  storage::ReadStats read_stats;
+  uint32_t input_vertices = 0;
+  uint64_t input_tets = 0;
+};
+
+// Reads the whole mesh. Throws storage::MeshError for a bad mesh, std::runtime_error for one
+// without tets or with too many vertices for a store.
+IngestedMesh ingest_mesh(const std::filesystem::path& mesh);
+
+// ---- levels ----
+
+struct BuildNode {
+  uint32_t level = 0;
+  std::vector<uint32_t> tets;  // global vertex ids; after the next level is cut, grouped by patch
+};
+
+// An arc of the DAG: tets [begin, begin + count) of segment `floor`, covered by `ceiling`.
+struct PatchRange {
+  uint32_t ceiling, floor, begin, count;
+};
+
+struct Hierarchy {
+  std::vector<BuildNode> nodes;           // every level's segments, finest level first
+  std::vector<uint32_t> level_first;      // nodes of level L: [level_first[L], level_first[L+1])
+  std::vector<PatchRange> patches;        // between levels, in build order
+  std::vector<float> field, spatial;      // per node: [channel][bin], not yet monotone
+  std::vector<uint32_t> level0_owner;     // the level-0 segment that owns each input vertex
+  double partition_seconds = 0;           // of level 0
+  uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
+  uint64_t level_tets(uint32_t level) const {
+    uint64_t sum = 0;
+    for (uint32_t n = level_first[level]; n < level_first[level + 1]; ++n) sum += nodes[n].tets.size() / 4;
+    return sum;
+  }
+};
+
+// Level 0 and every coarser level, until the base budget, one segment or max_levels. Grows
+// mesh.table with the vertices simplification moves; consumes mesh.tets. Options are checked.
+Hierarchy build_levels(IngestedMesh& mesh, const PreprocessOptions& options, const StageProgress& stage);
+
+// ---- histograms ----
+
+struct CeilingError {
+  std::vector<float> field, spatial;   // [channel][bin]
+  std::vector<uint32_t> located_tet;   // per original vertex given: the ceiling's tet holding it
+};
+
+// The field and spatial error of a simplified ceiling segment (local vertex ids) at the
+// original vertices it covers, binned by their normalised value.
+CeilingError measure_ceiling_error(const storage::TetMesh& ceiling, std::span<const uint32_t> original_vertices, const IngestedMesh& mesh,
+                                   uint32_t bins);
+
+// The DAG's arcs: the coarsest segments hung from the root, then the patches grouped by
+// ceiling. Empties hierarchy.patches and makes the histograms monotone along the arcs (a
+// segment's error at least its children's).
+std::vector<PatchRange> dag_arcs(Hierarchy& hierarchy, uint32_t values_per_node);
+
+// ---- store ----
+
+struct StoreInput {
+  const IngestedMesh& mesh;
+  const Hierarchy& hierarchy;
+  std::span<const PatchRange> arcs;
+  const PreprocessOptions& options;
+  std::filesystem::path mesh_path, store_path;
+  std::function<std::string()> source_sha256;  // waited for only when the manifest is written
+};
+
+struct StoreOutput {
+  uint64_t store_bytes = 0, dag_bytes = 0;
+  std::vector<LevelReport> levels;
+};
+
+// Writes the store atomically (NAME.tmp/ renamed to NAME/ when complete).
+StoreOutput write_mt_store(const StoreInput& input, const StageProgress& stage);
+
+}  // namespace tetrascope::lod::mt
