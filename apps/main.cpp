@@ -467,7 +467,7 @@ int run_render(const std::vector<std::string>& raw) {
     mesh = tetrascope::storage::load_mesh(input);
   }
   const r::SceneMesh scene = r::SceneMesh::from(mesh, settings.tf.attribute, args.get("--iso-color"));
-  settings.iso_by_second = args.has("--iso-color");
+  settings.use_iso_color_attribute = args.has("--iso-color");
   settings.tf.attribute = scene.attribute;
   if (args.has("--iso")) settings.isovalues = number_list("--iso", args.get("--iso"));
   else if (settings.iso) settings.isovalues = {0.5 * (scene.value_min + scene.value_max)};
@@ -533,7 +533,7 @@ int run_render(const std::vector<std::string>& raw) {
                       {"reference_psnr_db", reference_db},
                       {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
-  if (settings.iso_by_second) j["legend"]["isosurfaces"] = {{"attribute", scene.second_attribute}, {"colormap", settings.tf.colormap}, {"range", {scene.second_min, scene.second_max}}};
+  if (settings.use_iso_color_attribute) j["legend"]["isosurfaces"] = {{"attribute", scene.iso_color_attribute}, {"colormap", settings.tf.colormap}, {"range", {scene.iso_color_min, scene.iso_color_max}}};
   if (args.has("--json")) std::cout << j.dump() << "\n";
   else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", output.c_str(), settings.width, settings.height, mode.c_str(), mesh.tet_count(),
                    scene.attribute.c_str(), j["median_ms"].get<double>());

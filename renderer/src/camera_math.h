@@ -7,20 +7,12 @@
 #include <cmath>
 
 #include "tetrascope/lod/view.h"
+#include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::renderer {
 
-using V3 = std::array<double, 3>;
-inline V3 sub(const V3& a, const V3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-inline V3 cross(const V3& a, const V3& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
-inline double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-inline V3 normalise(const V3& a) {
-  const double l = std::sqrt(dot(a, a));
-  return l > 0 ? V3{a[0] / l, a[1] / l, a[2] / l} : V3{0, 0, 1};
-}
-
 struct Frame {
-  V3 eye, forward, right, up;
+  Vec3 eye, forward, right, up;
   double tan_half = 0.27, aspect = 1, half_height = 1;  // half_height: orthographic
   bool ortho = false;
   uint32_t width = 1, height = 1;
@@ -29,7 +21,7 @@ struct Frame {
 inline Frame camera_frame(const lod::Camera& c, uint32_t width, uint32_t height) {
   Frame f;
   f.eye = c.eye;
-  f.forward = normalise(sub(c.target, c.eye));
+  f.forward = normalise(c.target - c.eye);
   f.right = normalise(cross(f.forward, c.up));
   f.up = cross(f.right, f.forward);
   f.tan_half = std::tan(c.fov_degrees * M_PI / 360);
@@ -42,7 +34,7 @@ inline Frame camera_frame(const lod::Camera& c, uint32_t width, uint32_t height)
 }
 
 // The ray through the centre of pixel (x, y), row 0 at the top.
-inline void ray(const Frame& f, int x, int y, V3* origin, V3* direction) {
+inline void ray(const Frame& f, int x, int y, Vec3* origin, Vec3* direction) {
   const double u = 2 * (x + 0.5) / f.width - 1, v = 1 - 2 * (y + 0.5) / f.height;
   if (f.ortho) {
     for (int k = 0; k < 3; ++k) (*origin)[k] = f.eye[k] + u * f.half_height * f.aspect * f.right[k] + v * f.half_height * f.up[k];
@@ -50,15 +42,15 @@ inline void ray(const Frame& f, int x, int y, V3* origin, V3* direction) {
     return;
   }
   *origin = f.eye;
-  V3 d;
+  Vec3 d;
   for (int k = 0; k < 3; ++k) d[k] = f.forward[k] + u * f.tan_half * f.aspect * f.right[k] + v * f.tan_half * f.up[k];
   *direction = normalise(d);
 }
 
 // Pixel coordinates (x right, y down, pixel centres at integers) of a point; false when it
 // is behind the eye.
-inline bool project(const Frame& f, const V3& p, double* px, double* py) {
-  const V3 q = sub(p, f.eye);
+inline bool project(const Frame& f, const Vec3& p, double* px, double* py) {
+  const Vec3 q = p - f.eye;
   const double x = dot(q, f.right), y = dot(q, f.up), z = dot(q, f.forward);
   double u, v;
   if (f.ortho) {

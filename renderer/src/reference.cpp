@@ -6,6 +6,8 @@
 
 #include "camera_math.h"
 #include "tetrascope/renderer/render.h"
+#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::renderer {
 
@@ -23,34 +25,33 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
     float t_in, t_out, s_in, s_out;
   };
   std::vector<std::vector<Segment>> pixels(size_t{W} * H);
-  const int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
   for (size_t t = 0; t < mesh.tets.size() / 4; ++t) {
     const uint32_t* tet = &mesh.tets[4 * t];
-    V3 p[4];
+    Vec3 p[4];
     double s[4];
     for (int k = 0; k < 4; ++k) {
       p[k] = {mesh.xyz[3 * size_t{tet[k]}], mesh.xyz[3 * size_t{tet[k]} + 1], mesh.xyz[3 * size_t{tet[k]} + 2]};
       s[k] = (mesh.value[tet[k]] - lo) / (hi - lo);
     }
     // planes (outward) and the linear field s(x) = g.x + c
-    V3 n[4];
+    Vec3 n[4];
     double d[4];
     for (int f = 0; f < 4; ++f) {
-      n[f] = cross(sub(p[kFace[f][1]], p[kFace[f][0]]), sub(p[kFace[f][2]], p[kFace[f][0]]));
-      d[f] = -dot(n[f], p[kFace[f][0]]);
+      n[f] = cross(p[kTetFace[f][1]] - p[kTetFace[f][0]], p[kTetFace[f][2]] - p[kTetFace[f][0]]);
+      d[f] = -dot(n[f], p[kTetFace[f][0]]);
     }
-    const V3 e1 = sub(p[1], p[0]), e2 = sub(p[2], p[0]), e3 = sub(p[3], p[0]);
+    const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0], e3 = p[3] - p[0];
     const double det = dot(e1, cross(e2, e3));
     if (!(std::fabs(det) > 0)) continue;
     // gradient: g.e_i = s_i - s_0
-    const V3 c23 = cross(e2, e3), c31 = cross(e3, e1), c12 = cross(e1, e2);
-    V3 g;
+    const Vec3 c23 = cross(e2, e3), c31 = cross(e3, e1), c12 = cross(e1, e2);
+    Vec3 g;
     for (int k = 0; k < 3; ++k) g[k] = ((s[1] - s[0]) * c23[k] + (s[2] - s[0]) * c31[k] + (s[3] - s[0]) * c12[k]) / det;
     const double c0 = s[0] - dot(g, p[0]);
     // pixel box of the projection
     double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
     bool behind = false;
-    for (const V3& q : p) {
+    for (const Vec3& q : p) {
       double px, py;
       if (!project(frame, q, &px, &py)) behind = true;
       x0 = std::min(x0, px);
@@ -67,7 +68,7 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
     }
     for (int y = iy0; y <= iy1; ++y)
       for (int x = ix0; x <= ix1; ++x) {
-        V3 o, dir;
+        Vec3 o, dir;
         ray(frame, x, y, &o, &dir);
         double t_in = 0, t_out = 1e300;
         bool miss = false;
@@ -78,7 +79,7 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
           else if (num < 0) miss = true;  // parallel and outside
         }
         if (miss || !(t_in < t_out)) continue;
-        const V3 a{o[0] + t_in * dir[0], o[1] + t_in * dir[1], o[2] + t_in * dir[2]}, b{o[0] + t_out * dir[0], o[1] + t_out * dir[1], o[2] + t_out * dir[2]};
+        const Vec3 a{o[0] + t_in * dir[0], o[1] + t_in * dir[1], o[2] + t_in * dir[2]}, b{o[0] + t_out * dir[0], o[1] + t_out * dir[1], o[2] + t_out * dir[2]};
         pixels[size_t{static_cast<uint32_t>(y)} * W + static_cast<uint32_t>(x)].push_back(
             {static_cast<float>(t_in), static_cast<float>(t_out), static_cast<float>(dot(g, a) + c0), static_cast<float>(dot(g, b) + c0)});
       }

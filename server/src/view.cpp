@@ -69,7 +69,7 @@ RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& w
     scene_generation_ = next_generation++;
   }
   frame.assemble_ms = ms_since(step);
-  settings.iso_by_second = !state.color_by.empty();
+  settings.use_iso_color_attribute = !state.color_by.empty();
   step = std::chrono::steady_clock::now();
   if (worker.scene_generation != scene_generation_) {
     worker.renderer->set_mesh(*scene_);

@@ -194,7 +194,7 @@ TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
   iso.iso_opacity = 1;
   iso.isovalues = {0.5};
   const renderer::Image by_value = gl().render(iso);
-  iso.iso_by_second = true;
+  iso.use_iso_color_attribute = true;
   const renderer::Image by_g = gl().render(iso);
   auto pixel = [](const renderer::Image& im, int x, int y) { return std::array<int, 3>{im.rgba[4 * (y * 64 + x)], im.rgba[4 * (y * 64 + x) + 1], im.rgba[4 * (y * 64 + x) + 2]}; };
   auto difference = [&](const renderer::Image& im) {

@@ -1,4 +1,4 @@
-// Headless rendering of tet meshes (issue 6): an EGL context without a display (Mesa
+// Headless rendering of tet meshes: an EGL context without a display (Mesa
 // llvmpipe here, NVIDIA EGL on GPU hosts), rendering into a framebuffer object.
 //
 // Modes:
@@ -26,6 +26,11 @@
 
 namespace tetrascope::renderer {
 
+// The largest image side Renderer::render accepts, in pixels (a 8192x8192 RGBA frame is
+// 256 MiB of framebuffer and readback). Callers that take sizes from users (the CLI, the
+// server) check against this or a smaller limit of their own.
+constexpr uint32_t kMaxImageSide = 8192;
+
 class RenderError : public std::runtime_error {
  public:
   explicit RenderError(const std::string& message) : std::runtime_error(message) {}
@@ -44,7 +49,7 @@ struct RenderSettings {
   double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
   std::vector<double> isovalues;     // attribute units
   double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
-  bool iso_by_second = false;        // colour isosurfaces by the scene's second attribute
+  bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
 };
 
@@ -64,11 +69,11 @@ struct SceneMesh {
   double diagonal = 1, max_edge = 0;
   std::string attribute;
   double value_min = 0, value_max = 1;
-  // optional second attribute (isosurface colouring)
-  std::vector<float> second;
-  std::string second_attribute;
-  double second_min = 0, second_max = 1;
-  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& second_attribute = "");  // throws std::invalid_argument
+  // optional: the attribute that colours isosurfaces (`render --iso-color`), per vertex
+  std::string iso_color_attribute;
+  std::vector<float> iso_color_value;
+  double iso_color_min = 0, iso_color_max = 1;
+  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute = "");  // throws std::invalid_argument
 };
 
 // Colormaps: viridis, plasma, cool-warm, grayscale; `colors` of the transfer function JSON
@@ -93,12 +98,16 @@ std::array<double, 4> integrate_segment(const lod::TransferFunction& tf, double 
 
 class Renderer {
  public:
-  // Opens an EGL display (a device, else Mesa's surfaceless platform) and an OpenGL 4.5 core
-  // context. Throws RenderError saying what is missing when none can be had.
+  // Opens an EGL display (a hardware device first, then Mesa's software device, then Mesa's
+  // surfaceless platform) and an OpenGL 4.5 core context. Throws RenderError saying what is
+  // missing when none can be had.
   static std::unique_ptr<Renderer> create();
   virtual ~Renderer() = default;
   virtual std::string description() const = 0;  // GL vendor, renderer, version
+  // The renderer keeps a pointer to `mesh` until the next set_mesh: it must outlive its use.
   virtual void set_mesh(const SceneMesh& mesh) = 0;
+  // Throws std::invalid_argument for bad settings (a side outside 1..kMaxImageSide, an
+  // unknown colormap, an isosurface opacity outside (0, 1]).
   virtual Image render(const RenderSettings& settings, FrameTimings* timings = nullptr) = 0;
 };
 
@@ -113,8 +122,8 @@ std::vector<uint8_t> encode_png(const Image& image);
 void write_image(const std::string& path, const Image& image, int quality);
 
 // Marching tetrahedra: triangles (xyz per corner, 9 floats a triangle) where the values cross
-// `isovalue`, oriented towards increasing values. With `second`, also the second attribute
-// interpolated at every corner (3 a triangle).
-std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue, std::vector<float>* second = nullptr);
+// `isovalue`, oriented towards increasing values. With `iso_color`, also the scene's
+// iso_color_attribute interpolated at every corner (3 a triangle).
+std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue, std::vector<float>* iso_color = nullptr);
 
 }  // namespace tetrascope::renderer

@@ -1,0 +1,149 @@
+// The GL renderer's shaders and their compilation.
+#include "gl_shaders.h"
+
+#include <string>
+
+#include "tetrascope/renderer/render.h"
+
+namespace tetrascope::renderer {
+
+// Per tet, precomputed once per mesh: its four outward face planes and its linear field
+// (gradient, offset) in attribute units: five vec4 a tet. Drawn indexed: the 12 face corners
+// of a tet index its 4 vertices, so a vertex cache runs 4 vertex shaders a tet, not 12.
+const char* const kTetVertex = R"(#version 450 core
+layout(std430, binding = 0) readonly buffer Vertices { vec4 vertices[]; };
+layout(std430, binding = 1) readonly buffer Tets { uvec4 tets[]; };
+layout(std430, binding = 2) readonly buffer Order { uint order[]; };
+layout(std430, binding = 3) readonly buffer Cells { vec4 cells[]; };
+uniform mat4 mvp;
+uniform uint first_slot;
+out vec3 world;
+flat out vec4 plane0, plane1, plane2, plane3, field;
+void main() {
+  uint slot = first_slot + uint(gl_VertexID) / 4u;
+  uint tet = order[slot];
+  uint corner = uint(gl_VertexID) % 4u;
+  world = vertices[tets[tet][corner]].xyz;
+  plane0 = cells[5u * tet];
+  plane1 = cells[5u * tet + 1u];
+  plane2 = cells[5u * tet + 2u];
+  plane3 = cells[5u * tet + 3u];
+  field = cells[5u * tet + 4u];
+  gl_Position = mvp * vec4(world, 1.0);
+}
+)";
+
+const char* const kTetFragment = R"(#version 450 core
+in vec3 world;
+flat in vec4 plane0, plane1, plane2, plane3, field;
+uniform vec3 eye, forward;
+uniform bool ortho;
+uniform float lo, inv_span;
+uniform sampler3D table;
+uniform float max_length, table_n, table_lengths;
+uniform bool clip_depth;
+uniform sampler2D depth_limit;   // distance along the ray to the nearest opaque surface
+uniform vec2 viewport;
+out vec4 color;
+void exit_of(vec4 pl, vec3 d, inout float t) {
+  float dn = dot(pl.xyz, d);
+  if (dn > 1e-20) t = min(t, -(dot(pl.xyz, world) + pl.w) / dn);
+}
+void main() {
+  vec3 d = ortho ? forward : normalize(world - eye);
+  float t = 3.4e38;
+  exit_of(plane0, d, t);
+  exit_of(plane1, d, t);
+  exit_of(plane2, d, t);
+  exit_of(plane3, d, t);
+  t = max(t, 0.0);
+  if (clip_depth) {
+    float limit = texture(depth_limit, gl_FragCoord.xy / viewport).r;
+    float here = ortho ? dot(world - eye, forward) : length(world - eye);
+    t = min(t, max(limit - here, 0.0));
+  }
+  float sf = (dot(field.xyz, world) + field.w - lo) * inv_span;
+  float sb = sf + dot(field.xyz, d) * t * inv_span;
+  vec3 uvw = vec3((clamp(sf, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n, (clamp(sb, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n,
+                  (clamp(t / max_length, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
+  color = texture(table, uvw);
+}
+)";
+
+const char* const kSurfaceVertex = R"(#version 450 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in float value;
+uniform mat4 mvp;
+out vec3 world;
+out float v;
+void main() {
+  world = position;
+  v = value;
+  gl_Position = mvp * vec4(position, 1.0);
+}
+)";
+
+const char* const kSurfaceFragment = R"(#version 450 core
+in vec3 world;
+in float v;
+uniform vec3 eye, forward;
+uniform bool ortho;
+uniform sampler1D colormap;
+uniform float lo, inv_span;
+uniform vec4 solid;   // a >= 0: this colour instead of the colormap
+uniform float opacity = 1.0;  // premultiplied output
+uniform float depth_out; // 1: write the distance along the ray into the colour's alpha target 1
+layout(location = 0) out vec4 color;
+layout(location = 1) out float distance_out;
+void main() {
+  vec3 n = normalize(cross(dFdx(world), dFdy(world)));
+  vec3 d = ortho ? forward : normalize(world - eye);
+  float light = 0.25 + 0.75 * abs(dot(n, d));
+  vec3 base = solid.a >= 0.0 ? solid.rgb : texture(colormap, clamp((v - lo) * inv_span, 0.0, 1.0)).rgb;
+  color = vec4(base * light * opacity, opacity);
+  distance_out = ortho ? dot(world - eye, forward) : length(world - eye);
+}
+)";
+
+const char* const kLineFragment = R"(#version 450 core
+uniform vec4 solid;
+layout(location = 0) out vec4 color;
+layout(location = 1) out float distance_out;
+void main() { color = solid; distance_out = 3.4e38; }
+)";
+
+namespace {
+GLuint compile(GLenum type, const char* source) {
+  GLuint shader = glCreateShader(type);
+  glShaderSource(shader, 1, &source, nullptr);
+  glCompileShader(shader);
+  GLint ok = 0;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[4096];
+    glGetShaderInfoLog(shader, sizeof log, nullptr, log);
+    throw RenderError(std::string("shader does not compile: ") + log);
+  }
+  return shader;
+}
+}  // namespace
+
+GLuint link_program(const char* vs, const char* fs) {
+  GLuint p = glCreateProgram();
+  GLuint a = compile(GL_VERTEX_SHADER, vs), b = compile(GL_FRAGMENT_SHADER, fs);
+  glAttachShader(p, a);
+  glAttachShader(p, b);
+  glLinkProgram(p);
+  glDeleteShader(a);
+  glDeleteShader(b);
+  GLint ok = 0;
+  glGetProgramiv(p, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[4096];
+    glGetProgramInfoLog(p, sizeof log, nullptr, log);
+    throw RenderError(std::string("shaders do not link: ") + log);
+  }
+  return p;
+}
+
+}  // namespace tetrascope::renderer

@@ -1,0 +1,66 @@
+// Image encoding (libjpeg-turbo, libpng) and writing an image file atomically. The only
+// place those libraries are used.
+#include <png.h>
+#include <turbojpeg.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "tetrascope/renderer/render.h"
+
+namespace tetrascope::renderer {
+
+std::vector<uint8_t> encode_jpeg(const Image& image, int quality) {
+  if (quality < 1 || quality > 100) throw std::invalid_argument("JPEG quality must be 1 to 100");
+  tjhandle handle = tjInitCompress();
+  if (!handle) throw RenderError("libjpeg-turbo: cannot create a compressor");
+  unsigned char* buffer = nullptr;
+  unsigned long size = 0;
+  const int rc = tjCompress2(handle, image.rgba.data(), static_cast<int>(image.width), 0, static_cast<int>(image.height), TJPF_RGBA, &buffer, &size,
+                             TJSAMP_420, quality, TJFLAG_FASTDCT);
+  std::vector<uint8_t> out;
+  if (rc == 0) out.assign(buffer, buffer + size);
+  const std::string error = rc == 0 ? "" : tjGetErrorStr2(handle);
+  tjFree(buffer);
+  tjDestroy(handle);
+  if (rc != 0) throw RenderError("JPEG encoding failed: " + error);
+  return out;
+}
+
+std::vector<uint8_t> encode_png(const Image& image) {
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  png.width = image.width;
+  png.height = image.height;
+  png.format = PNG_FORMAT_RGBA;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_to_memory(&png, nullptr, &size, 0, image.rgba.data(), 0, nullptr)) throw RenderError(std::string("PNG encoding failed: ") + png.message);
+  std::vector<uint8_t> out(size);
+  if (!png_image_write_to_memory(&png, out.data(), &size, 0, image.rgba.data(), 0, nullptr)) throw RenderError(std::string("PNG encoding failed: ") + png.message);
+  out.resize(size);
+  return out;
+}
+
+void write_image(const std::string& path, const Image& image, int quality) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::vector<uint8_t> bytes;
+  if (ext == ".png") bytes = encode_png(image);
+  else if (ext == ".jpg" || ext == ".jpeg") bytes = encode_jpeg(image, quality);
+  else throw std::invalid_argument(path + ": the output must end in .png, .jpg or .jpeg");
+  const std::string temp = path + ".tmp";
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) {
+      std::remove(temp.c_str());
+      throw std::runtime_error(path + ": cannot write (disk full or no permission?)");
+    }
+  }
+  std::filesystem::rename(temp, path);
+}
+
+}  // namespace tetrascope::renderer
