@@ -299,9 +299,10 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   stage("read", 0);
   std::filesystem::path hashed = mesh_path;
   if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
-  auto sha256 = std::async(std::launch::async, [hashed] { return storage::sha256_file(hashed); });
+  storage::FileHasher sha256(hashed);  // checks the file is regular first; cancelled if reading fails
   storage::ReadStats read_stats;
-  storage::TetMesh input = storage::load_mesh(mesh_path, &read_stats);
+  storage::TetMesh input = storage::load_mesh(mesh_path, &read_stats, options.read_limits);
+  const uint64_t unused_vertices = storage::drop_unused_vertices(input);
   if (input.tet_count() == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
   if (input.vertex_count() >= 0x7FFFFFFFu) throw std::runtime_error(mesh_path.string() + ": too many vertices for one store");
   const uint32_t n0 = static_cast<uint32_t>(input.vertex_count());
@@ -837,7 +838,8 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   manifest["source"] = {{"file", std::filesystem::absolute(mesh_path).string()}, {"format", storage::format_name(storage::format_from_path(mesh_path))},
                         {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", sha256.get()}};
   manifest["counts"] = {{"vertices", vertex_total}, {"tetrahedra", stored_tets}, {"segments", node_count},
-                        {"degenerate_tetrahedra", read_stats.degenerate}, {"reoriented_tetrahedra", read_stats.inverted}};
+                        {"degenerate_tetrahedra", read_stats.degenerate}, {"reoriented_tetrahedra", read_stats.inverted},
+                        {"dropped_unused_vertices", unused_vertices}, {"dropped_repeated_vertex_tetrahedra", read_stats.repeated_vertex}};
   nlohmann::json attribute_list = nlohmann::json::array();
   for (size_t a = 0; a < attribute_info.size(); ++a) {
     const double lo = attribute_info[a].components == 1 ? ranges[a][0] : 0, hi = ranges[a][1];

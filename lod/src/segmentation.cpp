@@ -255,7 +255,7 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   // fingerprint the source while we work
   std::filesystem::path hashed = mesh_path;
   if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
-  auto sha256 = std::async(std::launch::async, [hashed] { return storage::sha256_file(hashed); });
+  storage::FileHasher sha256(hashed);  // checks the file is regular first; cancelled if reading fails
 
   // ---- pass 1: vertices ----
   report_progress("read vertices", 0);

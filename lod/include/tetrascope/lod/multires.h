@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tetrascope/lod/dag_format.h"
+#include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/progress.h"
 #include "tetrascope/storage/store.h"
 
@@ -27,6 +28,7 @@ struct PreprocessOptions {
   uint32_t max_levels = 24;
   int seed = 1;
   bool replace = false;
+  storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
 };
 
 struct LevelReport {
