@@ -25,6 +25,7 @@
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/server.h"
 #include "tetrascope/lod/simplify.h"
+#include "tetrascope/lod/store_check.h"
 #include "tetrascope/storage/vtk_writer.h"
 #include "tetrascope/storage/mesh_error.h"
 #include "tetrascope/storage/mesh_info.h"
@@ -43,7 +44,9 @@ constexpr const char* kUsage =
     "                                out-of-core segmentation (stage 1 of preprocess)\n"
     "  preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N]\n"
     "                                [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n"
-    "                                multiresolution store: segments, levels, DAG, error histograms (§6.3)\n"
+    "                                [--max-inflate-ratio R]  compressed input may inflate to R x its size + 64 MiB (100)\n"
+    "                                multiresolution store: segments, levels, DAG, error histograms (§6.3);\n"
+    "                                the store passes verify's checks or is removed and the command fails\n"
     "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--json]\n"
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
@@ -338,7 +341,7 @@ tetrascope::lod::TransferFunction read_tf(const std::string& path) {
 }
 
 int run_preprocess(const std::vector<std::string>& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
@@ -351,8 +354,11 @@ int run_preprocess(const std::vector<std::string>& raw) {
   options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
   options.seed = static_cast<int>(args.number("--seed", 1));
   options.replace = args.has("--force");
+  if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = real_number(args, "--max-inflate-ratio");
+  if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
   tetrascope::storage::Progress progress(progress_mode(args), {{"read", 0.1}, {"partition", 0.05}, {"simplify", 0.75}, {"write", 0.1}});
   auto report = tetrascope::lod::preprocess(args.positionals()[0], args.get("--output"), options, &progress);
+  tetrascope::lod::require_sound_store(args.get("--output"));
   if (args.has("--json")) {
     std::cout << report.to_json().dump(2) << "\n";
   } else {

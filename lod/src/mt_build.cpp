@@ -59,8 +59,8 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   stage("read", 0);
   std::filesystem::path hashed = mesh_path;
   if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
-  auto sha256 = std::async(std::launch::async, [hashed] { return storage::sha256_file(hashed); });
-  mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path);
+  storage::FileHasher sha256(hashed);  // checks the file is regular first; cancelled if reading fails
+  mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path, options.read_limits);
   report.input_vertices = mesh.input_vertices;
   report.input_tets = mesh.input_tets;
   report.read_seconds = seconds_since(start);

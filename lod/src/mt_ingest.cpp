@@ -42,9 +42,10 @@ void add_attributes(const storage::TetMesh& input, IngestedMesh& out) {
 
 }  // namespace
 
-IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path) {
+IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const storage::ReadLimits& limits) {
   IngestedMesh out;
-  storage::TetMesh input = storage::load_mesh(mesh_path, &out.read_stats);
+  storage::TetMesh input = storage::load_mesh(mesh_path, &out.read_stats, limits);
+  out.dropped_unused_vertices = storage::drop_unused_vertices(input);
   if (input.tet_count() == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
   if (input.vertex_count() >= 0x7FFFFFFFu) throw std::runtime_error(mesh_path.string() + ": too many vertices for one store");
   const uint32_t n0 = static_cast<uint32_t>(input.vertex_count());

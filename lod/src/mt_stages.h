@@ -75,13 +75,14 @@ struct IngestedMesh {
   storage::Bounds bounds;
   double diagonal = 1;
   storage::ReadStats read_stats;
+  uint64_t dropped_unused_vertices = 0;  // points no tet uses (dropped, not stored)
   uint32_t input_vertices = 0;
   uint64_t input_tets = 0;
 };
 
 // Reads the whole mesh. Throws storage::MeshError for a bad mesh, std::runtime_error for one
 // without tets or with too many vertices for a store.
-IngestedMesh ingest_mesh(const std::filesystem::path& mesh);
+IngestedMesh ingest_mesh(const std::filesystem::path& mesh, const storage::ReadLimits& limits);
 
 // ---- levels ----
 

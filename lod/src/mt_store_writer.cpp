@@ -227,7 +227,8 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
   manifest["source"] = {{"file", std::filesystem::absolute(in.mesh_path).string()}, {"format", storage::format_name(storage::format_from_path(in.mesh_path))},
                         {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", in.source_sha256()}};
   manifest["counts"] = {{"vertices", mesh.table.size()}, {"tetrahedra", stored_tets}, {"segments", h.nodes.size()},
-                        {"degenerate_tetrahedra", mesh.read_stats.degenerate}, {"reoriented_tetrahedra", mesh.read_stats.inverted}};
+                        {"degenerate_tetrahedra", mesh.read_stats.degenerate}, {"reoriented_tetrahedra", mesh.read_stats.inverted},
+                        {"dropped_unused_vertices", mesh.dropped_unused_vertices}, {"dropped_repeated_vertex_tetrahedra", mesh.read_stats.repeated_vertex}};
   nlohmann::json attribute_list = nlohmann::json::array();
   for (size_t a = 0; a < mesh.attributes.size(); ++a) {
     const double lo = mesh.attributes[a].components == 1 ? mesh.ranges[a][0] : 0, hi = mesh.ranges[a][1];

@@ -411,7 +411,7 @@ struct Segmentation {
     manifest["version"] = storage::store::kFormatVersion;
     std::error_code ec;
     manifest["source"] = {{"file", std::filesystem::absolute(mesh_path).string()}, {"format", storage::format_name(header.format)},
-                          {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", sha256.get()}};
+                          {"bytes", std::filesystem::file_size(hashed, ec)}, {"sha256", sha256->get()}};
     manifest["counts"] = {{"vertices", vertex_count}, {"tetrahedra", tet_count}, {"segments", segment_count},
                           {"degenerate_tetrahedra", read_stats.degenerate}, {"reoriented_tetrahedra", read_stats.inverted}};
     nlohmann::json attribute_list = nlohmann::json::array();
@@ -455,7 +455,7 @@ struct Segmentation {
   const std::filesystem::path mesh_path, store_path;
   const SegmentationOptions& options;
   storage::Progress* progress;
-  std::future<std::string> sha256;  // of the source, computed while we work
+  std::optional<storage::FileHasher> sha256;  // of the source, computed while we work
   std::filesystem::path hashed;     // the file hashed
   // pass 1
   std::unique_ptr<storage::MeshStream> stream;
@@ -520,7 +520,7 @@ SegmentationReport segment_mesh(const std::filesystem::path& mesh_path, const st
   // fingerprint the source while we work
   run.hashed = mesh_path;
   if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) run.hashed.replace_extension(".ele");
-  run.sha256 = std::async(std::launch::async, [hashed = run.hashed] { return storage::sha256_file(hashed); });
+  run.sha256.emplace(run.hashed);  // checks the file is regular first; cancelled if reading fails
   run.read_vertices();
   run.partition();
   run.writer.emplace(store_path, options.replace, run.vertex_count, run.segment_count, run.floats_per_vertex);

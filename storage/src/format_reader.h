@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <memory>
@@ -84,6 +85,17 @@ std::unique_ptr<FormatReader> make_tetgen_reader(std::shared_ptr<InputFile> node
 std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);
 
 // ---- typed values -------------------------------------------------------------------
+
+// Stores keep coordinates and attributes as 32-bit floats, so a value is judged after that
+// conversion: 1e39 is a finite double but an infinite float. Readers refuse a coordinate that
+// fails this (a store's bounds would not be finite) and count an attribute value that fails it
+// as non-finite (ReadStats::nonfinite_attribute_values), as `info` does.
+inline bool to_stored_float(double value, float& out) {
+  out = static_cast<float>(value);
+  return std::isfinite(out);
+}
+// "point coordinate 1e+39 is not a finite 32-bit float (magnitude at most 3.4e+38)"
+std::string not_a_float_message(std::string_view what, double value);
 
 enum class ScalarType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kInt64, kUInt64, kFloat32, kFloat64 };
 size_t scalar_size(ScalarType type);

@@ -142,11 +142,16 @@ void GmshReader::skip_section(const std::string& section) {
 }
 
 void GmshReader::add_node(uint64_t tag, double x, double y, double z) {
-  if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) cursor_.fail("node " + std::to_string(tag) + " has a non-finite coordinate");
+  const double c[3] = {x, y, z};
+  float f[3];
+  for (int k = 0; k < 3; ++k) {
+    if (to_stored_float(c[k], f[k])) continue;
+    std::string what = not_a_float_message("node " + std::to_string(tag) + ": coordinate", c[k]);
+    if (binary_) cursor_.fail_byte(what);  // the node's data ends here
+    cursor_.fail(what);
+  }
   node_tags_.push_back(tag);
-  xyz_.push_back(static_cast<float>(x));
-  xyz_.push_back(static_cast<float>(y));
-  xyz_.push_back(static_cast<float>(z));
+  xyz_.insert(xyz_.end(), f, f + 3);
 }
 
 void GmshReader::read_nodes() {
@@ -291,8 +296,7 @@ void GmshReader::read_node_data(ReadStats& stats) {
     seen[index] = 1;
     for (int64_t k = 0; k < components; ++k) {
       double v = binary_ ? binary<double>("field value") : cursor_.parse_double("field value");
-      if (!std::isfinite(v)) ++stats.nonfinite_attribute_values;
-      field.values[index * static_cast<size_t>(components) + static_cast<size_t>(k)] = static_cast<float>(v);
+      if (!to_stored_float(v, field.values[index * static_cast<size_t>(components) + static_cast<size_t>(k)])) ++stats.nonfinite_attribute_values;
     }
   }
   expect_end("NodeData");

@@ -10,10 +10,11 @@
 
 namespace tetrascope::storage::detail {
 
-std::shared_ptr<InputFile> InputFile::open(const std::filesystem::path& path) {
+std::shared_ptr<InputFile> InputFile::open(const std::filesystem::path& path, const ReadLimits& limits) {
   std::shared_ptr<InputFile> file(new InputFile());
   file->name_ = path.filename().string();
-  file->fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  file->limits_ = limits;
+  file->fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (file->fd_ < 0) {
     throw MeshError(path.string() + ": cannot open: " + std::strerror(errno));
   }
@@ -21,6 +22,8 @@ std::shared_ptr<InputFile> InputFile::open(const std::filesystem::path& path) {
   if (::fstat(file->fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
     throw MeshError(path.string() + ": not a regular file");
   }
+  // Reads of a regular file never block; clear the flag so nothing depends on it.
+  ::fcntl(file->fd_, F_SETFL, ::fcntl(file->fd_, F_GETFL) & ~O_NONBLOCK);
   file->size_ = static_cast<uint64_t>(st.st_size);
 #ifdef POSIX_FADV_SEQUENTIAL
   ::posix_fadvise(file->fd_, 0, 0, POSIX_FADV_SEQUENTIAL);
@@ -28,8 +31,9 @@ std::shared_ptr<InputFile> InputFile::open(const std::filesystem::path& path) {
   return file;
 }
 
-std::shared_ptr<InputFile> InputFile::from_memory(std::string name, std::span<const char> bytes) {
+std::shared_ptr<InputFile> InputFile::from_memory(std::string name, std::span<const char> bytes, const ReadLimits& limits) {
   std::shared_ptr<InputFile> file(new InputFile());
+  file->limits_ = limits;
   file->name_ = std::move(name);
   file->memory_.assign(bytes.begin(), bytes.end());
   file->size_ = bytes.size();

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "tetrascope/storage/mesh_error.h"
+#include "tetrascope/storage/mesh_stream.h"
 
 #include "tetrascope/storage/parse_number.h"
 
@@ -20,14 +21,17 @@ namespace tetrascope::storage::detail {
 
 class InputFile {
  public:
-  static std::shared_ptr<InputFile> open(const std::filesystem::path& path);
-  static std::shared_ptr<InputFile> from_memory(std::string name, std::span<const char> bytes);
+  // Refuses anything but a regular file, without blocking: opened O_NONBLOCK (a FIFO with no
+  // writer would otherwise block open()) and then checked with fstat.
+  static std::shared_ptr<InputFile> open(const std::filesystem::path& path, const ReadLimits& limits = {});
+  static std::shared_ptr<InputFile> from_memory(std::string name, std::span<const char> bytes, const ReadLimits& limits = {});
   ~InputFile();
   InputFile(const InputFile&) = delete;
   InputFile& operator=(const InputFile&) = delete;
 
   uint64_t size() const { return size_; }
   const std::string& name() const { return name_; }
+  const ReadLimits& limits() const { return limits_; }
   // Reads up to n bytes at offset; returns how many were read (fewer only at the end).
   size_t read_at(uint64_t offset, void* dst, size_t n) const;
 
@@ -39,6 +43,7 @@ class InputFile {
   int fd_ = -1;
   uint64_t size_ = 0;
   std::vector<char> memory_;
+  ReadLimits limits_;
 };
 
 // A sequential cursor over an InputFile with its own buffer. Text mode counts lines

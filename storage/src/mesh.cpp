@@ -1,6 +1,7 @@
 #include "tetrascope/storage/mesh.h"
 
 #include <algorithm>
+#include <cstddef>
 
 namespace tetrascope::storage {
 
@@ -28,6 +29,33 @@ Bounds compute_bounds(const TetMesh& mesh) {
     b.max[k] = *hi;
   }
   return b;
+}
+
+uint64_t drop_unused_vertices(TetMesh& mesh) {
+  constexpr uint32_t kUnused = UINT32_MAX;
+  const size_t vertex_count = mesh.vertex_count();
+  std::vector<uint32_t> renumber(vertex_count, kUnused);
+  for (uint32_t v : mesh.tets) renumber[v] = 0;
+  uint32_t kept = 0;
+  for (size_t v = 0; v < vertex_count; ++v) {
+    if (renumber[v] != kUnused) renumber[v] = kept++;
+  }
+  if (kept == vertex_count) return 0;
+  for (uint32_t& v : mesh.tets) v = renumber[v];
+  auto compact = [&](std::vector<float>& values, size_t components) {
+    for (size_t v = 0; v < vertex_count; ++v) {
+      if (renumber[v] == kUnused || renumber[v] == v) continue;
+      std::copy_n(values.begin() + static_cast<std::ptrdiff_t>(v * components), components,
+                  values.begin() + static_cast<std::ptrdiff_t>(size_t{renumber[v]} * components));
+    }
+    values.resize(size_t{kept} * components);
+    values.shrink_to_fit();
+  };
+  compact(mesh.x, 1);
+  compact(mesh.y, 1);
+  compact(mesh.z, 1);
+  for (Attribute& a : mesh.attributes) compact(a.values, a.info.components);
+  return vertex_count - kept;
 }
 
 }  // namespace tetrascope::storage

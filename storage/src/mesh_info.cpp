@@ -109,7 +109,7 @@ nlohmann::json summary_json(const MeshSummary& s) {
   }
   j["attributes"] = attributes;
   j["bounds"] = {{"min", {s.bounds.min[0], s.bounds.min[1], s.bounds.min[2]}}, {"max", {s.bounds.max[0], s.bounds.max[1], s.bounds.max[2]}}};
-  j["quality"] = {{"degenerate", s.stats.degenerate}, {"inverted", s.stats.inverted}};
+  j["quality"] = {{"degenerate", s.stats.degenerate}, {"inverted", s.stats.inverted}, {"repeated_vertex_dropped", s.stats.repeated_vertex}};
   j["warnings"] = s.stats.warnings;
   j["read_seconds"] = s.read_seconds;
   return j;

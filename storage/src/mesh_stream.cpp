@@ -38,19 +38,25 @@ MeshFormat format_from_path(const std::filesystem::path& path) {
                   "' (expected .vtk, .vtu, .msh, .node/.ele or .off)");
 }
 
-std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path) {
+uint64_t ReadLimits::max_inflated_bytes(uint64_t file_bytes) const {
+  const double allowed = static_cast<double>(kInflateAllowanceBytes) + max_inflate_ratio * static_cast<double>(file_bytes);
+  return allowed >= 1.8e19 ? UINT64_MAX : static_cast<uint64_t>(allowed);
+}
+
+std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path, const ReadLimits& limits) {
   MeshFormat format = format_from_path(path);
   std::unique_ptr<detail::FormatReader> reader;
+  auto open_file = [&](const std::filesystem::path& p) { return detail::InputFile::open(p, limits); };
   switch (format) {
-    case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(detail::InputFile::open(path)); break;
-    case MeshFormat::kVtu: reader = detail::make_vtu_reader(detail::InputFile::open(path)); break;
-    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(detail::InputFile::open(path)); break;
-    case MeshFormat::kOff: reader = detail::make_off_reader(detail::InputFile::open(path)); break;
+    case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(open_file(path)); break;
+    case MeshFormat::kVtu: reader = detail::make_vtu_reader(open_file(path)); break;
+    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(open_file(path)); break;
+    case MeshFormat::kOff: reader = detail::make_off_reader(open_file(path)); break;
     case MeshFormat::kTetgen: {
       std::filesystem::path node = path, ele = path;
       node.replace_extension(".node");
       ele.replace_extension(".ele");
-      reader = detail::make_tetgen_reader(detail::InputFile::open(node), detail::InputFile::open(ele));
+      reader = detail::make_tetgen_reader(open_file(node), open_file(ele));
       break;
     }
   }
@@ -58,8 +64,8 @@ std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path) 
 }
 
 std::unique_ptr<MeshStream> MeshStream::open_memory(MeshFormat format, std::string name, std::span<const char> bytes,
-                                                    std::span<const char> second_bytes) {
-  auto file = detail::InputFile::from_memory(name, bytes);
+                                                    std::span<const char> second_bytes, const ReadLimits& limits) {
+  auto file = detail::InputFile::from_memory(name, bytes, limits);
   std::unique_ptr<detail::FormatReader> reader;
   switch (format) {
     case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(file); break;
@@ -146,9 +152,52 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
   VertexChunk drain;
   while (next_vertices(drain)) {
   }
+  max_tets = std::max<size_t>(max_tets, 6);
   tet_scratch_.clear();
   split_scratch_.clear();
-  max_tets = std::max<size_t>(max_tets, 6);
+  // a chunk whose every tet repeats a vertex is empty: read on until one survives or cells end
+  for (;;) {
+    fill_tet_chunk(max_tets);
+    drop_repeated_vertex_tets();
+    if (!tet_scratch_.empty() || cells_done_) break;
+  }
+  if (tet_scratch_.empty()) {
+    if (stats_.repeated_vertex > 0 && !repeated_vertex_warned_) {
+      repeated_vertex_warned_ = true;
+      stats_.warnings.push_back(std::to_string(stats_.repeated_vertex) +
+                                " tetrahedra that repeat a vertex (no volume, no faces) were dropped");
+    }
+    return false;
+  }
+  orient_chunk();
+  chunk.first = tets_emitted_;
+  chunk.count = tet_scratch_.size() / 4;
+  chunk.tets = tet_scratch_;
+  tets_emitted_ += chunk.count;
+  stats_.tetrahedra = tets_emitted_;
+  return true;
+}
+
+void MeshStream::drop_repeated_vertex_tets() {
+  const size_t count = tet_scratch_.size() / 4;
+  size_t kept = 0;
+  for (size_t t = 0; t < count; ++t) {
+    const uint32_t* v = tet_scratch_.data() + 4 * t;
+    if (v[0] == v[1] || v[0] == v[2] || v[0] == v[3] || v[1] == v[2] || v[1] == v[3] || v[2] == v[3]) {
+      ++stats_.repeated_vertex;
+      continue;
+    }
+    if (kept != t) {
+      std::copy_n(v, 4, tet_scratch_.data() + 4 * kept);
+      split_scratch_[kept] = split_scratch_[t];
+    }
+    ++kept;
+  }
+  tet_scratch_.resize(4 * kept);
+  split_scratch_.resize(kept);
+}
+
+void MeshStream::fill_tet_chunk(size_t max_tets) {
   tet_scratch_.reserve(4 * max_tets + 24);
   CellBatch& batch = cells_->batch;
   while (!cells_done_ && tet_scratch_.size() / 4 + 6 <= max_tets) {
@@ -192,14 +241,6 @@ bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
       split_scratch_.resize(tet_scratch_.size() / 4, linear == detail::kVtkTetra ? 0 : 1);
     }
   }
-  if (tet_scratch_.empty()) return false;
-  orient_chunk();
-  chunk.first = tets_emitted_;
-  chunk.count = tet_scratch_.size() / 4;
-  chunk.tets = tet_scratch_;
-  tets_emitted_ += chunk.count;
-  stats_.tetrahedra = tets_emitted_;
-  return true;
 }
 
 void MeshStream::orient_chunk() {
@@ -249,8 +290,8 @@ TetMesh load_stream(MeshStream& stream) {
   return mesh;
 }
 
-TetMesh load_mesh(const std::filesystem::path& path, ReadStats* stats) {
-  auto stream = MeshStream::open(path);
+TetMesh load_mesh(const std::filesystem::path& path, ReadStats* stats, const ReadLimits& limits) {
+  auto stream = MeshStream::open(path, limits);
   TetMesh mesh = load_stream(*stream);
   if (stats) *stats = stream->stats();
   return mesh;

@@ -75,13 +75,13 @@ class OffReader final : public FormatReader {
     for (size_t i = 0; i < count; ++i) {
       for (int k = 0; k < 3; ++k) {
         double v = cursor_.parse_double("vertex coordinate");
-        if (!std::isfinite(v)) cursor_.fail("vertex " + std::to_string(vertices_read_ + i) + " has a non-finite coordinate");
-        xyz[3 * i + static_cast<size_t>(k)] = static_cast<float>(v);
+        if (!to_stored_float(v, xyz[3 * i + static_cast<size_t>(k)])) {
+          cursor_.fail(not_a_float_message("vertex " + std::to_string(vertices_read_ + i) + ": coordinate", v));
+        }
       }
       for (int s = 0; s < scalars_; ++s) {
         double v = cursor_.parse_double("vertex scalar");
-        if (!std::isfinite(v)) ++stats.nonfinite_attribute_values;
-        attributes[static_cast<size_t>(s)][i] = static_cast<float>(v);
+        if (!to_stored_float(v, attributes[static_cast<size_t>(s)][i])) ++stats.nonfinite_attribute_values;
       }
     }
     vertices_read_ += count;

@@ -96,13 +96,13 @@ class TetgenReader final : public FormatReader {
       }
       for (int k = 0; k < 3; ++k) {
         double v = next_double(node_, "coordinate");
-        if (!std::isfinite(v)) node_.fail("point " + std::to_string(index) + " has a non-finite coordinate");
-        xyz[3 * i + static_cast<size_t>(k)] = static_cast<float>(v);
+        if (!to_stored_float(v, xyz[3 * i + static_cast<size_t>(k)])) {
+          node_.fail(not_a_float_message("point " + std::to_string(index) + ": coordinate", v));
+        }
       }
       for (int64_t a = 0; a < attributes_; ++a) {
         double v = next_double(node_, "attribute");
-        if (!std::isfinite(v)) ++stats.nonfinite_attribute_values;
-        attributes[static_cast<size_t>(a)][i] = static_cast<float>(v);
+        if (!to_stored_float(v, attributes[static_cast<size_t>(a)][i])) ++stats.nonfinite_attribute_values;
       }
       if (markers_ == 1) next_int(node_, "boundary marker");
     }

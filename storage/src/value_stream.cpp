@@ -5,6 +5,7 @@
 
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <new>
@@ -290,6 +291,13 @@ void ZlibBlocks::read(void* dst, size_t n, std::string_view) {
 }
 
 // ---- values --------------------------------------------------------------------------
+
+std::string not_a_float_message(std::string_view what, double value) {
+  char text[96];
+  std::snprintf(text, sizeof text, " %.9g is not a finite 32-bit float (magnitude at most %.7g)", value,
+                static_cast<double>(std::numeric_limits<float>::max()));
+  return std::string(what) + text;
+}
 
 uint64_t AsciiValues::read_float(float* out, size_t n, bool finite_only, std::string_view what) {
   uint64_t nonfinite = 0;

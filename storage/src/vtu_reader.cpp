@@ -1,6 +1,7 @@
 // VTK XML unstructured grids (.vtu): inline ascii and base64 binary, appended raw and
 // base64, optional vtkZLibDataCompressor framing, UInt32 or UInt64 block headers, either
 // byte order. Format: "VTK File Formats", XML section, and vtkXMLDataParser.
+#include <cstdio>
 #include <map>
 #include <optional>
 
@@ -91,6 +92,8 @@ class VtuReader final : public FormatReader {
   // Number of values an integer array holds, from its encoding header or token count.
   uint64_t value_count(const DataArray& array) const;
   uint64_t appended_start(const DataArray& array) const;
+  // Fails when the compressed arrays would inflate past ReadLimits (a decompression bomb).
+  void check_inflated_size() const;
 
   std::shared_ptr<InputFile> file_;
   Cursor cursor_;
@@ -317,7 +320,31 @@ MeshHeader VtuReader::index(ReadStats& stats) {
     if (a->format == DataArray::Format::kAppended && !appended_offset_) fail_line(a->line, "DataArray '" + a->name + "' is appended but the file has no AppendedData");
   }
   for (const DataArray& a : point_arrays_) header_.attributes.push_back({a.name, a.components});
+  if (compressed_) check_inflated_size();
   return header_;
+}
+
+void VtuReader::check_inflated_size() const {
+  // What the arrays that will be read inflate to, from the declared counts (the zlib headers
+  // are checked against the same counts when each array is opened).
+  const uint64_t points = header_.vertex_count, cells = header_.cell_count;
+  double inflated = 0;
+  auto add = [&](const DataArray& a, double values) {
+    if (a.format != DataArray::Format::kAscii) inflated += values * static_cast<double>(scalar_size(a.type));
+  };
+  add(*points_, 3.0 * static_cast<double>(points));
+  for (const DataArray& a : point_arrays_) add(a, static_cast<double>(points) * a.components);
+  add(*offsets_, static_cast<double>(cells));
+  add(*types_, static_cast<double>(cells));
+  if (connectivity_->format != DataArray::Format::kAscii) add(*connectivity_, static_cast<double>(value_count(*connectivity_)));
+  const uint64_t limit = file_->limits().max_inflated_bytes(file_->size());
+  if (inflated > static_cast<double>(limit)) {
+    char ratio[32];
+    std::snprintf(ratio, sizeof ratio, "%g", file_->limits().max_inflate_ratio);
+    throw MeshError(file_->name() + ": its compressed arrays inflate to " + std::to_string(static_cast<uint64_t>(inflated)) + " bytes, more than " +
+                    std::to_string(limit) + " allowed for a file of " + std::to_string(file_->size()) + " bytes (" + ratio + " times its size plus " +
+                    std::to_string(ReadLimits::kInflateAllowanceBytes >> 20) + " MiB; raise --max-inflate-ratio if the file is genuine)");
+  }
 }
 
 uint64_t VtuReader::appended_start(const DataArray& a) const {

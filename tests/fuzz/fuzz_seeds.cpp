@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "fixture_writers.h"
+#include "tetrascope/lod/mt_build.h"
 #include "tetrascope/storage/mesh_stream.h"
 
 using namespace tetrascope::testing;
@@ -53,5 +54,16 @@ int main(int argc, char** argv) {
   write_file(out / "tetgen/pair", read_file(out / "tetgen/t.node") + "#ele\n" + read_file(out / "tetgen/t.ele"));
   std::filesystem::remove(out / "tetgen/t.node");
   std::filesystem::remove(out / "tetgen/t.ele");
+  // the store loader: a small multiresolution store, its files joined as fuzz_store expects
+  std::filesystem::create_directories(out / "store");
+  const auto store = out / "store.tmp";
+  std::filesystem::remove_all(store);
+  tetrascope::lod::PreprocessOptions options;
+  options.threads = 1;
+  tetrascope::lod::preprocess(out / "off/a.off", store, options, nullptr);
+  write_file(out / "store/multires", read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin") +
+                                         "\n#dag.bin\n" + read_file(store / "dag.bin"));
+  write_file(out / "store/no_dag", read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin"));
+  std::filesystem::remove_all(store);
   return 0;
 }

@@ -3,7 +3,13 @@
 // an allocation driven by a claimed count. Run under ASan+UBSan in CI (preset "asan").
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cstring>
+#include <future>
 #include <random>
 
 #include "fixture_writers.h"
@@ -304,6 +310,166 @@ TEST(HostileFiles, MissingFileAndUnknownExtension) {
     EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
   }
   EXPECT_THROW(storage::MeshStream::open("mesh.stl"), MeshError);
+}
+
+// ---- values that are finite as doubles but not as the stored float (issue 13) ----------
+
+const std::string kTetLines = "0 1 2 3\n";
+TEST(HostileOff, CoordinateThatOverflowsFloatIsRefused) {
+  expect_error(MeshFormat::kOff, "4 1\n0 0 0\n1e39 0 0\n0 1 0\n0 0 1\n" + kTetLines,
+               "line 3: vertex 1: coordinate 1e+39 is not a finite 32-bit float");
+  expect_error(MeshFormat::kOff, "4 1\n0 0 0\n1 0 0\n0 -3.5e38 0\n0 0 1\n" + kTetLines, "line 4: vertex 2: coordinate -3.5e+38");
+}
+TEST(HostileTetgen, CoordinateThatOverflowsFloatIsRefused) {
+  expect_error(MeshFormat::kTetgen, "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1e39 0\n4 0 0 1\n",
+               "line 4: point 3: coordinate 1e+39 is not a finite 32-bit float", "1 4 0\n1 1 2 3 4\n");
+}
+TEST(HostileGmsh, CoordinateThatOverflowsFloatIsRefused) {
+  expect_error(MeshFormat::kGmsh,
+               "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 -1e39\n$EndNodes\n"
+               "$Elements\n1\n1 4 0 1 2 3 4\n$EndElements\n",
+               "line 9: node 4: coordinate -1e+39 is not a finite 32-bit float");
+}
+TEST(HostileVtk, CoordinateThatOverflowsFloatIsRefused) {
+  expect_error(MeshFormat::kVtkLegacy, kVtkHead + "POINTS 4 double\n0 0 0\n1e39 0 0\n0 1 0\n0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n",
+               "line 7: point coordinate is not a finite number");
+}
+TEST(HostileVtu, CoordinateThatOverflowsFloatIsRefused) {
+  expect_error(MeshFormat::kVtu,
+               "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"4\" NumberOfCells=\"1\">"
+               "<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1e39 0 0 0 1 0 0 0 1</DataArray></Points>"
+               "<Cells><DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>"
+               "<DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">4</DataArray>"
+               "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray></Cells></Piece></UnstructuredGrid></VTKFile>\n",
+               "point coordinate is not a finite number");
+}
+// Attributes are kept, and a value a float cannot hold counts as non-finite (as `info` reports
+// it), so ranges and the manifest skip it instead of holding infinity or null.
+TEST(HostileOff, AttributeThatOverflowsFloatCountsAsNonFinite) {
+  auto stream = storage::MeshStream::open_memory(MeshFormat::kOff, "a.off", std::string("4 1\n0 0 0 1\n1 0 0 1e39\n0 1 0 2\n0 0 1 nan\n" + kTetLines));
+  storage::load_stream(*stream);
+  EXPECT_EQ(stream->stats().nonfinite_attribute_values, 2u);
+}
+TEST(HostileTetgen, AttributeThatOverflowsFloatCountsAsNonFinite) {
+  auto stream = storage::MeshStream::open_memory(MeshFormat::kTetgen, "a", std::string("4 3 1 0\n1 0 0 0 1\n2 1 0 0 -1e40\n3 0 1 0 2\n4 0 0 1 3\n"),
+                                                 std::string("1 4 0\n1 1 2 3 4\n"));
+  storage::load_stream(*stream);
+  EXPECT_EQ(stream->stats().nonfinite_attribute_values, 1u);
+}
+
+// ---- a tet that names a vertex twice has no faces: dropped and counted ------------------
+
+TEST(HostileOff, TetThatRepeatsAVertexIsDroppedAndCounted) {
+  const std::string off = "5 3\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n0 1 2 3\n0 0 1 4\n1 2 3 4\n";
+  auto stream = storage::MeshStream::open_memory(MeshFormat::kOff, "r.off", off);
+  storage::TetMesh mesh = storage::load_stream(*stream);
+  EXPECT_EQ(mesh.tet_count(), 2u);
+  EXPECT_EQ(stream->stats().repeated_vertex, 1u);
+  ASSERT_EQ(stream->stats().warnings.size(), 1u);
+  EXPECT_NE(stream->stats().warnings[0].find("1 tetrahedra that repeat a vertex"), std::string::npos);
+  for (size_t t = 0; t < mesh.tet_count(); ++t) {
+    const uint32_t* v = mesh.tets.data() + 4 * t;
+    EXPECT_TRUE(v[0] != v[1] && v[0] != v[2] && v[0] != v[3] && v[1] != v[2] && v[1] != v[3] && v[2] != v[3]);
+  }
+}
+TEST(HostileVtk, ChunkOfOnlyRepeatedVertexTetsDoesNotEndTheStream) {
+  // 3000 collapsed tets first, then one good one: the first chunks hold nothing to emit
+  std::string vtk = kVtkHead + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 3001 15005\n";
+  for (int c = 0; c < 3000; ++c) vtk += "4 0 0 0 0\n";
+  vtk += "4 0 1 2 3\nCELL_TYPES 3001\n";
+  for (int c = 0; c < 3001; ++c) vtk += "10\n";
+  auto stream = storage::MeshStream::open_memory(MeshFormat::kVtkLegacy, "c.vtk", vtk);
+  storage::TetChunk chunk;
+  uint64_t tets = 0;
+  while (stream->next_tets(chunk, 500)) tets += chunk.count;
+  EXPECT_EQ(tets, 1u);
+  EXPECT_EQ(stream->stats().repeated_vertex, 3000u);
+}
+
+// ---- what one input may cost ------------------------------------------------------------
+
+TEST(HostileVtu, DecompressionBombIsRefusedBeforeAllocating) {
+  // one tet and 8 million unused points at the origin: ~100 KB compressed, 96 MB inflated
+  CellMesh m;
+  const size_t points = 8'000'000;
+  m.x.assign(points, 0.f);
+  m.y.assign(points, 0.f);
+  m.z.assign(points, 0.f);
+  m.x[1] = m.y[2] = m.z[3] = 1.f;
+  m.add_cell(10, {0, 1, 2, 3});
+  auto dir = scratch_dir("vtu_bomb");
+  write_vtu(dir / "bomb.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 1 << 20});
+  ASSERT_LT(std::filesystem::file_size(dir / "bomb.vtu"), 1'000'000u);
+  try {
+    storage::MeshStream::open(dir / "bomb.vtu");
+    FAIL() << "a decompression bomb was accepted";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("bomb.vtu: its compressed arrays inflate to 96000"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--max-inflate-ratio"), std::string::npos) << e.what();
+  }
+  // the limit is an option: a generous ratio admits the same file
+  storage::ReadLimits generous;
+  generous.max_inflate_ratio = 2000;
+  EXPECT_EQ(storage::MeshStream::open(dir / "bomb.vtu", generous)->header().vertex_count, points);
+}
+TEST(HostileVtu, WellCompressedSmallFileIsWithinTheAllowance) {
+  // at the limit: small files inflate freely up to the fixed allowance
+  CellMesh m = small_mesh();
+  auto dir = scratch_dir("vtu_small");
+  write_vtu(dir / "m.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true});
+  storage::ReadLimits strict;
+  strict.max_inflate_ratio = 1;
+  EXPECT_EQ(storage::load_mesh(dir / "m.vtu", nullptr, strict).vertex_count(), m.x.size());
+}
+TEST(HostileMesh, UnusedPointsAreDropped) {
+  storage::TetMesh mesh;
+  mesh.x = {9, 0, 1, 9, 0, 0};
+  mesh.y = {9, 0, 0, 9, 1, 0};
+  mesh.z = {9, 0, 0, 9, 0, 1};
+  storage::Attribute values;
+  values.info.name = "v";
+  values.values = {90, 0, 1, 93, 4, 5};
+  mesh.attributes.push_back(values);
+  mesh.tets = {1, 2, 4, 5};
+  EXPECT_EQ(storage::drop_unused_vertices(mesh), 2u);
+  EXPECT_EQ(mesh.x, (std::vector<float>{0, 1, 0, 0}));
+  EXPECT_EQ(mesh.z, (std::vector<float>{0, 0, 0, 1}));
+  EXPECT_EQ(mesh.attributes[0].values, (std::vector<float>{0, 1, 4, 5}));
+  EXPECT_EQ(mesh.tets, (std::vector<uint32_t>{0, 1, 2, 3}));
+  EXPECT_EQ(storage::drop_unused_vertices(mesh), 0u);
+}
+
+// ---- inputs that are not regular files --------------------------------------------------
+
+TEST(HostileFiles, FifoNamedAsAMeshDoesNotBlockOpen) {
+  auto dir = scratch_dir("fifo");
+  const auto fifo = dir / "mesh.vtk";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  auto opened = std::async(std::launch::async, [&] {
+    try {
+      storage::MeshStream::open(fifo);
+      return std::string("opened");
+    } catch (const MeshError& e) {
+      return std::string(e.what());
+    }
+  });
+  if (opened.wait_for(std::chrono::seconds(5)) != std::future_status::ready) {
+    int unblock = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);  // lets the blocked open() return
+    opened.wait();
+    if (unblock >= 0) ::close(unblock);
+    FAIL() << "open() blocked on a FIFO";
+  }
+  EXPECT_NE(opened.get().find("not a regular file"), std::string::npos);
+}
+TEST(HostileFiles, SymlinkToDevZeroIsRefused) {
+  auto dir = scratch_dir("devzero");
+  std::filesystem::create_symlink("/dev/zero", dir / "mesh.off");
+  try {
+    storage::MeshStream::open(dir / "mesh.off");
+    FAIL() << "opened /dev/zero";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -52,15 +52,16 @@ TEST(MeshStream, TetsBeforeVerticesStillOrients) {
 
 TEST(MeshStream, InvertedTetsAreReorientedAndCounted) {
   std::string vtk =
-      "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 5 float\n"
-      "0 0 0 1 0 0 0 1 0 0 0 1 1 1 1\nCELLS 3 15\n4 0 1 2 3\n4 0 2 1 3\n4 0 1 2 0\nCELL_TYPES 3\n10 10 10\n";
+      "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 6 float\n"
+      "0 0 0 1 0 0 0 1 0 0 0 1 1 1 1 1 1 0\nCELLS 4 20\n4 0 1 2 3\n4 0 2 1 3\n4 0 1 2 5\n4 0 1 2 0\nCELL_TYPES 4\n10 10 10 10\n";
   auto stream = storage::MeshStream::open_memory(storage::MeshFormat::kVtkLegacy, "o.vtk", vtk);
   storage::TetMesh mesh = storage::load_stream(*stream);
-  ASSERT_EQ(mesh.tet_count(), 3u);
+  ASSERT_EQ(mesh.tet_count(), 3u);  // the flat tet is kept; the one that repeats vertex 0 is dropped
   EXPECT_GT(storage::signed_volume(mesh, mesh.tets[0], mesh.tets[1], mesh.tets[2], mesh.tets[3]), 0);
   EXPECT_GT(storage::signed_volume(mesh, mesh.tets[4], mesh.tets[5], mesh.tets[6], mesh.tets[7]), 0);
   EXPECT_EQ(stream->stats().inverted, 1u);
   EXPECT_EQ(stream->stats().degenerate, 1u);
+  EXPECT_EQ(stream->stats().repeated_vertex, 1u);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/progress.h"
 
 namespace tetrascope::lod {
@@ -22,6 +23,7 @@ struct PreprocessOptions {
   uint32_t max_levels = 24;
   int seed = 1;
   bool replace = false;
+  storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
 };
 
 struct LevelReport {

@@ -30,6 +30,10 @@ struct ReadStats {
   uint64_t skipped_cells = 0;       // vertices, lines and surface cells (not part of a volume)
   uint64_t inverted = 0;            // tets re-oriented to positive volume
   uint64_t degenerate = 0;          // tets of (numerically) zero volume, kept and counted
+  // Tets that name one vertex twice (e.g. "0 0 6 31"), as written or after splitting a collapsed
+  // hexahedron: they have no volume and no well-defined faces, so they are dropped and counted
+  // here (and a warning added), never passed on.
+  uint64_t repeated_vertex = 0;
   uint64_t nonfinite_attribute_values = 0;
   std::vector<std::string> warnings;  // e.g. "cell data 'Label' ignored"
 };
@@ -55,5 +59,10 @@ struct TetMesh {
 double signed_volume(const TetMesh& mesh, uint32_t a, uint32_t b, uint32_t c, uint32_t d);
 
 Bounds compute_bounds(const TetMesh& mesh);
+
+// Removes the vertices (and their attribute values) that no tet uses and renumbers the tets;
+// returns how many were removed. A file may hold millions of points and one tet: those
+// points would otherwise cost memory and store bytes for nothing.
+uint64_t drop_unused_vertices(TetMesh& mesh);
 
 }  // namespace tetrascope::storage

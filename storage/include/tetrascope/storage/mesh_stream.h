@@ -49,6 +49,18 @@ struct TetChunk {
   std::span<const uint32_t> tets;
 };
 
+// What one input may cost beyond its own bytes. Compressed VTU arrays can inflate about
+// 1000:1, so a 240 KB file could otherwise declare 20 million points (and a 1.5 GB read).
+struct ReadLimits {
+  static constexpr double kDefaultMaxInflateRatio = 100;
+  // Inflated bytes always allowed, whatever the ratio: small files may compress very well.
+  static constexpr uint64_t kInflateAllowanceBytes = uint64_t{64} << 20;
+  // The arrays a file declares compressed may inflate to at most this many times the file's
+  // size, plus kInflateAllowanceBytes (`--max-inflate-ratio`).
+  double max_inflate_ratio = kDefaultMaxInflateRatio;
+  uint64_t max_inflated_bytes(uint64_t file_bytes) const;
+};
+
 namespace detail {
 class FormatReader;
 }
@@ -58,11 +70,13 @@ class MeshStream {
   static constexpr size_t kDefaultChunk = 1 << 16;
 
   // Opens and indexes the file (reads headers, checks sizes); no vertex is read yet.
-  static std::unique_ptr<MeshStream> open(const std::filesystem::path& path);
+  // The path must name a regular file (a FIFO, device or directory is refused without blocking).
+  static std::unique_ptr<MeshStream> open(const std::filesystem::path& path, const ReadLimits& limits = {});
   // The same over bytes in memory (fuzzing, tests). TetGen takes `.node` then `.ele` bytes.
   static std::unique_ptr<MeshStream> open_memory(MeshFormat format, std::string name,
                                                  std::span<const char> bytes,
-                                                 std::span<const char> second_bytes = {});
+                                                 std::span<const char> second_bytes = {},
+                                                 const ReadLimits& limits = {});
   ~MeshStream();
   MeshStream(const MeshStream&) = delete;
   MeshStream& operator=(const MeshStream&) = delete;
@@ -82,6 +96,8 @@ class MeshStream {
 
  private:
   explicit MeshStream(std::unique_ptr<detail::FormatReader> reader);
+  void fill_tet_chunk(size_t max_tets);
+  void drop_repeated_vertex_tets();
   void orient_chunk();
   static constexpr size_t kParallelOrientTets = 16384;
 
@@ -98,10 +114,11 @@ class MeshStream {
   struct CellScratch;
   std::unique_ptr<CellScratch> cells_;
   bool cells_done_ = false;
+  bool repeated_vertex_warned_ = false;
 };
 
 // Reads a whole (small) mesh into memory. `stats` may be null.
-TetMesh load_mesh(const std::filesystem::path& path, ReadStats* stats = nullptr);
+TetMesh load_mesh(const std::filesystem::path& path, ReadStats* stats = nullptr, const ReadLimits& limits = {});
 TetMesh load_stream(MeshStream& stream);
 
 }  // namespace tetrascope::storage

@@ -1,0 +1,178 @@
+// `tetrascope preprocess` against hostile inputs (issue 13): it never reports a store as written
+// that `verify` would call damaged, fails fast on inputs that are not regular files, and does
+// not let one input cost far more than its size.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "fixture_writers.h"
+#include "test_paths.h"
+#include "tetrascope/lod/store_check.h"
+
+namespace tetrascope::testing {
+namespace {
+
+struct Result {
+  int status;
+  std::string out;
+  double seconds;
+};
+
+Result run(const std::string& args) {
+  const auto start = std::chrono::steady_clock::now();
+  std::string command = "timeout 60 " + tetrascope_binary().string() + " " + args + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
+  int status = pclose(pipe);
+  return {WEXITSTATUS(status), out, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+}
+
+// An OFF grid of k^3 cubes, 5 tets each, with a scalar; `extra` lines appended to the tets.
+std::string grid_off(int k, const std::string& extra_points = "", int extra_point_count = 0,
+                     const std::string& extra_tets = "", int extra_tet_count = 0) {
+  std::string points, tets;
+  auto at = [&](int i, int j, int l) { return (l * (k + 1) + j) * (k + 1) + i; };
+  for (int l = 0; l <= k; ++l)
+    for (int j = 0; j <= k; ++j)
+      for (int i = 0; i <= k; ++i) points += std::to_string(i) + " " + std::to_string(j) + " " + std::to_string(l) + " " + std::to_string(i + j) + "\n";
+  int tet_count = 0;
+  auto tet = [&](int a, int b, int c, int d) {
+    tets += std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(c) + " " + std::to_string(d) + "\n";
+    ++tet_count;
+  };
+  for (int l = 0; l < k; ++l)
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < k; ++i) {
+        int c[8] = {at(i, j, l), at(i + 1, j, l), at(i + 1, j + 1, l), at(i, j + 1, l),
+                    at(i, j, l + 1), at(i + 1, j, l + 1), at(i + 1, j + 1, l + 1), at(i, j + 1, l + 1)};
+        if ((i + j + l) % 2) {
+          tet(c[0], c[1], c[3], c[4]); tet(c[1], c[2], c[3], c[6]); tet(c[1], c[4], c[5], c[6]);
+          tet(c[3], c[4], c[6], c[7]); tet(c[1], c[3], c[4], c[6]);
+        } else {
+          tet(c[0], c[1], c[2], c[5]); tet(c[0], c[2], c[3], c[7]); tet(c[0], c[4], c[5], c[7]);
+          tet(c[2], c[5], c[6], c[7]); tet(c[0], c[2], c[5], c[7]);
+        }
+      }
+  const int vertex_count = (k + 1) * (k + 1) * (k + 1) + extra_point_count;
+  return std::to_string(vertex_count) + " " + std::to_string(tet_count + extra_tet_count) + "\n" + points + extra_points + tets + extra_tets;
+}
+
+nlohmann::json manifest(const std::filesystem::path& store) { return nlohmann::json::parse(read_file(store / "manifest.json")); }
+
+TEST(PreprocessCli, TetThatRepeatsAVertexNeverGivesADamagedStore) {
+  auto dir = scratch_dir("pre_repeat");
+  write_file(dir / "r.off", grid_off(6, "", 0, "0 0 6 31\n", 1));
+  Result r = run("preprocess " + (dir / "r.off").string() + " -o " + (dir / "s").string() + " --progress none");
+  ASSERT_EQ(r.status, 0) << r.out;
+  Result v = run("verify " + (dir / "s").string());
+  EXPECT_EQ(v.status, 0) << v.out;
+  EXPECT_EQ(manifest(dir / "s")["counts"]["dropped_repeated_vertex_tetrahedra"], 1);
+  EXPECT_EQ(manifest(dir / "s")["counts"]["tetrahedra"], 6 * 6 * 6 * 5);
+}
+
+TEST(PreprocessCli, CoordinateThatOverflowsFloatLeavesNoStore) {
+  auto dir = scratch_dir("pre_inf");
+  std::string off = grid_off(4);
+  off.replace(off.find('\n') + 1, 1, "1e39");  // the first vertex's x
+  write_file(dir / "inf.off", off);
+  Result r = run("preprocess " + (dir / "inf.off").string() + " -o " + (dir / "s").string() + " --progress none");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("inf.off: line 2: vertex 0: coordinate 1e+39 is not a finite 32-bit float"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "s.tmp"));
+}
+
+TEST(PreprocessCli, MillionsOfUnusedPointsDoNotReachTheStore) {
+  auto dir = scratch_dir("pre_unused");
+  std::string unused;
+  const int unused_count = 200000;
+  for (int i = 0; i < unused_count; ++i) unused += "0.5 0.5 0.5 0\n";
+  write_file(dir / "u.off", grid_off(4, unused, unused_count));
+  Result r = run("preprocess " + (dir / "u.off").string() + " -o " + (dir / "s").string() + " --progress none");
+  ASSERT_EQ(r.status, 0) << r.out;
+  auto m = manifest(dir / "s");
+  EXPECT_EQ(m["counts"]["dropped_unused_vertices"], unused_count);
+  EXPECT_EQ(m["counts"]["vertices"], 5 * 5 * 5);
+  EXPECT_LT(std::filesystem::file_size(dir / "s" / "segments.bin"), 1'000'000u);  // 200k points would be 3.2 MB
+}
+
+TEST(PreprocessCli, SymlinkToDevZeroFailsAtOnceInsteadOfHashingForever) {
+  auto dir = scratch_dir("pre_zero");
+  std::filesystem::create_symlink("/dev/zero", dir / "zero.off");
+  Result r = run("preprocess " + (dir / "zero.off").string() + " -o " + (dir / "s").string() + " --progress none");
+  EXPECT_EQ(r.status, 1) << r.out;  // timeout(1) would say 124
+  EXPECT_NE(r.out.find("not a regular file"), std::string::npos) << r.out;
+  EXPECT_LT(r.seconds, 10);
+}
+
+TEST(PreprocessCli, ReaderErrorIsReportedWithoutHashingAHugeFileFirst) {
+  // a 16 GB sparse file: the reader fails on its first line; hashing it all takes many seconds
+  auto dir = scratch_dir("pre_sparse");
+  const auto path = dir / "sparse.off";
+  write_file(path, "not a mesh\n");
+  std::filesystem::resize_file(path, uint64_t{16} << 30);
+  Result r = run("preprocess " + path.string() + " -o " + (dir / "s").string() + " --progress none");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("sparse.off: line 1"), std::string::npos) << r.out;
+  EXPECT_LT(r.seconds, 5) << "the error waited for the hash";
+}
+
+TEST(PreprocessCli, InfoOnAFifoDoesNotBlock) {
+  auto dir = scratch_dir("info_fifo");
+  ASSERT_EQ(::mkfifo((dir / "m.vtk").c_str(), 0600), 0);
+  Result r = run("info " + (dir / "m.vtk").string());
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("not a regular file"), std::string::npos) << r.out;
+}
+
+TEST(PreprocessCli, DecompressionBombIsRefusedWithTheOptionToRaiseIt) {
+  CellMesh m;
+  const size_t points = 8'000'000;
+  m.x.assign(points, 0.f);
+  m.y.assign(points, 0.f);
+  m.z.assign(points, 0.f);
+  m.x[1] = m.y[2] = m.z[3] = 1.f;
+  m.add_cell(10, {0, 1, 2, 3});
+  auto dir = scratch_dir("pre_bomb");
+  write_vtu(dir / "bomb.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 1 << 20});
+  Result r = run("preprocess " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --progress none");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("--max-inflate-ratio"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s"));
+  Result bad = run("preprocess " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --max-inflate-ratio 0");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("--max-inflate-ratio must be at least 1"), std::string::npos) << bad.out;
+}
+
+TEST(PreprocessCli, StoreThatFailsVerifyIsRemovedNotReported) {
+  auto dir = scratch_dir("pre_check");
+  write_file(dir / "g.off", grid_off(4));
+  Result r = run("preprocess " + (dir / "g.off").string() + " -o " + (dir / "s").string() + " --progress none");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(lod::check_store(dir / "s").empty());
+  // damage one byte of a segment, as a bug in the writer would
+  const auto segments = dir / "s" / "segments.bin";
+  std::string bytes = read_file(segments);
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x40);
+  write_file(segments, bytes);
+  ASSERT_FALSE(lod::check_store(dir / "s").empty());
+  try {
+    lod::require_sound_store(dir / "s");
+    FAIL() << "a damaged store passed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("failed its checks and was removed"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "s"));
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
