@@ -1,4 +1,4 @@
-// Orbit / pan / zoom camera about a target, as the server's camera.set takes it.
+// Orbit / pan / zoom camera about a target, as the server's camera.set takes it; view presets.
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
 const scale = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
@@ -43,11 +43,29 @@ export class OrbitCamera {
     const offset = sub(this.eye, this.target);
     const distance = Math.hypot(...offset);
     const height = 2 * distance * Math.tan((this.fov * Math.PI) / 360);
-    const right = norm(cross(offset, this.up));
-    const upScreen = norm(cross(right, offset));
+    // screen right is forward x up with forward = -offset; the image follows the cursor
+    // when the caller passes the drag negated (the camera moves against the hand)
+    const right = norm(cross(this.up, offset));
+    const upScreen = norm(cross(offset, right));
     const move = add(scale(right, dx * height), scale(upScreen, -dy * height));
     this.eye = add(this.eye, move);
     this.target = add(this.target, move);
+  }
+
+  // Looks along `direction` at `target` from `distance` (view presets: ±X, ±Y, ±Z, isometric).
+  look(direction, up, target, distance) {
+    const d = norm(direction);
+    this.target = [...target];
+    this.eye = add(target, scale(d, -distance));
+    this.up = Math.abs(dot(norm(up), d)) > 0.999 ? (Math.abs(d[1]) < 0.9 ? [0, 1, 0] : [0, 0, 1]) : [...up];
+  }
+
+  // The camera's frame: right, up (on screen) and forward, unit vectors in world space.
+  basis() {
+    const offset = sub(this.eye, this.target);
+    const forward = norm(scale(offset, -1));
+    const right = norm(cross(forward, this.up));
+    return { right, up: cross(right, forward), forward };
   }
 
   zoom(factor) {
