@@ -216,7 +216,7 @@ function onDataset(info) {
   const a = info.attributes.find((x) => x.name === view.attribute);
   if (!view.range && a) view.range = a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1];
   state.view = view;
-  camera = new OrbitCamera(view.camera ?? info.camera);
+  camera = view.camera ? new OrbitCamera(view.camera) : homeCamera();
   $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
   showView();
@@ -471,12 +471,20 @@ const kViews = {
   '+z': [[0, 0, 1], [0, 1, 0]], '-z': [[0, 0, -1], [0, 1, 0]],
 };
 
+// The dataset's opening view; on a portrait view further back, so that the width fits as the
+// height does (the field of view is vertical).
+function homeCamera() {
+  const home = new OrbitCamera(state.dataset.camera);
+  const aspect = frameCanvas.width / frameCanvas.height;
+  if (aspect > 0 && aspect < 1) home.zoom(1 / aspect);
+  return home;
+}
+
 function viewPreset(name) {
-  const info = state.dataset;
-  if (!info || !camera) return;
-  const home = info.camera;
+  if (!state.dataset || !camera) return;
+  const home = homeCamera().get();
   if (name === 'reset') {
-    camera = new OrbitCamera(home);
+    camera = homeCamera();
   } else {
     const distance = Math.hypot(...home.eye.map((e, i) => e - home.target[i]));
     const [direction, up] = name === 'iso' ? [[-1, -1, -1], home.up] : kViews[name];

@@ -35,7 +35,7 @@ before(async () => {
     server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
   });
   browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
-  page = await browser.newPage({ viewport: { width: 1000, height: 640 } });
+  page = await browser.newPage({ viewport: { width: 900, height: 560 } });
   page.on('pageerror', (e) => console.error('page error:', e));
 });
 
@@ -298,7 +298,7 @@ test('a link restores the same image in another page; copying it says so', async
   assert.match(link, /mode=dvr\+iso/);
   assert.match(link, /cmap=Inferno/);
   const original = await canvasStats();
-  const other = await browser.newPage({ viewport: { width: 1000, height: 640 } });
+  const other = await browser.newPage({ viewport: { width: 900, height: 560 } });
   try {
     await other.goto(link);
     await settled(other);
