@@ -217,6 +217,7 @@ function onDataset(info) {
   if (!view.range && a) view.range = a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1];
   state.view = view;
   camera = view.camera ? new OrbitCamera(view.camera) : homeCamera();
+  $('parallel').checked = camera.orthographic;
   $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
   showView();
@@ -484,7 +485,9 @@ function viewPreset(name) {
   if (!state.dataset || !camera) return;
   const home = homeCamera().get();
   if (name === 'reset') {
+    const parallel = camera.orthographic;
     camera = homeCamera();
+    camera.orthographic = parallel;
   } else {
     const distance = Math.hypot(...home.eye.map((e, i) => e - home.target[i]));
     const [direction, up] = name === 'iso' ? [[-1, -1, -1], home.up] : kViews[name];
@@ -505,6 +508,7 @@ function onKey(e) {
   if (lower === 'r') viewPreset('reset');
   else if (lower === 'x' || lower === 'y' || lower === 'z') viewPreset(`${e.shiftKey ? '-' : '+'}${lower}`);
   else if (lower === 'i') viewPreset('iso');
+  else if (lower === 'p') setParallel(!camera.orthographic);
   else if (key === 'ArrowLeft' || key === 'ArrowRight' || key === 'ArrowUp' || key === 'ArrowDown') {
     if (tag === 'INPUT') return;  // a focused slider takes its arrows
     const step = kRotateStep;
@@ -518,6 +522,13 @@ function onKey(e) {
     sendCamera(false);
   } else return;
   e.preventDefault();
+}
+
+function setParallel(on) {
+  if (!camera) return;
+  camera.orthographic = on;
+  $('parallel').checked = on;
+  sendCamera(false);
 }
 
 function toggleHelp(show = $('help').hidden) {
@@ -722,6 +733,7 @@ for (const id of ['interaction-quality', 'still-quality', 'png-stills']) {
 }
 for (const button of document.querySelectorAll('[data-view]')) button.addEventListener('click', () => viewPreset(button.dataset.view));
 $('reset-camera').addEventListener('click', () => viewPreset('reset'));
+$('parallel').addEventListener('change', () => setParallel($('parallel').checked));
 $('copy-view').addEventListener('click', copyViewLink);
 $('save-size').addEventListener('change', () => ($('save-custom').hidden = $('save-size').value !== 'custom'));
 $('save-image').addEventListener('click', saveImage);

@@ -22,10 +22,19 @@ export class OrbitCamera {
     this.target = [...view.target];
     this.up = [...(view.up ?? [0, 1, 0])];
     this.fov = view.fov ?? 30;
+    this.orthographic = !!view.orthographic;
   }
 
+  // camera.set's fields; a parallel projection shows the height the perspective view shows
+  // at the target, so switching keeps the target's scale and zooming moves the eye in both
   get() {
-    return { eye: [...this.eye], target: [...this.target], up: [...this.up], fov: this.fov };
+    const view = { eye: [...this.eye], target: [...this.target], up: [...this.up], fov: this.fov };
+    if (this.orthographic) Object.assign(view, { orthographic: true, height: this.visibleHeight() });
+    return view;
+  }
+
+  visibleHeight() {
+    return 2 * Math.hypot(...sub(this.eye, this.target)) * Math.tan((this.fov * Math.PI) / 360);
   }
 
   // dx, dy: fractions of the view's height
@@ -41,8 +50,7 @@ export class OrbitCamera {
 
   pan(dx, dy) {
     const offset = sub(this.eye, this.target);
-    const distance = Math.hypot(...offset);
-    const height = 2 * distance * Math.tan((this.fov * Math.PI) / 360);
+    const height = this.visibleHeight();
     // screen right is forward x up with forward = -offset; the image follows the cursor
     // when the caller passes the drag negated (the camera moves against the hand)
     const right = norm(cross(this.up, offset));

@@ -80,6 +80,7 @@ export function viewToHash(view) {
     put('target', list(view.camera.target));
     put('up', list(view.camera.up));
     put('fov', num(view.camera.fov));
+    if (view.camera.orthographic) put('ortho', 1);
   }
   put('cmap', view.preset);
   if (view.customColors) put('colors', view.colors.map(([t, r, g, b]) => `${num(t)}:${hex(r)}${hex(g)}${hex(b)}`).join(','));
@@ -128,7 +129,10 @@ export function viewFromHash(hash) {
   view.dataset = name('dataset');
   view.attribute = h.get('attribute')?.slice(0, 128) || null;
   const eye = numbers('eye', 3), target = numbers('target', 3), up = numbers('up', 3);
-  if (eye && target) view.camera = { eye, target, up: up ?? [0, 1, 0], fov: Math.min(Math.max(Number(h.get('fov')) || 30, 1), 170) };
+  if (eye && target) {
+    view.camera = { eye, target, up: up ?? [0, 1, 0], fov: Math.min(Math.max(Number(h.get('fov')) || 30, 1), 170) };
+    if (h.get('ortho') === '1') view.camera.orthographic = true;
+  }
   if (PRESETS[h.get('cmap')]) {
     view.preset = h.get('cmap');
     view.colors = PRESETS[view.preset].map((p) => [...p]);

@@ -8,7 +8,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
-import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import { mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -256,6 +256,16 @@ test('keys and view buttons move the camera; the axes turn; ? lists the shortcut
   camera = await page.evaluate(() => window.tetrascope.view.camera);
   d = camera.target.map((t, i) => t - camera.eye[i]);
   assert.ok(Math.abs(d[0] - d[1]) < 1e-6 * Math.abs(d[0]) && Math.abs(d[1] - d[2]) < 1e-6 * Math.abs(d[0]), `isometric: ${d}`);
+  await page.keyboard.press('p');
+  await settled();
+  const parallel = await lastSent('camera.set');
+  assert.equal(parallel.orthographic, true, 'p: parallel projection');
+  assert.ok(Math.abs(parallel.height - 2 * Math.hypot(...d) * Math.tan(Math.PI / 12)) < 1e-6 * parallel.height, 'showing what the perspective view showed at the target');
+  assert.match(page.url(), /ortho=1/);
+  assert.ok(await page.isChecked('#parallel'));
+  await page.keyboard.press('p');
+  await settled();
+  assert.equal((await lastSent('camera.set')).orthographic, undefined);
   assert.ok(await page.isHidden('#help'));
   await page.keyboard.press('?');
   assert.ok(await page.isVisible('#help'), 'the shortcuts overlay appears');
@@ -380,6 +390,20 @@ test('a taken dataset name is refused before anything is uploaded', async () => 
   await page.waitForFunction(() => /exists/.test(document.getElementById('job-status').textContent));
   const uploads = await page.evaluate(() => fetch('/api/v1/uploads').then((r) => r.json()));
   assert.deepEqual(uploads.uploads, [], 'nothing was uploaded');
+});
+
+test('a failed job shows its error and log tail in the jobs panel', async () => {
+  const broken = join(data, 'broken.vtk');
+  writeFileSync(broken, '# vtk DataFile Version 3.0\nbroken\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 3 float\n0 0 0\n');
+  await page.setInputFiles('#upload-file', broken);
+  await page.fill('#job-name', 'broken-mesh');
+  await page.click('#upload-submit');
+  await page.waitForFunction(() => /broken-mesh: failed/.test(document.getElementById('job-status').textContent), null, { timeout: 60000 });
+  await page.waitForFunction(() => document.querySelector('#jobs li[data-state="failed"]')?.textContent.includes('broken-mesh'), null, { timeout: 30000 });
+  const failed = page.locator('#jobs li[data-state="failed"]').first();
+  assert.ok(await failed.locator('summary').textContent(), 'the error');
+  await failed.locator('summary').click();
+  assert.ok(await failed.locator('pre').isVisible(), 'the log tail');
 });
 
 test('upload and preprocess: the job survives a reload, reaches 100% and the dataset opens', async () => {
