@@ -502,7 +502,11 @@ function onKey(e) {
   if ((tag === 'INPUT' && !['checkbox', 'range', 'button'].includes(e.target.type)) || tag === 'SELECT' || tag === 'TEXTAREA') return;
   const key = e.key;
   if (key === '?') return toggleHelp();
-  if (key === 'Escape') return toggleHelp(false);
+  if (key === 'Escape') {
+    toggleHelp(false);
+    if (kSmallScreen.matches) setPanel(false);
+    return;
+  }
   if (!camera) return;
   const lower = key.toLowerCase();
   if (lower === 'r') viewPreset('reset');

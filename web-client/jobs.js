@@ -6,6 +6,7 @@
 const $ = (id) => document.getElementById(id);
 const kFollowKey = 'tetrascope.job';
 const kPollMs = 500;
+const kIdlePollMs = 10000;  // jobs started elsewhere show up within this
 const kNamePattern = /^[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}$/;
 
 export class Jobs {
@@ -21,6 +22,7 @@ export class Jobs {
 
   async start() {
     await this.refresh();
+    setInterval(() => this.timer || this.refresh(), kIdlePollMs);
     const id = sessionStorage.getItem(kFollowKey);
     if (id) this.follow(id);
   }

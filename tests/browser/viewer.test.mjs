@@ -326,6 +326,19 @@ test('a link restores the same image in another page; copying it says so', async
   await settled();
 });
 
+test('a link to a dataset that is gone opens the first one', async () => {
+  const other = await browser.newPage({ viewport: { width: 600, height: 400 } });
+  try {
+    await other.goto(`${url}#dataset=no-such-dataset&mode=dvr+surface`);
+    await other.waitForFunction(() => window.tetrascope.dataset?.name === 'disk', null, { timeout: 30000 });
+    await settled(other);
+    assert.ok(await other.isChecked('#mode-surface'), 'the rest of the link still applies');
+    assert.match(other.url(), /dataset=disk/);
+  } finally {
+    await other.close();
+  }
+});
+
 test('Save image: a still at the chosen size with the legend, dataset and attribute', async () => {
   await page.selectOption('#save-size', '1280x720');
   const [download] = await Promise.all([page.waitForEvent('download', { timeout: 60000 }), page.click('#save-image')]);
