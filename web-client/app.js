@@ -579,6 +579,7 @@ async function saveImage() {
   const status = $('save-status');
   const [w, h] = chosenSize();
   status.textContent = w ? `Rendering ${w}×${h}...` : 'Saving...';
+  $('save-image').disabled = true;  // one capture at a time
   try {
     const still = await stillAt(w, h);
     const blob = await composeStill(await createImageBitmap(still.blob), {
@@ -592,6 +593,8 @@ async function saveImage() {
     status.textContent = `Saved ${still.header.width}×${still.header.height} PNG with the legend.`;
   } catch (e) {
     status.textContent = `Not saved: ${e.message}`;
+  } finally {
+    $('save-image').disabled = false;
   }
 }
 state.composeStill = async () => {
