@@ -212,7 +212,8 @@ function onDataset(info) {
   state.dataset = info;
   let view = state.view;
   if (view.dataset !== info.name) view = forDataset(view, info.name);  // another dataset: its own defaults
-  if (!info.attributes.some((a) => a.name === view.attribute)) view = { ...view, attribute: info.attributes[0]?.name ?? null, range: null, isovalues: [] };
+  if (!view.attribute) view = { ...view, attribute: info.attributes[0]?.name ?? null };  // a link without one: the first, its range kept
+  else if (!info.attributes.some((a) => a.name === view.attribute)) view = { ...view, attribute: info.attributes[0]?.name ?? null, range: null, isovalues: [] };
   const a = info.attributes.find((x) => x.name === view.attribute);
   if (!view.range && a) view.range = a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1];
   state.view = view;

@@ -334,6 +334,12 @@ test('a link to a dataset that is gone opens the first one', async () => {
     await settled(other);
     assert.ok(await other.isChecked('#mode-surface'), 'the rest of the link still applies');
     assert.match(other.url(), /dataset=disk/);
+    // a hand-written link: no attribute (the first), a range
+    await other.goto(`${url}?again#dataset=disk&range=0.1,0.17`);
+    await other.waitForFunction(() => window.tetrascope.dataset?.name === 'disk', null, { timeout: 30000 });
+    await settled(other);
+    assert.deepEqual(await lastSent('tf.set', other).then((b) => b.range), [0.1, 0.17]);
+    assert.equal(await other.inputValue('#range-min'), '0.1');
   } finally {
     await other.close();
   }
