@@ -1,25 +1,40 @@
 // The tetrascope viewer: one WebSocket session (protocol/js/codec.js), frames drawn on a
-// canvas, camera and display controls, the transfer-function editor, uploads and jobs.
+// canvas, camera and display controls, the transfer-function editor. The whole view lives in
+// one object (view-state.js): the controls edit it, the URL fragment mirrors it, and it is
+// sent again in full after every (re)connect, so a reconnect or a link shows the same image.
 import { checkMessage, decodeFrame, encodeMessage, VERSION } from '/protocol/js/codec.js';
 import { OrbitCamera } from './camera.js';
+import { PRESETS, fromHex, toHex } from './colormaps.js';
+import { Jobs } from './jobs.js';
+import { composeStill, drawAxes, drawColorBar } from './overlays.js';
 import { TfEditor } from './tf-editor.js';
+import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from './view-state.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 const token = params.get('token') ?? '';
 const authHeaders = token ? { Authorization: `Bearer ${token}` } : {};
+const kSmallScreen = window.matchMedia('(max-width: 700px)');
+const kRotateStep = 1 / 12;  // arrow keys: 15° (orbit takes fractions of pi)
+const kZoomStep = 1.2;
+const kCaptureTimeoutMs = 60000;
 
 // What the page shows; exposed for the browser test and the console.
 const state = {
   connected: false,
+  connects: 0,
   frames: 0,
   stills: 0,
   lastFrame: null,  // {header, blob}
   lastStill: null,
   lastSentId: 0,    // a still whose header carries this id shows everything asked for
   dataset: null,    // dataset.info
-  colormaps: {},
   errors: [],
+  sent: [],         // the last messages sent: {type, body}
+  view: viewFromHash(location.hash),
+  closeSocket: () => socket?.close(),
+  opacityPoints: () => effectiveOpacity(state.view),
+  composeStill: null,
 };
 window.tetrascope = state;
 
@@ -29,12 +44,18 @@ let reconnectDelay = 500;
 const sentAt = new Map();  // message id -> time sent
 let camera = null;
 let limits;
+let serverDefaults = {};
 let pendingCamera = false;
 let pendingTf = false;
+let capture = null;        // a still at a chosen size being waited for: {id, resolve, reject}
 
 const frameCanvas = $('frame');
 const frameContext = frameCanvas.getContext('2d');
-const tfEditor = new TfEditor($('tf-editor'), () => queueTf());
+const tfEditor = new TfEditor($('tf-editor'), onTfEdited, { onSelectColor });
+const jobs = new Jobs(authHeaders, {
+  onDatasetsChanged: () => loadDatasets(),
+  onDone: (name) => openDataset(name),
+});
 
 // ---------- connection ----------
 
@@ -45,6 +66,8 @@ function send(type, body = {}) {
   checkMessage(text, limits);  // our own messages follow the schema too
   sentAt.set(id, performance.now());
   state.lastSentId = id;
+  state.sent.push({ type, body });
+  if (state.sent.length > 100) state.sent.shift();
   if (sentAt.size > 512) sentAt.delete(sentAt.keys().next().value);
   socket.send(text);
   return id;
@@ -61,6 +84,7 @@ function connect() {
   socket.binaryType = 'arraybuffer';
   socket.onopen = () => {
     state.connected = true;
+    state.connects += 1;
     reconnectDelay = 500;
     banner(null);
     send('hello', { version: VERSION, ...(token ? { token } : {}) });
@@ -70,21 +94,25 @@ function connect() {
     state.connected = false;
     const seconds = (reconnectDelay / 1000).toFixed(1);
     banner(`Connection lost${event.reason ? ` (${event.reason})` : ''}; reconnecting in ${seconds} s`);
+    capture?.reject(new Error('the connection was lost'));
     setTimeout(connect, reconnectDelay);
     reconnectDelay = Math.min(reconnectDelay * 2, 10000);
   };
 }
+
+let openId = 0;
 
 function onText(text) {
   const message = JSON.parse(text);
   switch (message.type) {
     case 'hello.ok':
       limits = { ...limits, ...message.limits };
-      state.colormaps = message.colormaps ?? {};
-      $('budget').value = message.defaults.budget;
-      $('interaction-budget').value = message.defaults.interaction_budget;
-      sendView();
-      loadDatasets().then(() => openDataset(viewFromHash().dataset ?? $('dataset').value));
+      serverDefaults = message.defaults ?? {};
+      $('budget').value = state.view.budget ?? serverDefaults.budget ?? '';
+      $('interaction-budget').value = state.view.interactionBudget ?? serverDefaults.interaction_budget ?? '';
+      sendSize();
+      // a reconnect reopens the dataset shown; onDataset then sends the whole view again
+      loadDatasets().then((datasets) => openDataset(state.view.dataset ?? firstReady(datasets)));
       break;
     case 'dataset.info':
       onDataset(message);
@@ -93,6 +121,10 @@ function onText(text) {
       state.errors.push(message);
       console.warn(`server: ${message.code}: ${message.message}`);
       $('dataset-summary').textContent = `${message.code}: ${message.message}`;
+      if (message.code === 'not_found' && message.id === openId) {  // a link to a dataset gone
+        const first = firstReady(lastDatasets);
+        if (first && first !== state.view.dataset) openDataset(first);
+      }
       break;
     default:
       break;
@@ -102,6 +134,12 @@ function onText(text) {
 async function onFrame(buffer) {
   const { header, payload } = decodeFrame(buffer, limits);
   const blob = new Blob([payload], { type: header.codec === 'png' ? 'image/png' : 'image/jpeg' });
+  if (capture && header.still && header.message_id >= capture.id) {
+    capture.resolve({ header, blob });
+    capture = null;
+    return;
+  }
+  if (capture) return;  // frames at the capture's size are not for the screen
   const bitmap = await createImageBitmap(blob);
   frameContext.drawImage(bitmap, 0, 0, frameCanvas.width, frameCanvas.height);
   bitmap.close?.();
@@ -136,11 +174,15 @@ const stats = {
 
 // ---------- datasets ----------
 
+let lastDatasets = [];
+const firstReady = (datasets) => datasets.find((d) => d.state === 'ready')?.name;
+
 async function loadDatasets() {
   const response = await fetch('/api/v1/datasets', { headers: authHeaders });
   const { datasets } = await response.json();
+  lastDatasets = datasets;
   const select = $('dataset');
-  const current = select.value;
+  const current = state.view.dataset ?? select.value;
   select.replaceChildren(
     ...datasets.map((d) => {
       const option = new Option(d.state === 'ready' ? `${d.name} (${(d.tets / 1e6).toFixed(2)}M tets)` : `${d.name}: ${d.state}`, d.name);
@@ -149,10 +191,6 @@ async function loadDatasets() {
     }),
   );
   if (current) select.value = current;
-  if (!select.value) {
-    const ready = datasets.find((d) => d.state === 'ready');
-    if (ready) select.value = ready.name;
-  }
   return datasets;
 }
 
@@ -162,52 +200,133 @@ function openDataset(name) {
     return;
   }
   $('dataset').value = name;
-  send('dataset.open', { name });
+  openId = send('dataset.open', { name });
+}
+
+function defaultUnit() {  // the renderer's unit distance: 1/100 of the box diagonal
+  const b = state.dataset?.bounds;
+  return b?.min && b?.max ? Math.hypot(...b.max.map((v, i) => v - b.min[i])) / 100 : 0;
 }
 
 function onDataset(info) {
   state.dataset = info;
-  const view = viewFromHash();
-  camera = new OrbitCamera(view.dataset === info.name && view.eye ? view : info.camera);
-  $('attribute').replaceChildren(...info.attributes.map((a) => new Option(`${a.name}${a.components > 1 ? ' (magnitude)' : ''}`, a.name)));
-  if (view.dataset === info.name && view.attribute) $('attribute').value = view.attribute;
-  $('dataset-summary').textContent =
-    `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
-  onAttribute();
-  if (view.dataset === info.name && view.eye) sendCamera(false);
+  let view = state.view;
+  if (view.dataset !== info.name) view = forDataset(view, info.name);  // another dataset: its own defaults
+  if (!view.attribute) view = { ...view, attribute: info.attributes[0]?.name ?? null };  // a link without one: the first, its range kept
+  else if (!info.attributes.some((a) => a.name === view.attribute)) view = { ...view, attribute: info.attributes[0]?.name ?? null, range: null, isovalues: [] };
+  const a = info.attributes.find((x) => x.name === view.attribute);
+  if (!view.range && a) view.range = a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1];
+  state.view = view;
+  camera = view.camera ? new OrbitCamera(view.camera) : homeCamera();
+  $('parallel').checked = camera.orthographic;
+  $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
+  $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
+  showView();
+  sendAll();
 }
 
 function attributeInfo() {
-  return state.dataset?.attributes.find((a) => a.name === $('attribute').value);
+  return state.dataset?.attributes.find((a) => a.name === state.view.attribute);
 }
 
-function onAttribute() {
+// ---------- the view -> the controls ----------
+
+function showView() {
+  const v = state.view;
+  if (v.attribute) $('attribute').value = v.attribute;
+  showColormap();
+  if (v.range) {
+    $('range-min').value = +v.range[0].toPrecision(6);
+    $('range-max').value = +v.range[1].toPrecision(6);
+  }
+  $('outside-transparent').checked = v.outsideTransparent;
+  $('opacity-scale').value = Math.round(v.opacityScale * 100);
+  $('opacity-scale-text').textContent = `${Math.round(v.opacityScale * 100)}%`;
+  $('unit-distance').value = v.unitDistance ?? '';
+  $('unit-distance').placeholder = defaultUnit() ? `${+defaultUnit().toPrecision(3)} (default)` : '';
+  for (const m of ['dvr', 'iso', 'surface']) $(`mode-${m}`).checked = v[m];
+  $('wireframe').checked = v.wireframe;
+  $('box').checked = v.box;
+  $('iso-opacity').value = Math.round(v.isoOpacity * 100);
+  $('iso-opacity').disabled = v.dvr;  // the renderer blends isosurfaces only without the volume
+  showIsovalues();
+  if (v.budget) $('budget').value = v.budget;
+  if (v.interactionBudget) $('interaction-budget').value = v.interactionBudget;
+  $('interaction-quality').value = v.interactionQuality;
+  $('still-quality').value = v.stillQuality;
+  $('png-stills').checked = v.pngStills;
   const a = attributeInfo();
-  if (!a) return;
-  $('range-min').value = a.range[0];
-  $('range-max').value = a.range[1];
-  tfEditor.setData(a.range, a.histogram, state.colormaps[$('colormap').value]);
-  updateIsoText();
-  queueTf();
-  sendIso();
+  if (a) tfEditor.setHistogram(a.range, a.histogram);
+  showTf();
 }
 
-// ---------- controls -> messages ----------
+function showColormap() {
+  const select = $('colormap'), v = state.view;
+  const names = Object.keys(PRESETS);
+  select.replaceChildren(...names.map((n) => new Option(n, n)), ...(v.customColors ? [new Option(`${v.preset} (edited)`, 'custom')] : []));
+  select.value = v.customColors ? 'custom' : v.preset;
+}
 
-function sendView() {
-  const rect = frameCanvas.getBoundingClientRect();
-  const ratio = Math.min(window.devicePixelRatio || 1, 2);
-  const side = limits?.max_image_side ?? 4096;
-  const width = Math.max(16, Math.min(side, Math.round(rect.width * ratio)));
-  const height = Math.max(16, Math.min(side, Math.round(rect.height * ratio)));
-  frameCanvas.width = width;
-  frameCanvas.height = height;
-  send('view.resize', { width, height });
+function showTf() {
+  const v = state.view;
+  if (!v.range) return;
+  tfEditor.set(v.range, effectiveOpacity(v), v.colors);
+  drawLegend();
+}
+
+function midRange() {
+  const [lo, hi] = state.view.range ?? [0, 1];
+  return (lo + hi) / 2;
+}
+
+function showIsovalues() {
+  const v = state.view;
+  const values = v.isovalues.length ? v.isovalues : [midRange()];
+  $('isovalues').value = values.map((x) => +x.toPrecision(5)).join(', ');
+  const [lo, hi] = v.range ?? [0, 1];
+  $('isovalue').value = Math.round(((values[0] - lo) / (hi - lo)) * 1000);
+}
+
+function drawLegend() {
+  const v = state.view, bar = $('legend-bar');
+  drawColorBar(bar.getContext('2d'), v.colors, 0, 0, bar.width, bar.height);
+  $('legend-text').replaceChildren(
+    ...[v.range[0].toPrecision(3), v.attribute ?? '', v.range[1].toPrecision(3)].map((t) => Object.assign(document.createElement('span'), { textContent: t })),
+  );
+}
+
+// ---------- the view -> messages ----------
+
+function sendAll() {
+  if (!state.dataset) return;
+  sendTf();
+  sendMode();
+  sendIso();
+  sendLod();
+  sendQuality();
+  sendCamera(false);  // last: the still that follows shows everything
+  saveViewInHash();
+}
+
+function sendSize(width, height) {
+  if (width === undefined) {
+    const rect = frameCanvas.getBoundingClientRect();
+    const ratio = Math.min(window.devicePixelRatio || 1, 2);
+    const side = limits?.max_image_side ?? 4096;
+    width = Math.max(16, Math.min(side, Math.round(rect.width * ratio)));
+    height = Math.max(16, Math.min(side, Math.round(rect.height * ratio)));
+    frameCanvas.width = width;
+    frameCanvas.height = height;
+  }
+  return send('view.resize', { width, height });
 }
 
 function sendCamera(interacting = true) {
   if (!camera) return;
   send('camera.set', { ...camera.get(), interacting });
+  state.view.camera = camera.get();
+  drawAxes($('axes'), camera.basis());
+  if (!interacting) saveViewInHash();
 }
 
 function queueCamera() {  // at most one camera.set per animation frame
@@ -219,98 +338,294 @@ function queueCamera() {  // at most one camera.set per animation frame
   });
 }
 
-function currentRange() {
-  const lo = parseFloat($('range-min').value), hi = parseFloat($('range-max').value);
-  return Number.isFinite(lo) && Number.isFinite(hi) && hi > lo ? [lo, hi] : attributeInfo()?.range;
+function sendTf() {
+  const v = state.view;
+  if (!v.range || !v.attribute) return;
+  send('tf.set', tfBody(v, defaultUnit()));
 }
 
-function queueTf() {
+function queueTf() {  // at most one tf.set per animation frame
   if (pendingTf) return;
   pendingTf = true;
   requestAnimationFrame(() => {
     pendingTf = false;
-    const range = currentRange();
-    if (!range || !state.dataset) return;
-    tfEditor.range = range;
-    send('tf.set', { attribute: $('attribute').value, colormap: $('colormap').value, range, opacity: tfEditor.valuePoints() });
-    drawLegend(range);
+    sendTf();
+    saveViewInHash();
   });
 }
 
 function sendMode() {
-  const parts = [];
-  if ($('mode-dvr').checked) parts.push('dvr');
-  if ($('mode-iso').checked) parts.push('iso');
-  if ($('mode-surface').checked) parts.push('surface');
-  if (!parts.length) {
-    $('mode-dvr').checked = true;
-    parts.push('dvr');
-  }
-  send('mode.set', { mode: parts.join('+'), wireframe: $('wireframe').checked, box: $('box').checked });
-  // the renderer blends isosurfaces only without the volume; with it they are opaque
-  $('iso-opacity').disabled = $('mode-dvr').checked;
-}
-
-function isovalue() {
-  const range = currentRange() ?? [0, 1];
-  return range[0] + (parseInt($('isovalue').value, 10) / 1000) * (range[1] - range[0]);
-}
-
-function updateIsoText() {
-  $('isovalue-text').textContent = isovalue().toPrecision(4);
+  const v = state.view;
+  send('mode.set', { mode: ['dvr', 'iso', 'surface'].filter((m) => v[m]).join('+'), wireframe: v.wireframe, box: v.box });
 }
 
 function sendIso() {
-  updateIsoText();
-  send('iso.set', { values: [isovalue()], opacity: parseInt($('iso-opacity').value, 10) / 100 });
+  const v = state.view;
+  send('iso.set', { values: v.isovalues.length ? v.isovalues : [midRange()], opacity: v.isoOpacity });
 }
 
 function sendLod() {
-  const budget = parseInt($('budget').value, 10), interaction = parseInt($('interaction-budget').value, 10);
-  const body = {};
-  if (budget > 0) body.budget = budget;
-  if (interaction > 0) body.interaction_budget = interaction;
+  const v = state.view, body = {};
+  if (v.budget) body.budget = v.budget;
+  if (v.interactionBudget) body.interaction_budget = v.interactionBudget;
   if (Object.keys(body).length) send('lod.set', body);
 }
 
 function sendQuality() {
-  send('quality.set', {
-    interaction: parseInt($('interaction-quality').value, 10),
-    still: parseInt($('still-quality').value, 10),
-    still_codec: $('png-stills').checked ? 'png' : 'jpeg',
-  });
-}
-
-function drawLegend(range) {
-  const colors = state.colormaps[$('colormap').value];
-  const bar = $('legend-bar'), g = bar.getContext('2d');
-  if (colors) {
-    for (let x = 0; x < bar.width; ++x) {
-      const rgb = colors[Math.min(colors.length - 1, Math.floor((x / bar.width) * colors.length))];
-      g.fillStyle = `rgb(${rgb.map((v) => Math.round(v * 255)).join(',')})`;
-      g.fillRect(x, 0, 1, bar.height);
-    }
-  }
-  $('legend-text').replaceChildren(
-    ...[range[0].toPrecision(3), $('attribute').value, range[1].toPrecision(3)].map((t) => Object.assign(document.createElement('span'), { textContent: t })),
-  );
-  tfEditor.setColors(colors);
-}
-
-// ---------- saved views in the URL ----------
-
-function viewFromHash() {
-  const h = new URLSearchParams(location.hash.slice(1));
-  const vector = (key) => h.get(key)?.split(',').map(Number);
-  return { dataset: h.get('dataset'), attribute: h.get('attribute'), eye: vector('eye'), target: vector('target'), up: vector('up'), fov: Number(h.get('fov')) || 30 };
+  const v = state.view;
+  send('quality.set', { interaction: v.interactionQuality, still: v.stillQuality, still_codec: v.pngStills ? 'png' : 'jpeg' });
 }
 
 function saveViewInHash() {
-  if (!camera || !state.dataset) return;
-  const c = camera.get();
-  const f = (v) => v.map((x) => +x.toPrecision(6)).join(',');
-  const h = new URLSearchParams({ dataset: state.dataset.name, attribute: $('attribute').value, eye: f(c.eye), target: f(c.target), up: f(c.up), fov: c.fov });
-  history.replaceState(null, '', `${location.pathname}${location.search}#${h}`);
+  if (!state.dataset) return;
+  history.replaceState(null, '', `${location.pathname}${location.search}#${viewToHash(state.view)}`);
+}
+
+// ---------- controls -> the view ----------
+
+function onTfEdited() {
+  const v = state.view;
+  if (JSON.stringify(effectiveOpacity(v)) !== JSON.stringify(tfEditor.opacityPoints)) v.opacity = tfEditor.opacityPoints.map((p) => [...p]);
+  const colorsChanged = JSON.stringify(v.colors) !== JSON.stringify(tfEditor.colorPoints);
+  if (colorsChanged) {
+    v.colors = tfEditor.colorPoints.map((p) => [...p]);
+    if (!v.customColors) {
+      v.customColors = true;
+      showColormap();
+    }
+    drawLegend();
+    const rgb = tfEditor.selectedColor();
+    if (rgb) $('tf-color').value = toHex(rgb);
+  }
+  queueTf();
+}
+
+function onSelectColor(rgb, openPicker = false) {
+  $('tf-color').disabled = !rgb;
+  if (!rgb) return;
+  $('tf-color').value = toHex(rgb);
+  if (openPicker) $('tf-color').click();
+}
+
+function onAttribute() {
+  const a = state.dataset?.attributes.find((x) => x.name === $('attribute').value);
+  if (!a) return;
+  Object.assign(state.view, { attribute: a.name, range: a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1], isovalues: [] });
+  showView();
+  sendTf();
+  sendIso();
+  saveViewInHash();
+}
+
+function onRange() {
+  const lo = parseFloat($('range-min').value), hi = parseFloat($('range-max').value);
+  if (!(Number.isFinite(lo) && Number.isFinite(hi) && hi > lo)) return;
+  state.view.range = [lo, hi];
+  showTf();
+  showIsovalues();
+  queueTf();
+}
+
+function onModes() {
+  const v = state.view;
+  for (const m of ['dvr', 'iso', 'surface']) v[m] = $(`mode-${m}`).checked;
+  if (!v.dvr && !v.iso && !v.surface) v.dvr = $('mode-dvr').checked = true;
+  v.wireframe = $('wireframe').checked;
+  v.box = $('box').checked;
+  $('iso-opacity').disabled = v.dvr;
+  sendMode();
+  saveViewInHash();
+}
+
+function onIsoSlider() {
+  const [lo, hi] = state.view.range ?? [0, 1];
+  const values = state.view.isovalues.length ? [...state.view.isovalues] : [midRange()];
+  values[0] = lo + (parseInt($('isovalue').value, 10) / 1000) * (hi - lo);
+  state.view.isovalues = values;
+  $('isovalues').value = values.map((x) => +x.toPrecision(5)).join(', ');
+  sendIso();
+  saveViewInHash();
+}
+
+function onIsoText() {
+  const values = $('isovalues').value.split(/[,\s]+/).filter(Boolean).map(Number).filter(Number.isFinite).slice(0, limits?.max_isovalues ?? 16);
+  state.view.isovalues = values;
+  showIsovalues();
+  sendIso();
+  saveViewInHash();
+}
+
+function onPreset() {
+  const name = $('colormap').value;
+  if (!PRESETS[name]) return;
+  Object.assign(state.view, { preset: name, colors: PRESETS[name].map((p) => [...p]), customColors: false });
+  showColormap();
+  showTf();
+  queueTf();
+}
+
+// ---------- camera: presets and keys ----------
+
+// ParaView's view directions (the camera looks along them) and up vectors
+const kViews = {
+  '+x': [[1, 0, 0], [0, 0, 1]], '-x': [[-1, 0, 0], [0, 0, 1]],
+  '+y': [[0, 1, 0], [0, 0, 1]], '-y': [[0, -1, 0], [0, 0, 1]],
+  '+z': [[0, 0, 1], [0, 1, 0]], '-z': [[0, 0, -1], [0, 1, 0]],
+};
+
+// The dataset's opening view; on a portrait view further back, so that the width fits as the
+// height does (the field of view is vertical).
+function homeCamera() {
+  const home = new OrbitCamera(state.dataset.camera);
+  const aspect = frameCanvas.width / frameCanvas.height;
+  if (aspect > 0 && aspect < 1) home.zoom(1 / aspect);
+  return home;
+}
+
+function viewPreset(name) {
+  if (!state.dataset || !camera) return;
+  const home = homeCamera().get();
+  if (name === 'reset') {
+    const parallel = camera.orthographic;
+    camera = homeCamera();
+    camera.orthographic = parallel;
+  } else {
+    const distance = Math.hypot(...home.eye.map((e, i) => e - home.target[i]));
+    const [direction, up] = name === 'iso' ? [[-1, -1, -1], home.up] : kViews[name];
+    camera.look(direction, up, home.target, distance);
+  }
+  sendCamera(false);
+}
+
+function onKey(e) {
+  if (e.ctrlKey || e.metaKey || e.altKey) return;
+  const tag = e.target?.tagName;
+  if ((tag === 'INPUT' && !['checkbox', 'range', 'button'].includes(e.target.type)) || tag === 'SELECT' || tag === 'TEXTAREA') return;
+  const key = e.key;
+  if (key === '?') return toggleHelp();
+  if (key === 'Escape') {
+    toggleHelp(false);
+    if (kSmallScreen.matches) setPanel(false);
+    return;
+  }
+  if (!camera) return;
+  const lower = key.toLowerCase();
+  if (lower === 'r') viewPreset('reset');
+  else if (lower === 'x' || lower === 'y' || lower === 'z') viewPreset(`${e.shiftKey ? '-' : '+'}${lower}`);
+  else if (lower === 'i') viewPreset('iso');
+  else if (lower === 'p') setParallel(!camera.orthographic);
+  else if (key === 'ArrowLeft' || key === 'ArrowRight' || key === 'ArrowUp' || key === 'ArrowDown') {
+    if (tag === 'INPUT') return;  // a focused slider takes its arrows
+    const step = kRotateStep;
+    camera.orbit(key === 'ArrowLeft' ? -step : key === 'ArrowRight' ? step : 0, key === 'ArrowUp' ? -step : key === 'ArrowDown' ? step : 0);
+    sendCamera(false);
+  } else if (key === '+' || key === '=') {
+    camera.zoom(1 / kZoomStep);
+    sendCamera(false);
+  } else if (key === '-' || key === '_') {
+    camera.zoom(kZoomStep);
+    sendCamera(false);
+  } else return;
+  e.preventDefault();
+}
+
+function setParallel(on) {
+  if (!camera) return;
+  camera.orthographic = on;
+  $('parallel').checked = on;
+  sendCamera(false);
+}
+
+function toggleHelp(show = $('help').hidden) {
+  $('help').hidden = !show;
+}
+
+// ---------- saving ----------
+
+// A still at width x height (the view's size when not given), as a blob; the screen keeps
+// its own size.
+async function stillAt(width, height) {
+  if (!width || (width === frameCanvas.width && height === frameCanvas.height)) {
+    if (state.lastStill && state.lastStill.header.message_id === state.lastSentId) return state.lastStill;
+  }
+  const result = new Promise((resolve, reject) => {
+    capture = { id: Infinity, resolve, reject };
+    setTimeout(() => reject(new Error('no still came')), kCaptureTimeoutMs);
+  });
+  const w = width ?? frameCanvas.width, h = height ?? frameCanvas.height;
+  capture.id = sendSize(w, h);
+  sendCamera(false);
+  try {
+    return await result;
+  } finally {
+    capture = null;
+    sendSize();
+    sendCamera(false);
+  }
+}
+
+function chosenSize() {
+  const choice = $('save-size').value;
+  let w, h;
+  if (choice === 'view') return [undefined, undefined];
+  if (choice === 'custom') [w, h] = [parseInt($('save-width').value, 10), parseInt($('save-height').value, 10)];
+  else [w, h] = choice.split('x').map(Number);
+  const side = limits?.max_image_side ?? 4096;
+  const s = Math.min(1, side / Math.max(w, h));  // the server's limit, keeping the aspect
+  return [Math.max(16, Math.round(w * s)), Math.max(16, Math.round(h * s))];
+}
+
+async function saveImage() {
+  if (!state.dataset) return;
+  const status = $('save-status');
+  const [w, h] = chosenSize();
+  status.textContent = w ? `Rendering ${w}×${h}...` : 'Saving...';
+  $('save-image').disabled = true;  // one capture at a time
+  try {
+    const still = await stillAt(w, h);
+    const blob = await composeStill(await createImageBitmap(still.blob), {
+      colors: state.view.colors, range: state.view.range, attribute: state.view.attribute, dataset: state.dataset.name,
+    });
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(blob);
+    a.download = `${state.dataset.name}-${state.view.attribute}.png`;
+    a.click();
+    setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+    status.textContent = `Saved ${still.header.width}×${still.header.height} PNG with the legend.`;
+  } catch (e) {
+    status.textContent = `Not saved: ${e.message}`;
+  } finally {
+    $('save-image').disabled = false;
+  }
+}
+state.composeStill = async () => {
+  const blob = await composeStill(await createImageBitmap(state.lastStill.blob), {
+    colors: state.view.colors, range: state.view.range, attribute: state.view.attribute, dataset: state.dataset.name,
+  });
+  return blob;
+};
+
+async function copyViewLink() {
+  saveViewInHash();
+  const feedback = $('copy-feedback');
+  try {
+    await navigator.clipboard.writeText(location.href);
+    feedback.textContent = 'Link copied ✓';
+  } catch {
+    // no clipboard (an http page, or no permission): the old way, from a selected field
+    const field = Object.assign(document.createElement('textarea'), { value: location.href });
+    document.body.append(field);
+    field.select();
+    const copied = document.execCommand?.('copy');
+    field.remove();
+    feedback.textContent = copied ? 'Link copied ✓' : 'Copy the link from the address bar (the page has no clipboard)';
+  }
+  feedback.classList.add('flash');
+  clearTimeout(copyViewLink.timer);
+  copyViewLink.timer = setTimeout(() => {
+    feedback.textContent = '';
+    feedback.classList.remove('flash');
+  }, 4000);
 }
 
 // ---------- pointer, wheel, touch ----------
@@ -320,6 +635,7 @@ let pinch = null;
 
 frameCanvas.addEventListener('pointerdown', (e) => {
   frameCanvas.setPointerCapture(e.pointerId);
+  frameCanvas.focus();
   pointers.set(e.pointerId, { x: e.clientX, y: e.clientY, button: e.button, shift: e.shiftKey });
   if (pointers.size === 2) {
     const [a, b] = [...pointers.values()];
@@ -336,13 +652,13 @@ frameCanvas.addEventListener('pointermove', (e) => {
     const [a, b] = [...pointers.values()];
     const distance = Math.hypot(a.x - b.x, a.y - b.y), x = (a.x + b.x) / 2, y = (a.y + b.y) / 2;
     if (distance > 0) camera.zoom(pinch.distance / distance);
-    camera.pan((x - pinch.x) / height, (y - pinch.y) / height);
+    camera.pan(-(x - pinch.x) / height, -(y - pinch.y) / height);
     pinch = { distance, x, y };
   } else {
     const dx = (e.clientX - p.x) / height, dy = (e.clientY - p.y) / height;
     p.x = e.clientX;
     p.y = e.clientY;
-    if (p.button === 2 || p.button === 1 || p.shift) camera.pan(-dx, -dy);
+    if (p.button === 2 || p.button === 1 || p.shift) camera.pan(-dx, -dy);  // the image follows the cursor
     else camera.orbit(dx, dy);
   }
   queueCamera();
@@ -365,93 +681,90 @@ frameCanvas.addEventListener(
   { passive: false },
 );
 
-// ---------- uploads and jobs ----------
-
-async function uploadAndPreprocess() {
-  const file = $('upload-file').files[0];
-  const name = $('job-name').value.trim() || file?.name.replace(/\.[^.]*$/, '').replace(/[^A-Za-z0-9._-]/g, '_');
-  const status = $('job-status');
-  if (!file) {
-    status.textContent = 'Choose a mesh file first (.vtk, .vtu, .msh, .node/.ele, .off).';
-    return;
-  }
-  const safeFile = file.name.replace(/[^A-Za-z0-9._-]/g, '_').replace(/^\.+/, '');
-  $('job-progress').value = 0;
-  status.textContent = `Uploading ${file.name} (${(file.size / 1048576).toFixed(1)} MB)...`;
-  const upload = await fetch(`/api/v1/uploads?name=${encodeURIComponent(safeFile)}`, { method: 'POST', headers: authHeaders, body: file });
-  const uploaded = await upload.json();
-  if (!upload.ok) {
-    status.textContent = `Upload refused: ${uploaded.error.message}`;
-    return;
-  }
-  const submit = await fetch('/api/v1/jobs', {
-    method: 'POST',
-    headers: { ...authHeaders, 'Content-Type': 'application/json' },
-    body: JSON.stringify({ source: uploaded.path, name, options: {} }),
-  });
-  const job = await submit.json();
-  if (!submit.ok) {
-    status.textContent = `Job refused: ${job.error.message}`;
-    return;
-  }
-  followJob(job.id);
-}
-
-async function followJob(id) {
-  const status = $('job-status');
-  for (;;) {
-    const response = await fetch(`/api/v1/jobs/${encodeURIComponent(id)}`, { headers: authHeaders });
-    const job = await response.json();
-    $('job-progress').value = job.percent;
-    const eta = job.eta_s != null && job.state === 'running' ? `, ${Math.ceil(job.eta_s)} s left` : '';
-    status.textContent = `${job.name}: ${job.state}${job.stage ? ` (${job.stage})` : ''} ${job.percent.toFixed(0)}%${eta}${job.error ? `\n${job.error}` : ''}`;
-    if (job.state === 'done') {
-      await loadDatasets();
-      openDataset(job.dataset);
-      return;
-    }
-    if (job.state === 'failed' || job.state === 'cancelled') return;
-    await new Promise((resolve) => setTimeout(resolve, 500));
-  }
-}
-
 // ---------- wiring ----------
 
+const number = (id) => parseFloat($(id).value);
 $('dataset').addEventListener('change', () => openDataset($('dataset').value));
 $('attribute').addEventListener('change', onAttribute);
-$('colormap').addEventListener('change', queueTf);
-$('range-min').addEventListener('change', queueTf);
-$('range-max').addEventListener('change', queueTf);
-$('tf-reset').addEventListener('click', () => tfEditor.reset());
-for (const id of ['mode-dvr', 'mode-iso', 'mode-surface', 'wireframe', 'box']) $(id).addEventListener('change', sendMode);
-$('isovalue').addEventListener('input', sendIso);
-$('iso-opacity').addEventListener('input', sendIso);
-$('budget').addEventListener('change', sendLod);
-$('interaction-budget').addEventListener('change', sendLod);
-for (const id of ['interaction-quality', 'still-quality', 'png-stills']) $(id).addEventListener('change', sendQuality);
-$('reset-camera').addEventListener('click', () => {
-  if (!state.dataset) return;
-  camera = new OrbitCamera(state.dataset.camera);
-  sendCamera(false);
+$('colormap').addEventListener('change', onPreset);
+$('range-min').addEventListener('change', onRange);
+$('range-max').addEventListener('change', onRange);
+$('range-reset').addEventListener('click', () => {
+  const a = attributeInfo();
+  if (!a) return;
+  [$('range-min').value, $('range-max').value] = a.range;
+  onRange();
 });
-$('copy-view').addEventListener('click', () => {
+$('tf-reset').addEventListener('click', () => {
+  const v = state.view;
+  Object.assign(v, { opacity: null, colors: PRESETS[v.preset].map((p) => [...p]), customColors: false, opacityScale: 1 });
+  showView();
+  queueTf();
+});
+$('tf-color').addEventListener('input', () => tfEditor.recolorSelected(fromHex($('tf-color').value)));
+$('outside-transparent').addEventListener('change', () => {
+  state.view.outsideTransparent = $('outside-transparent').checked;
+  queueTf();
+});
+$('opacity-scale').addEventListener('input', () => {
+  state.view.opacityScale = number('opacity-scale') / 100;
+  $('opacity-scale-text').textContent = `${$('opacity-scale').value}%`;
+  queueTf();
+});
+$('unit-distance').addEventListener('change', () => {
+  const u = number('unit-distance');
+  state.view.unitDistance = u > 0 ? u : null;
+  queueTf();
+});
+for (const id of ['mode-dvr', 'mode-iso', 'mode-surface', 'wireframe', 'box']) $(id).addEventListener('change', onModes);
+$('isovalue').addEventListener('input', onIsoSlider);
+$('isovalues').addEventListener('change', onIsoText);
+$('iso-opacity').addEventListener('input', () => {
+  state.view.isoOpacity = number('iso-opacity') / 100;
+  sendIso();
   saveViewInHash();
-  navigator.clipboard?.writeText(location.href);
 });
-$('save-image').addEventListener('click', () => {
-  const still = state.lastStill ?? state.lastFrame;
-  if (!still) return;
-  const a = document.createElement('a');
-  a.href = URL.createObjectURL(still.blob);
-  a.download = `${state.dataset?.name ?? 'tetrascope'}.${still.header.codec === 'png' ? 'png' : 'jpg'}`;
-  a.click();
-  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
-});
-$('upload-submit').addEventListener('click', () => uploadAndPreprocess().catch((e) => ($('job-status').textContent = String(e))));
+for (const [id, key] of [['budget', 'budget'], ['interaction-budget', 'interactionBudget']]) {
+  $(id).addEventListener('change', () => {
+    const value = parseInt($(id).value, 10);
+    state.view[key] = value > 0 ? value : null;
+    sendLod();
+    saveViewInHash();
+  });
+}
+for (const id of ['interaction-quality', 'still-quality', 'png-stills']) {
+  $(id).addEventListener('change', () => {
+    Object.assign(state.view, { interactionQuality: parseInt($('interaction-quality').value, 10), stillQuality: parseInt($('still-quality').value, 10), pngStills: $('png-stills').checked });
+    sendQuality();
+    saveViewInHash();
+  });
+}
+for (const button of document.querySelectorAll('[data-view]')) button.addEventListener('click', () => viewPreset(button.dataset.view));
+$('reset-camera').addEventListener('click', () => viewPreset('reset'));
+$('parallel').addEventListener('change', () => setParallel($('parallel').checked));
+$('copy-view').addEventListener('click', copyViewLink);
+$('save-size').addEventListener('change', () => ($('save-custom').hidden = $('save-size').value !== 'custom'));
+$('save-image').addEventListener('click', saveImage);
+$('upload-submit').addEventListener('click', () => jobs.uploadAndPreprocess().catch((e) => ($('job-status').textContent = String(e))));
+$('help-button').addEventListener('click', () => toggleHelp());
+window.addEventListener('keydown', onKey);
+
+// the panel: beside the view on wide screens, a drawer over it on small ones
+function setPanel(open) {
+  document.body.classList.toggle('panel-open', open);
+  $('panel-toggle').setAttribute('aria-expanded', String(open));
+}
+$('panel-toggle').addEventListener('click', () => setPanel(!document.body.classList.contains('panel-open')));
+kSmallScreen.addEventListener('change', () => setPanel(false));
+
 let resizeTimer = null;
 window.addEventListener('resize', () => {
   clearTimeout(resizeTimer);
-  resizeTimer = setTimeout(sendView, 150);
+  resizeTimer = setTimeout(() => {
+    sendSize();
+    sendCamera(false);
+  }, 150);
 });
 
 connect();
+jobs.start();

@@ -1,4 +1,4 @@
-// Orbit / pan / zoom camera about a target, as the server's camera.set takes it.
+// Orbit / pan / zoom camera about a target, as the server's camera.set takes it; view presets.
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
 const scale = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
@@ -22,10 +22,19 @@ export class OrbitCamera {
     this.target = [...view.target];
     this.up = [...(view.up ?? [0, 1, 0])];
     this.fov = view.fov ?? 30;
+    this.orthographic = !!view.orthographic;
   }
 
+  // camera.set's fields; a parallel projection shows the height the perspective view shows
+  // at the target, so switching keeps the target's scale and zooming moves the eye in both
   get() {
-    return { eye: [...this.eye], target: [...this.target], up: [...this.up], fov: this.fov };
+    const view = { eye: [...this.eye], target: [...this.target], up: [...this.up], fov: this.fov };
+    if (this.orthographic) Object.assign(view, { orthographic: true, height: this.visibleHeight() });
+    return view;
+  }
+
+  visibleHeight() {
+    return 2 * Math.hypot(...sub(this.eye, this.target)) * Math.tan((this.fov * Math.PI) / 360);
   }
 
   // dx, dy: fractions of the view's height
@@ -41,13 +50,30 @@ export class OrbitCamera {
 
   pan(dx, dy) {
     const offset = sub(this.eye, this.target);
-    const distance = Math.hypot(...offset);
-    const height = 2 * distance * Math.tan((this.fov * Math.PI) / 360);
-    const right = norm(cross(offset, this.up));
-    const upScreen = norm(cross(right, offset));
+    const height = this.visibleHeight();
+    // screen right is forward x up with forward = -offset; the image follows the cursor
+    // when the caller passes the drag negated (the camera moves against the hand)
+    const right = norm(cross(this.up, offset));
+    const upScreen = norm(cross(offset, right));
     const move = add(scale(right, dx * height), scale(upScreen, -dy * height));
     this.eye = add(this.eye, move);
     this.target = add(this.target, move);
+  }
+
+  // Looks along `direction` at `target` from `distance` (view presets: ±X, ±Y, ±Z, isometric).
+  look(direction, up, target, distance) {
+    const d = norm(direction);
+    this.target = [...target];
+    this.eye = add(target, scale(d, -distance));
+    this.up = Math.abs(dot(norm(up), d)) > 0.999 ? (Math.abs(d[1]) < 0.9 ? [0, 1, 0] : [0, 0, 1]) : [...up];
+  }
+
+  // The camera's frame: right, up (on screen) and forward, unit vectors in world space.
+  basis() {
+    const offset = sub(this.eye, this.target);
+    const forward = norm(scale(offset, -1));
+    const right = norm(cross(forward, this.up));
+    return { right, up: cross(right, forward), forward };
   }
 
   zoom(factor) {

@@ -1,0 +1,42 @@
+// Screenshots of the viewer for the README (docs/images/) and for choosing defaults:
+//   node tests/browser/shoot.mjs DATA_DIR OUT_DIR 'name|#fragment' ...
+// starts `tetrascope serve --data DATA_DIR`, opens each fragment (a view link) at 1000x640,
+// waits for the still that shows it, and writes OUT_DIR/name.png.
+import { spawn } from 'node:child_process';
+import { join, dirname } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const root = join(dirname(fileURLToPath(import.meta.url)), '..', '..');
+const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release', 'apps', 'tetrascope');
+const [data, out, ...shots] = process.argv.slice(2);
+const server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1'], { stdio: ['ignore', 'pipe', 'inherit'] });
+try {
+  const url = await new Promise((resolve, reject) => {
+    let text = '';
+    server.stdout.on('data', (chunk) => {
+      text += chunk;
+      const m = text.match(/open (http:\/\/\S+)/);
+      if (m) resolve(m[1]);
+    });
+    server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
+  });
+  const browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
+  const width = Number(process.env.SHOT_WIDTH ?? 1000), height = Number(process.env.SHOT_HEIGHT ?? 640);
+  for (const shot of shots) {
+    const [name, fragment] = shot.split('|');
+    const page = await browser.newPage({ viewport: { width, height } });
+    await page.goto(`${url}${fragment}`);
+    await page.waitForFunction(() => {
+      const s = window.tetrascope;
+      return s.dataset && s.lastFrame?.header.still && s.lastFrame.header.message_id === s.lastSentId;
+    }, null, { timeout: 120000 });
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: join(out, `${name}.png`), clip: process.env.SHOT_VIEW ? await page.locator('#view').boundingBox() : undefined });
+    console.log(name, page.url().replace(/^[^#]*/, ''));
+    await page.close();
+  }
+  await browser.close();
+} finally {
+  server.kill('SIGTERM');
+}

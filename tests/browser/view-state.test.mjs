@@ -1,0 +1,87 @@
+// The viewer's state <-> URL codec and the transfer function it sends (no browser):
+// a round trip keeps every field, a hostile fragment leaves the defaults, and the opacity
+// scale, unit distance and "transparent outside the range" transform the points as documented.
+//   node --test tests/browser/view-state.test.mjs
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { colorAt, PRESETS } from '../../web-client/colormaps.js';
+import { defaultView, rebin, sentAlpha, tfBody, viewFromHash, viewToHash } from '../../web-client/view-state.js';
+
+const full = () => ({
+  ...defaultView(),
+  dataset: 'disk', attribute: 'Temp', camera: { eye: [1, 2, 3.5], target: [0, -1, 0], up: [0, 0, 1], fov: 40 },
+  preset: 'Viridis', colors: [[0, 1, 0, 0], [0.25, 0, 1, 0], [1, 0, 0, 1]], customColors: true,
+  opacity: [[0, 0.1], [0.3, 0.5], [1, 0.2]], range: [300, 900], opacityScale: 0.5, unitDistance: 0.25,
+  outsideTransparent: true, dvr: false, iso: true, surface: true, wireframe: true, box: true,
+  isovalues: [400, 500.5], isoOpacity: 0.4, budget: 50000, interactionBudget: 20000,
+  interactionQuality: 40, stillQuality: 95, pngStills: true,
+});
+
+test('a view survives the URL fragment whole', () => {
+  const view = full();
+  assert.deepEqual(viewFromHash(`#${viewToHash(view)}`), view);
+  assert.deepEqual(viewFromHash(`#${viewToHash(defaultView())}`), defaultView());
+});
+
+test('a hostile or broken fragment leaves the defaults', () => {
+  for (const hash of ['#', '#%', '#dataset=../etc&range=5,1&opacity=0:2,x:1&colors=0:zzzzzz,1:000000&eye=1,2&iso=a,b&budget=-3&cmap=nope&unit=-1&oscale=NaN',
+    `#opacity=${Array.from({ length: 100 }, (_, i) => `${i / 99}:0.5`).join(',')}`, '#opacity=1:0,0:1']) {
+    const view = viewFromHash(hash);
+    assert.equal(view.dataset, null, hash);
+    assert.deepEqual(view.opacity, defaultView().opacity, hash);
+    assert.deepEqual(view.colors, defaultView().colors, hash);
+    assert.equal(view.range, null, hash);
+    assert.equal(view.camera, null, hash);
+    assert.deepEqual(view.isovalues, [], hash);
+    assert.equal(view.budget, null, hash);
+    assert.equal(view.unitDistance, null, hash);
+    assert.equal(view.opacityScale, 1, hash);
+  }
+});
+
+test('the opacity sent: scaled, then the unit distance as equal extinction', () => {
+  const view = { ...defaultView(), opacityScale: 2, unitDistance: 2 };
+  // 0.2 -> 0.4 -> 1 - 0.6^(1/2)
+  assert.ok(Math.abs(sentAlpha(0.2, view, 1) - (1 - Math.sqrt(0.6))) < 1e-12);
+  assert.equal(sentAlpha(0.7, view, 1), 1);
+  assert.equal(sentAlpha(0.3, defaultView(), 1), 0.3);
+});
+
+test('tf.set maps points onto the range; transparent outside it makes the ends zero', () => {
+  const view = { ...full(), opacityScale: 1, unitDistance: null, outsideTransparent: false };
+  const body = tfBody(view, 1);
+  assert.deepEqual(body.range, [300, 900]);
+  assert.deepEqual(body.opacity, [[300, 0.1], [480, 0.5], [900, 0.2]]);
+  assert.deepEqual(body.colors[1], [450, 0, 1, 0]);
+  const transparent = tfBody({ ...view, outsideTransparent: true }, 1);
+  assert.deepEqual(transparent.opacity[0], [300, 0]);
+  assert.deepEqual(transparent.opacity.at(-1), [900, 0]);
+  assert.ok(transparent.opacity.every(([v], i, a) => !i || v >= a[i - 1][0]), 'values ascend');
+  assert.ok(Math.abs(transparent.opacity[1][0] - 300.6) < 1e-9);
+});
+
+test('every preset is a valid colour table from 0 to 1', () => {
+  for (const [name, points] of Object.entries(PRESETS)) {
+    assert.equal(points[0][0], 0, name);
+    assert.equal(points.at(-1)[0], 1, name);
+    assert.ok(points.length >= 2 && points.length <= 64, name);
+    points.forEach((p, i) => {
+      assert.equal(p.length, 4, name);
+      assert.ok(p.slice(1).every((c) => c >= 0 && c <= 1), `${name}[${i}]`);
+      if (i) assert.ok(p[0] > points[i - 1][0], `${name}[${i}] ascends`);
+    });
+  }
+  // published anchors: Moreland's cool-warm midpoint, matplotlib's ends (#440154, #fde725 for
+  // viridis, #fcffa4 for inferno; the polynomial fits are within a few levels)
+  const near = (rgb, hex) => rgb.every((c, k) => Math.abs(c * 255 - parseInt(hex.slice(2 * k, 2 * k + 2), 16)) <= 5);
+  assert.ok(colorAt(PRESETS['Cool to Warm'], 0.5).every((c) => Math.abs(c - 0.865) < 0.01));
+  assert.ok(near(PRESETS.Viridis[0].slice(1), '440154'));
+  assert.ok(near(PRESETS.Viridis.at(-1).slice(1), 'fde725'));
+  assert.ok(near(PRESETS.Inferno.at(-1).slice(1), 'fcffa4'));
+});
+
+test('re-binning a histogram onto a narrower range spreads each bin over its span', () => {
+  assert.deepEqual(rebin([4, 8], [0, 2], [0, 2], 4), [2, 2, 4, 4]);
+  assert.deepEqual(rebin([4, 8], [0, 2], [0.5, 1.5], 2), [2, 4]);
+  assert.deepEqual(rebin([4, 8], [0, 2], [5, 6], 2), [0, 0]);
+});

@@ -1,0 +1,171 @@
+// Uploads and preprocessing jobs over the REST API (protocol/openapi.yaml): the name is
+// checked against the datasets and the running jobs before any byte is uploaded; the job
+// this tab started is followed (and survives a reload: its id is kept in sessionStorage);
+// the jobs panel lists GET /api/v1/jobs, with cancel (DELETE /api/v1/jobs/ID) and the log
+// tail of failed jobs; the dataset list is refreshed when a job ends.
+const $ = (id) => document.getElementById(id);
+const kFollowKey = 'tetrascope.job';
+const kPollMs = 500;
+const kIdlePollMs = 10000;  // jobs started elsewhere show up within this
+const kNamePattern = /^[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}$/;
+
+export class Jobs {
+  // onDatasetsChanged(): reload the dataset list; onDone(name): a followed job made `name`
+  constructor(authHeaders, { onDatasetsChanged, onDone }) {
+    this.headers = authHeaders;
+    this.onDatasetsChanged = onDatasetsChanged;
+    this.onDone = onDone;
+    this.known = new Map();  // id -> state, to see jobs end
+    this.timer = null;
+    this.following = null;
+  }
+
+  async start() {
+    await this.refresh();
+    setInterval(() => this.timer || this.refresh(), kIdlePollMs);
+    const id = sessionStorage.getItem(kFollowKey);
+    if (id) this.follow(id);
+  }
+
+  async api(path, options = {}) {
+    const response = await fetch(path, { ...options, headers: { ...this.headers, ...(options.headers ?? {}) } });
+    const body = await response.json().catch(() => ({}));
+    return { ok: response.ok, status: response.status, body };
+  }
+
+  // ---------- upload ----------
+
+  async uploadAndPreprocess() {
+    const file = $('upload-file').files[0];
+    const status = $('job-status');
+    if (!file) {
+      status.textContent = 'Choose a mesh file first (.vtk, .vtu, .msh, .node/.ele, .off).';
+      return;
+    }
+    const name = $('job-name').value.trim() || file.name.replace(/\.[^.]*$/, '').replace(/[^A-Za-z0-9._-]/g, '_');
+    if (!kNamePattern.test(name)) {
+      status.textContent = `'${name}' is not a usable name: letters, digits, '.', '_' and '-', up to 128, not starting with '.'.`;
+      return;
+    }
+    // checked before uploading, so that a taken name leaves no orphaned upload behind
+    const [datasets, jobs] = await Promise.all([this.api('/api/v1/datasets'), this.api('/api/v1/jobs')]);
+    if (datasets.body.datasets?.some((d) => d.name === name)) {
+      status.textContent = `A dataset named '${name}' exists: choose another name.`;
+      return;
+    }
+    const busy = jobs.body.jobs?.find((j) => j.name === name && (j.state === 'queued' || j.state === 'running'));
+    if (busy) {
+      status.textContent = `Job ${busy.id} is already making '${name}'.`;
+      return;
+    }
+    const safeFile = file.name.replace(/[^A-Za-z0-9._-]/g, '_').replace(/^\.+/, '') || 'mesh';
+    $('job-progress').value = 0;
+    status.textContent = `Uploading ${file.name} (${(file.size / 1048576).toFixed(1)} MB)...`;
+    const upload = await this.api(`/api/v1/uploads?name=${encodeURIComponent(safeFile)}`, { method: 'POST', body: file });
+    if (!upload.ok) {
+      status.textContent = `Upload refused: ${upload.body.error?.message ?? upload.status}`;
+      return;
+    }
+    const submit = await this.api('/api/v1/jobs', {
+      method: 'POST',
+      headers: { 'Content-Type': 'application/json' },
+      body: JSON.stringify({ source: upload.body.path, name, options: {} }),
+    });
+    if (!submit.ok) {
+      status.textContent = `Job refused: ${submit.body.error?.message ?? submit.status}`;
+      return;
+    }
+    this.follow(submit.body.id);
+  }
+
+  // ---------- the followed job ----------
+
+  async follow(id) {
+    sessionStorage.setItem(kFollowKey, id);
+    this.following = id;
+    const status = $('job-status');
+    while (this.following === id) {
+      const { ok, body: job } = await this.api(`/api/v1/jobs/${encodeURIComponent(id)}`);
+      if (!ok) {  // the server restarted, or the job was pruned
+        sessionStorage.removeItem(kFollowKey);
+        return;
+      }
+      $('job-progress').value = job.percent;
+      const eta = job.eta_s != null && job.state === 'running' ? `, ${Math.ceil(job.eta_s)} s left` : '';
+      status.textContent = `${job.name}: ${job.state}${job.stage ? ` (${job.stage})` : ''} ${job.percent.toFixed(0)}%${eta}${job.error ? `\n${job.error}` : ''}`;
+      this.poll();
+      if (job.state === 'done' || job.state === 'failed' || job.state === 'cancelled') {
+        sessionStorage.removeItem(kFollowKey);
+        this.following = null;
+        if (job.state === 'done') {
+          await this.onDatasetsChanged();
+          this.onDone(job.dataset ?? job.name);
+        }
+        return;
+      }
+      await new Promise((resolve) => setTimeout(resolve, kPollMs));
+    }
+  }
+
+  // ---------- the jobs panel ----------
+
+  poll() {
+    if (this.timer) return;
+    this.timer = setTimeout(() => {
+      this.timer = null;
+      this.refresh();
+    }, kPollMs * 2);
+  }
+
+  async refresh() {
+    const { ok, body } = await this.api('/api/v1/jobs').catch(() => ({ ok: false }));
+    if (!ok) return;
+    const jobs = body.jobs ?? [];
+    let ended = false;
+    for (const job of jobs) {
+      const before = this.known.get(job.id);
+      if (before && before !== job.state && (job.state === 'done' || job.state === 'failed' || job.state === 'cancelled')) ended = true;
+      this.known.set(job.id, job.state);
+    }
+    this.render(jobs);
+    if (ended) await this.onDatasetsChanged();
+    if (jobs.some((j) => j.state === 'queued' || j.state === 'running')) this.poll();
+  }
+
+  render(jobs) {
+    const list = $('jobs');
+    if (!jobs.length) {
+      list.replaceChildren(Object.assign(document.createElement('li'), { textContent: 'No jobs yet.' }));
+      return;
+    }
+    list.replaceChildren(
+      ...jobs.slice(0, 20).map((job) => {
+        const item = document.createElement('li');
+        item.dataset.job = job.id;
+        item.dataset.state = job.state;
+        item.className = `job job-${job.state}`;
+        const eta = job.eta_s != null && job.state === 'running' ? `, ${Math.ceil(job.eta_s)} s left` : '';
+        const line = document.createElement('div');
+        line.textContent = `${job.name}: ${job.state}${job.stage && job.state === 'running' ? ` (${job.stage})` : ''} ${job.percent.toFixed(0)}%${eta}`;
+        item.append(line);
+        if (job.state === 'queued' || job.state === 'running') {
+          const progress = Object.assign(document.createElement('progress'), { max: 100, value: job.percent });
+          const cancel = Object.assign(document.createElement('button'), { textContent: 'Cancel', className: 'job-cancel' });
+          cancel.addEventListener('click', async () => {
+            cancel.disabled = true;
+            await this.api(`/api/v1/jobs/${encodeURIComponent(job.id)}`, { method: 'DELETE' });
+            this.refresh();
+          });
+          item.append(progress, cancel);
+        }
+        if (job.state === 'failed') {
+          const details = document.createElement('details');
+          details.append(Object.assign(document.createElement('summary'), { textContent: job.error ?? 'failed' }));
+          details.append(Object.assign(document.createElement('pre'), { textContent: (job.log_tail ?? []).slice(-8).join('\n') }));
+          item.append(details);
+        }
+        return item;
+      }),
+    );
+  }
+}
