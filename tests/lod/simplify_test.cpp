@@ -34,27 +34,6 @@ Check check(const storage::TetMesh& m) {
   return {c.faces_shared_by_more_than_two, c.nonpositive, c.volume};
 }
 
-TEST(Quadric, FundamentalQuadricMeasuresDistanceToTheSubspace) {
-  const int d = 4;
-  double p[4][4] = {{0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-  for (auto& v : p) v[3] = 0.5 * v[0] + 0.2 * v[1] + 0.1 * v[2] + 0.3;
-  const double* pts[4] = {p[0], p[1], p[2], p[3]};
-  double q[32] = {};
-  ASSERT_TRUE(lod::quadric::subspace(q, pts, 4, d, 1.0));
-  for (auto& v : p) EXPECT_NEAR(lod::quadric::evaluate(q, v, d), 0, 1e-12);
-  double off[4] = {0.3, 0.3, 0.3, 0.5 * 0.3 + 0.2 * 0.3 + 0.1 * 0.3 + 0.3 + 0.1};
-  EXPECT_NEAR(lod::quadric::evaluate(q, off, d), 0.01 / (1 + 0.25 + 0.04 + 0.01), 1e-12);
-  // adding a vertex quadric at p1 makes the minimum p1
-  const double* one[1] = {p[1]};
-  lod::quadric::subspace(q, one, 1, d, 1e-3);
-  double x[4];
-  ASSERT_TRUE(lod::quadric::minimise(q, d, x));
-  for (int i = 0; i < d; ++i) EXPECT_NEAR(x[i], p[1][i], 1e-9);
-  // degenerate points give no quadric
-  const double* flat[3] = {p[0], p[0], p[1]};
-  EXPECT_FALSE(lod::quadric::subspace(q, flat, 3, d, 1.0));
-}
-
 TEST(Simplify, LinearFieldSimplifiesWithAlmostNoFieldError) {
   storage::TetMesh original = linear_cube(6);
   storage::TetMesh mesh = original;

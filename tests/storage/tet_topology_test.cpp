@@ -43,6 +43,32 @@ TEST(TetTopology, AFaceOfThreeTetsIsNonManifold) {
   EXPECT_EQ(pair_faces(tets).non_manifold_faces, 1u);
 }
 
+TEST(TetTopology, ReusedScratchPairsAsAFreshOne) {
+  // two meshes in a row through one scratch: the second must not see the first's ids
+  const std::vector<uint32_t> first{10, 11, 12, 13, 14, 13, 12, 11, 14, 12, 13, 15};
+  const std::vector<uint32_t> second{0, 1, 2, 3, 4, 3, 2, 1, 11, 12, 13, 14};
+  FacePairingScratch scratch;
+  std::vector<uint32_t> opposite;
+  for (const auto* tets : {&first, &second, &first}) {
+    EXPECT_EQ(pair_faces(*tets, scratch, opposite), 0u);
+    EXPECT_EQ(opposite, pair_faces(*tets).opposite);
+    for (size_t f = 0; f < opposite.size(); ++f)  // symmetric, and joins faces with one key
+      if (opposite[f] != kNoOppositeFace) {
+        EXPECT_EQ(opposite[opposite[f]], f);
+        EXPECT_EQ(face_key(tet_face(*tets, f / 4, int(f % 4))), face_key(tet_face(*tets, opposite[f] / 4, int(opposite[f] % 4))));
+      }
+  }
+}
+
+TEST(TetTopology, OpenFacesGlueInPairsOnly) {
+  // key {1,2,3} twice (glued), {4,5,6} once (boundary), {7,8,9} three times (left alone)
+  std::vector<OpenFace> faces{{{7, 8, 9}, 2, 0}, {{1, 2, 3}, 1, 5}, {{4, 5, 6}, 0, 1}, {{7, 8, 9}, 0, 2}, {{1, 2, 3}, 0, 9}, {{7, 8, 9}, 1, 3}};
+  std::vector<std::pair<uint32_t, uint32_t>> glued;
+  pair_open_faces(faces, [&](const OpenFace& a, const OpenFace& b) { glued.push_back({a.segment, b.segment}); });
+  ASSERT_EQ(glued.size(), 1u);
+  EXPECT_EQ(glued[0], (std::pair<uint32_t, uint32_t>{0, 1}));  // ordered by segment within a key
+}
+
 TEST(ParallelFor, EveryItemOnceAndErrorsRethrown) {
   std::vector<std::atomic<int>> seen(1000);
   parallel_for(seen.size(), 3, [&](size_t i, unsigned) { seen[i]++; });
