@@ -8,6 +8,7 @@
 #include "commands.h"
 #include <cstdlib>
 
+#include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/view_frame.h"
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/server.h"
@@ -16,8 +17,6 @@ namespace tetrascope::apps {
 namespace {
 
 constexpr uint32_t kDefaultRenderWorkers = 2;
-constexpr double kMinInteractionScale = 0.25;  // quality.set's range too
-constexpr uint32_t kMinViewSide = 16;          // view.resize's minimum
 
 }  // namespace
 
@@ -52,7 +51,7 @@ int run_serve(const Arguments& raw) {
   o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));
   o.interaction_scale = args.positive("--interaction-scale", o.interaction_scale);
-  if (o.interaction_scale < kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
+  if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
               o.data_dir.c_str(), o.render_workers, o.token.empty() ? "" : ", token required");
@@ -77,7 +76,7 @@ int run_loadtest(const Arguments& raw) {
   o.rate_hz = args.positive("--rate", 30);
   o.allow_remote = args.has("--allow-remote");
   if (args.has("--size")) {
-    const ImageSize size = parse_size("--size", args.get("--size"), kMinViewSide, protocol::Limits{}.max_image_side);
+    const ImageSize size = parse_size("--size", args.get("--size"), protocol::kMinImageSide, protocol::Limits{}.max_image_side);
     o.width = size.width;
     o.height = size.height;
   }

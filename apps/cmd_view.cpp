@@ -83,7 +83,7 @@ RenderOptions render_options(const Args& args) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") throw std::invalid_argument(o.output + ": the output must end in .png, .jpg or .jpeg");
   o.quality = static_cast<int>(args.number("--quality", kDefaultQuality));
-  if (o.quality < 1 || o.quality > 100) throw std::invalid_argument("--quality must be 1 to 100");
+  if (o.quality < 1 || o.quality > protocol::kMaxJpegQuality) throw std::invalid_argument("--quality must be 1 to 100");
   if (args.has("--unit-distance")) v.unit_distance = args.real("--unit-distance");
   if (args.has("--iso-opacity")) v.iso_opacity = args.real("--iso-opacity");
   if (args.has("--iso")) v.isovalues = number_list("--iso", args.get("--iso"));

@@ -140,26 +140,26 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
   }
   if (type == "lod.set") {
     LodSet m;
-    m.budget = f.integer("budget", 1, 4000000000ull);
-    m.interaction_budget = f.integer("interaction_budget", 1, 4000000000ull);
+    m.budget = f.integer("budget", 1, kMaxBudget);
+    m.interaction_budget = f.integer("interaction_budget", 1, kMaxBudget);
     if (!m.budget && !m.interaction_budget) f.fail("budget", "missing (budget or interaction_budget)");
     return m;
   }
   if (type == "view.resize") {
     ViewResize m;
-    m.width = static_cast<uint32_t>(f.integer("width", 16, limits.max_image_side).value_or(0));
-    m.height = static_cast<uint32_t>(f.integer("height", 16, limits.max_image_side).value_or(0));
+    m.width = static_cast<uint32_t>(f.integer("width", kMinImageSide, limits.max_image_side).value_or(0));
+    m.height = static_cast<uint32_t>(f.integer("height", kMinImageSide, limits.max_image_side).value_or(0));
     if (!m.width) f.fail("width", "missing");
     if (!m.height) f.fail("height", "missing");
     return m;
   }
   if (type == "quality.set") {
     QualitySet m;
-    if (auto q = f.integer("interaction", 1, 100)) m.interaction = static_cast<int>(*q);
-    if (auto q = f.integer("still", 1, 100)) m.still = static_cast<int>(*q);
+    if (auto q = f.integer("interaction", 1, kMaxJpegQuality)) m.interaction = static_cast<int>(*q);
+    if (auto q = f.integer("still", 1, kMaxJpegQuality)) m.still = static_cast<int>(*q);
     m.still_codec = f.string("still_codec", 8);
     if (m.still_codec && *m.still_codec != "jpeg" && *m.still_codec != "png") f.fail("still_codec", "expected jpeg or png");
-    m.interaction_scale = f.number("interaction_scale", 0.25, 1);
+    m.interaction_scale = f.number("interaction_scale", kMinInteractionScale, 1);
     return m;
   }
   if (type == "ping") return Ping{};

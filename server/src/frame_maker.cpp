@@ -6,12 +6,10 @@
 namespace tetrascope::server {
 namespace {
 
-constexpr uint32_t kMinFrameSide = 16;
-
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
-uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(kMinFrameSide, static_cast<uint32_t>(std::lround(side * scale))); }
+uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protocol::kMinImageSide, static_cast<uint32_t>(std::lround(side * scale))); }
 
 }  // namespace
 

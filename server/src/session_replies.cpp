@@ -8,13 +8,13 @@ namespace tetrascope::server {
 namespace {
 
 constexpr int kColormapSamples = 32;
-constexpr const char* kColormapNames[] = {"viridis", "plasma", "cool-warm", "grayscale"};
 
 double three_decimals(double v) { return std::round(v * 1000) / 1000; }
 
 nlohmann::json colormap_samples() {
   nlohmann::json colormaps = nlohmann::json::object();
-  for (const char* name : kColormapNames) {
+  for (const std::string_view known : protocol::kColormapNames) {
+    const std::string name(known);
     nlohmann::json samples = nlohmann::json::array();
     for (int i = 0; i < kColormapSamples; ++i) {
       const auto rgb = renderer::colormap(name, i / double(kColormapSamples - 1));

@@ -29,6 +29,13 @@ constexpr uint32_t kVersion = 1;
 constexpr uint32_t kFrameMagic = 0x31465354;  // "TSF1" in file order
 constexpr size_t kFrameHeaderBytes = 48;
 
+// Fixed ranges of control-message fields (schema/messages.schema.json and js/codec.js say
+// the same).
+constexpr uint32_t kMinImageSide = 16;            // view.resize width and height
+constexpr uint64_t kMaxBudget = 4000000000ull;    // lod.set, tets
+constexpr int kMaxJpegQuality = 100;              // quality.set, from 1
+constexpr double kMinInteractionScale = 0.25;     // quality.set interaction_scale, to 1
+
 // Every limit of a session, each configurable (ServerOptions::limits; `serve` has options for
 // the sessions, message size and rate and the image side) and tested at and past it.
 struct Limits {
