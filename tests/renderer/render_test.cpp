@@ -65,7 +65,7 @@ TEST(Render, VolumeMatchesTheReferenceRayCaster) {
     const renderer::Image reference = renderer::reference_render(scene, s);
     const double db = renderer::psnr(image, reference);
     std::printf("GL volume rendering vs reference ray caster, %s, 160x160: %.1f dB\n", mesh.filename().c_str(), db);
-    EXPECT_GE(db, 35.0) << mesh;
+    EXPECT_GE(db, 50.0) << mesh;  // 47.6 dB with an 8-bit target and a linear length axis; 65.1 dB now
     // and not trivially: the volume shows (differs from the bare background)
     renderer::Image empty = reference;
     for (size_t i = 0; i < empty.rgba.size(); i += 4)

@@ -82,11 +82,16 @@ std::array<float, 3> colormap(const std::string& name, double t);
 bool known_colormap(const std::string& name);
 
 // Pre-integrated table over (front, back, length): RGBA premultiplied, front-to-back composed,
-// front and back in [0, 1] over the transfer function's range, length in [0, max_length].
+// front and back in [0, 1] over the transfer function's range. The length axis is logarithmic
+// beyond `length_scale`, so that segments from tiny tets (edges spanning 72,000:1 in one mesh)
+// get as fine a resolution as long ones: entry m of `lengths` holds the length L with
+//   log(1 + L / length_scale) = m / (lengths - 1) * log(1 + max_length / length_scale).
 struct PreintegrationTable {
   uint32_t n = 0, lengths = 0;
-  double max_length = 0;
+  double max_length = 0, length_scale = 1;
   std::vector<float> rgba;  // [length][back][front][4]
+  double length_at(uint32_t m) const;
+  double length_coordinate(double length) const;  // 0..1 along the length axis (clamped)
 };
 PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n = 128,
                                  uint32_t lengths = 32);
