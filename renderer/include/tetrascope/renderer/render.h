@@ -6,7 +6,10 @@
 //    back-to-front order (radix sort of centroid depths); each fragment intersects its view
 //    ray with the tet's planes to find the exact segment through it (front value, back
 //    value, length) and looks up a pre-integrated transfer function table (Engel et al.
-//    2001) over (front, back, length);
+//    2001) over (front, back, length). The camera may be inside the mesh: tets that reach
+//    the near plane are drawn by their back faces with segments starting at the near plane,
+//    and colour is composed in 32-bit floats, so thousands of tiny tets along a ray add up as
+//    the exact integrator (reference_render) says;
 //  - iso: marching tetrahedra for one or more isovalues, lit, opaque;
 //  - surface: the mesh boundary coloured by the attribute, lit, with silhouette edges
 //    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine.
