@@ -99,6 +99,11 @@ TEST(RenderInside, SampleDiskFromInside) {
   const auto eye = inside_point(scene, {2, -2, 3});
   // Before: 38.4 dB; after: 60.8 dB
   EXPECT_GE(inside_psnr(scene, look(eye, {0, 0, 0}), 120, 90, "disk_out_ref"), 50.0);
+  // orthographic from the same eye: before 14.6 dB at 96x72 (the near plane lay behind the
+  // eye's plane, so what is behind the camera showed); after 61.0 dB
+  char text[160];
+  std::snprintf(text, sizeof text, "eye=%.9g,%.9g,%.9g,target=0,0,0,up=0,0,1,ortho", eye[0], eye[1], eye[2]);
+  EXPECT_GE(inside_psnr(scene, lod::parse_camera(text, scene.bounds), 96, 72, "disk_out_ref, orthographic"), 50.0);
 }
 
 TEST(RenderInside, SharedDatasetsFromInside) {
