@@ -214,5 +214,18 @@ TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
   EXPECT_THROW(renderer::write_image("/tmp/x.bmp", image, 90), std::invalid_argument);
 }
 
+TEST(Render, ImageSideAtAndPastTheLimit) {
+  const auto scene = renderer::SceneMesh::from(box(2), "f");
+  gl().set_mesh(scene);
+  auto s = settings_for(scene, 1);
+  s.width = renderer::kMaxImageSide;  // at the limit (one row, to stay small)
+  EXPECT_EQ(gl().render(s).width, renderer::kMaxImageSide);
+  s.width = renderer::kMaxImageSide + 1;
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
+  s.width = 1;
+  s.height = renderer::kMaxImageSide + 1;
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace tetrascope::testing
