@@ -29,8 +29,9 @@
 
 namespace tetrascope::renderer {
 
-// The largest image side Renderer::render accepts, in pixels (a 8192x8192 RGBA frame is
-// 256 MiB of framebuffer and readback). Callers that take sizes from users (the CLI, the
+// The largest image side Renderer::render accepts, in pixels: at 8192x8192 the renderer's
+// targets take about 2.3 GiB (float colour 1 GiB, depth, two distance targets, the 8-bit
+// resolve and readback 256 MiB each). Callers that take sizes from users (the CLI, the
 // server) check against this or a smaller limit of their own.
 constexpr uint32_t kMaxImageSide = 8192;
 
