@@ -44,7 +44,7 @@ int run_serve(const Arguments& raw) {
   o.limits.max_sessions = args.number("--max-sessions", o.limits.max_sessions);
   o.limits.max_message_bytes = args.number("--max-message-bytes", static_cast<uint32_t>(o.limits.max_message_bytes));
   o.limits.max_messages_per_second = args.number("--max-messages-per-second", o.limits.max_messages_per_second);
-  o.limits.max_image_side = std::min(renderer::kMaxFrameSide, args.number("--max-image-side", o.limits.max_image_side));
+  o.limits.max_image_side = std::min(renderer::kMaxImageSide, args.number("--max-image-side", o.limits.max_image_side));
   o.max_upload_bytes = uint64_t(args.number("--max-upload-mb", static_cast<uint32_t>(o.max_upload_bytes >> 20))) << 20;
   o.max_running_jobs = std::max(1u, args.number("--max-jobs", o.max_running_jobs));
   o.max_fps = args.positive("--max-fps", o.max_fps);

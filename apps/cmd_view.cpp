@@ -72,7 +72,7 @@ RenderOptions render_options(const Args& args) {
   if (args.has("--tf")) v.tf = read_tf(args.get("--tf"));
   if (args.has("--attribute")) v.tf.attribute = args.get("--attribute");
   if (args.has("--size")) {
-    const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxFrameSide);
+    const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxImageSide);
     v.width = size.width;
     v.height = size.height;
   } else {
@@ -158,7 +158,7 @@ int run_cut(const Arguments& raw) {
   if (args.has("--camera")) {
     lod::Camera camera = lod::parse_camera(args.get("--camera"), store.manifest().bounds);
     if (args.has("--size")) {
-      const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxFrameSide);
+      const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxImageSide);
       camera.aspect = double(size.width) / size.height;
     }
     criteria.frustum = lod::view_frustum(camera, 0, 1e30);

@@ -25,9 +25,6 @@
 
 namespace tetrascope::renderer {
 
-// The largest image side the CLI and the server render (fold into render.h's kMaxImageSide).
-constexpr uint32_t kMaxFrameSide = 8192;
-
 struct ViewRequest {
   std::optional<lod::Camera> camera;  // none: lod::default_camera of the dataset's bounds
   lod::TransferFunction tf;           // no attribute: the dataset's first; no range: the attribute's over the whole dataset
