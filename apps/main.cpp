@@ -63,6 +63,7 @@ constexpr const char* kUsage =
     "                                [--max-sessions N] [--max-message-bytes B] [--max-messages-per-second N] [--max-image-side S]\n"
     "                                [--max-upload-mb M] [--max-jobs N] [--max-fps F] [--budget TETS] [--interaction-budget TETS]\n"
     "                                [--interaction-scale S] [--web DIR]\n"
+    "                                [--max-queued-jobs N (16)] [--job-memory-mb M (physical memory)]\n"
     "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"
     "  loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random]\n"
     "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--json]\n"
@@ -586,7 +587,7 @@ double positive_number(const Args& args, const std::string& name, double fallbac
 
 int run_serve(const std::vector<std::string>& raw) {
   Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
-                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-fps", "--budget", "--interaction-budget",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
@@ -611,6 +612,8 @@ int run_serve(const std::vector<std::string>& raw) {
   o.limits.max_image_side = std::min(8192u, args.number("--max-image-side", o.limits.max_image_side));
   o.max_upload_bytes = uint64_t(args.number("--max-upload-mb", 8192)) << 20;
   o.max_running_jobs = std::max(1u, args.number("--max-jobs", 1));
+  o.max_queued_jobs = args.number("--max-queued-jobs", o.max_queued_jobs);
+  o.job_memory_bytes = uint64_t(args.number("--job-memory-mb", 0)) << 20;
   o.max_fps = positive_number(args, "--max-fps", 30);
   o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));

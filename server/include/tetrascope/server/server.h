@@ -32,6 +32,8 @@ struct ServerOptions {
   uint64_t max_upload_bytes = 8ull << 30;
   uint64_t max_request_body_bytes = 1 << 20;  // REST bodies other than uploads
   unsigned max_running_jobs = 1;
+  unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
+  uint64_t job_memory_bytes = 0;       // address space (RLIMIT_AS) of each job; 0: the machine's physical memory
   uint64_t cache_bytes = 2ull << 30;   // segment cache, all datasets together
   double max_fps = 30;
   uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
