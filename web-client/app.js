@@ -7,7 +7,8 @@ import { TfEditor } from './tf-editor.js';
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 const token = params.get('token') ?? '';
-const authHeaders = token ? { Authorization: `Bearer ${token}` } : {};
+// X-Tetrascope: the server refuses state-changing calls without it (or JSON) when it has no token
+const authHeaders = token ? { Authorization: `Bearer ${token}`, 'X-Tetrascope': '1' } : { 'X-Tetrascope': '1' };
 
 // What the page shows; exposed for the browser test and the console.
 const state = {

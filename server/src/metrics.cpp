@@ -38,4 +38,37 @@ std::map<std::string, uint64_t> Metrics::errors() const {
   return errors_;
 }
 
+std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extras) {
+  std::string out;
+  auto single = [&](const char* name, const char* type, const char* help, double value) {
+    char line[256];
+    std::snprintf(line, sizeof line, "# HELP %s %s\n# TYPE %s %s\n%s %.17g\n", name, help, name, type, name, value);
+    out += line;
+  };
+  auto labelled = [&](const char* name, const char* type, const char* help, const char* label, const std::map<std::string, uint64_t>& values) {
+    out += std::string("# HELP ") + name + " " + help + "\n# TYPE " + name + " " + type + "\n";
+    for (const auto& [key, count] : values) out += std::string(name) + "{" + label + "=\"" + key + "\"} " + std::to_string(count) + "\n";
+  };
+  single("tetrascope_sessions_active", "gauge", "WebSocket sessions open", double(m.sessions_active.load()));
+  single("tetrascope_sessions_total", "counter", "WebSocket sessions accepted", double(m.sessions_total.load()));
+  single("tetrascope_sessions_refused_total", "counter", "sessions refused at the session limit", double(m.sessions_refused.load()));
+  labelled("tetrascope_frames_total", "counter", "frames rendered", "kind", {{"interaction", m.frames_interaction.load()}, {"still", m.frames_still.load()}});
+  single("tetrascope_frames_dropped_total", "counter", "frames replaced by a newer one before a slow client took them", double(m.frames_dropped.load()));
+  single("tetrascope_frame_bytes_total", "counter", "bytes of frames rendered", double(m.frame_bytes.load()));
+  single("tetrascope_messages_total", "counter", "WebSocket messages received", double(m.messages.load()));
+  single("tetrascope_http_requests_total", "counter", "HTTP requests", double(m.http_requests.load()));
+  labelled("tetrascope_errors_total", "counter", "error replies by code", "code", m.errors());
+  m.render_ms.write(out, "tetrascope_render_ms", "cut update, assembly and drawing of a frame, ms");
+  m.encode_ms.write(out, "tetrascope_encode_ms", "JPEG/PNG encoding of a frame, ms");
+  m.cut_ms.write(out, "tetrascope_cut_update_ms", "cut update of a frame, ms");
+  m.assemble_ms.write(out, "tetrascope_assemble_ms", "assembly of a changed cut's mesh and scene, ms (0: unchanged)");
+  m.upload_ms.write(out, "tetrascope_upload_ms", "scene upload to a render context, ms (0: the context held it)");
+  m.draw_ms.write(out, "tetrascope_draw_ms", "drawing and readback of a frame, ms");
+  single("tetrascope_cache_hits_total", "counter", "segment cache hits", double(extras.cache_hits));
+  single("tetrascope_cache_misses_total", "counter", "segment cache misses (segments mapped)", double(extras.cache_misses));
+  single("tetrascope_cache_resident_bytes", "gauge", "bytes of segments mapped", double(extras.cache_resident_bytes));
+  labelled("tetrascope_jobs", "gauge", "jobs by state", "state", extras.jobs_by_state);
+  return out;
+}
+
 }  // namespace tetrascope::server

@@ -1,4 +1,5 @@
-// Counters and histograms of the server, written in Prometheus' text format at /metrics.
+// Counters and histograms of the server, and the one place that writes them in Prometheus'
+// text format (served at /metrics).
 #pragma once
 
 #include <array>
@@ -36,5 +37,14 @@ struct Metrics {
   mutable std::mutex mutex_;
   std::map<std::string, uint64_t> errors_;
 };
+
+// Figures that live outside Metrics, read when /metrics is asked for.
+struct MetricsSnapshotExtras {
+  uint64_t cache_hits = 0, cache_misses = 0, cache_resident_bytes = 0;  // all datasets' segment caches together
+  std::map<std::string, uint64_t> jobs_by_state;
+};
+
+// Prometheus text exposition format 0.0.4.
+std::string prometheus_text(const Metrics& metrics, const MetricsSnapshotExtras& extras);
 
 }  // namespace tetrascope::server

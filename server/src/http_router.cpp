@@ -1,0 +1,57 @@
+// The routing table of the HTTP side: method and path (exact, or a prefix whose rest the
+// handler reads) to one handler function.
+#include <array>
+
+#include "rest.h"
+
+namespace tetrascope::server {
+namespace {
+
+struct Route {
+  http::verb method;
+  std::string_view path;
+  bool prefix;  // the path is a prefix; the rest is RestRequest::tail
+  Response (*handler)(const RestRequest&);
+};
+
+constexpr std::array kRoutes{
+    Route{http::verb::get, "/api/v1/health", false, get_health},
+    Route{http::verb::get, "/metrics", false, get_metrics},
+    Route{http::verb::get, "/api/v1/openapi.yaml", false, get_openapi},
+    Route{http::verb::get, "/api/v1/datasets", false, list_datasets},
+    Route{http::verb::get, "/api/v1/datasets/", true, get_dataset},
+    Route{http::verb::get, "/api/v1/uploads", false, list_uploads},
+    Route{http::verb::get, "/api/v1/jobs", false, list_jobs},
+    Route{http::verb::post, "/api/v1/jobs", false, submit_job},
+    Route{http::verb::get, "/api/v1/jobs/", true, get_job},
+    Route{http::verb::delete_, "/api/v1/jobs/", true, cancel_job},
+};
+
+bool is_api(const std::string& path) { return path.rfind("/api/", 0) == 0; }
+
+Response route(Server::Impl& server, const Target& target, const StringRequest& request) {
+  const std::string& path = target.path;
+  for (const Route& r : kRoutes) {
+    if (r.method != request.method()) continue;
+    if (r.prefix ? path.rfind(r.path, 0) == 0 : path == r.path) return r.handler({server, target, request, path.substr(r.prefix ? r.path.size() : path.size())});
+  }
+  if (is_api(path)) return error_response(request, http::status::not_found, "not_found", "no endpoint " + std::string(request.method_string()) + " " + path);
+  if (request.method() != http::verb::get && request.method() != http::verb::head)
+    return error_response(request, http::status::method_not_allowed, "method_not_allowed", "static files are GET only");
+  if (path.rfind("/protocol/", 0) == 0) return get_protocol_file({server, target, request, path.substr(10)});
+  return get_web_file({server, target, request, path == "/" ? "index.html" : path.substr(1)});
+}
+
+}  // namespace
+
+Response handle_request(Server::Impl& server, const Target& target, const StringRequest& request) {
+  try {
+    return route(server, target, request);
+  } catch (const BadRequest& e) {
+    return error_response(request, static_cast<http::status>(e.status()), e.code(), e.what());
+  } catch (const std::exception& e) {
+    return error_response(request, http::status::internal_server_error, "internal", e.what());
+  }
+}
+
+}  // namespace tetrascope::server

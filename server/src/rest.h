@@ -1,0 +1,63 @@
+// The HTTP side's handlers: one free function per resource and method, each turning a request
+// into a response (the Boost.Beast examples' handle_request, split by resource). The routing
+// table that picks them is in http_router.cpp; the connection, upgrades and streamed uploads
+// are HttpSession's (http_session.cpp). Request targets and bodies are untrusted; a handler
+// answers what it cannot serve with an error response or throws BadRequest.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "http_messages.h"
+#include "server_impl.h"
+
+namespace tetrascope::server {
+
+struct RestRequest {
+  Server::Impl& server;
+  const Target& target;
+  const StringRequest& request;
+  std::string tail;  // the path after the route's prefix (a dataset name, a job id, a file)
+};
+
+// Picks the handler for a request with a body read in full (all but uploads and WebSocket
+// upgrades). Never throws: errors become JSON error responses.
+Response handle_request(Server::Impl& server, const Target& target, const StringRequest& request);
+
+// rest_status.cpp
+Response get_health(const RestRequest& r);
+Response get_metrics(const RestRequest& r);
+
+// rest_datasets.cpp
+Response list_datasets(const RestRequest& r);
+Response get_dataset(const RestRequest& r);
+
+// rest_jobs.cpp
+Response list_jobs(const RestRequest& r);
+Response submit_job(const RestRequest& r);
+Response get_job(const RestRequest& r);
+Response cancel_job(const RestRequest& r);
+
+// rest_uploads.cpp: the listing; the upload itself streams to disk in HttpSession.
+Response list_uploads(const RestRequest& r);
+struct UploadPaths {
+  std::filesystem::path final_path;  // uploads/NAME
+  std::filesystem::path temp_path;   // uploads/.NAME.XXXXXX.part, unique to this request, while the body streams in
+  int temp_fd = -1;                  // temp_path, created O_EXCL (mkstemps); the upload body takes it
+  std::shared_ptr<void> claim;       // holds NAME in Server::Impl::uploads_in_progress until released
+};
+// Where POST /api/v1/uploads?name=NAME writes: claims NAME (a second upload of it while this
+// one streams gets BadRequest 409, so two bodies never mix) and creates a temporary file of
+// its own. Creates uploads/. Throws BadRequest for a bad name.
+UploadPaths upload_paths(Server::Impl& server, const Target& target);
+// Removes uploads/.*.part and uploads/*.tmp: what uploads cut off by a killed server left.
+void sweep_stale_uploads(const std::filesystem::path& data_dir);
+// Moves a complete upload into place: 201 {path, bytes}, or 500 when it cannot.
+Response finish_upload(ReplyTo to, const UploadPaths& paths);
+
+// static_files.cpp: the web client at /, the protocol codec and schemas at /protocol/.
+Response get_openapi(const RestRequest& r);
+Response get_protocol_file(const RestRequest& r);
+Response get_web_file(const RestRequest& r);
+
+}  // namespace tetrascope::server

@@ -1,0 +1,36 @@
+// GET /api/v1/health and GET /metrics.
+#include <fstream>
+
+#include "rest.h"
+
+namespace tetrascope::server {
+namespace {
+
+// This process's resident memory (VmRSS) or its peak (VmHWM), bytes.
+double memory_bytes(const std::string& field) {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind(field, 0) == 0) return 1024.0 * std::strtod(line.c_str() + field.size(), nullptr);
+  return 0;
+}
+
+}  // namespace
+
+Response get_health(const RestRequest& r) {
+  const Server::Impl& s = r.server;
+  const double uptime = std::chrono::duration<double>(std::chrono::steady_clock::now() - s.started).count();
+  return json_response(r.request, http::status::ok,
+                       {{"status", "ok"}, {"version", "0.1.0"}, {"protocol", protocol::kVersion}, {"renderer", s.pool->description()},
+                        {"uptime_s", uptime}, {"sessions", s.metrics.sessions_active.load()}, {"render_workers", s.options.render_workers},
+                        {"rss_bytes", memory_bytes("VmRSS:")}, {"peak_rss_bytes", memory_bytes("VmHWM:")}});
+}
+
+Response get_metrics(const RestRequest& r) {
+  MetricsSnapshotExtras extras;
+  r.server.datasets->cache_stats(extras.cache_hits, extras.cache_misses, extras.cache_resident_bytes);
+  extras.jobs_by_state = r.server.jobs->count_by_state();
+  return make_response(r.request, http::status::ok, prometheus_text(r.server.metrics, extras), "text/plain; version=0.0.4");
+}
+
+}  // namespace tetrascope::server
