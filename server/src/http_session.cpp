@@ -47,7 +47,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   }
 
   void on_header(beast::error_code ec, size_t) {
-    if (ec) return shutdown();
+    if (ec) return refuse_malformed(ec);
     ++server_.metrics.http_requests;
     const auto& request = parser_->get();
     const Target target = parse_target(request.target());
@@ -74,6 +74,31 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return;
     }
     read_body(target);
+  }
+
+  // A request Beast cannot parse gets a status that says why (RFC 9110/6585), then the
+  // connection closes: the rest of the stream cannot be trusted to start a new request.
+  void refuse_malformed(beast::error_code ec) {
+    http::status status = http::status::bad_request;
+    std::string message = "malformed HTTP request: " + ec.message();
+    if (ec == http::error::header_limit) {
+      status = http::status::request_header_fields_too_large;
+      message = "request header over " + std::to_string(kMaxHeaderBytes) + " bytes";
+    } else if (ec == http::error::body_limit) {
+      status = http::status::payload_too_large;
+    } else if (ec == http::error::bad_version) {
+      status = http::status::http_version_not_supported;
+      message = "HTTP/1.0 and HTTP/1.1 only";
+    } else if (ec == http::error::bad_content_length || ec == http::error::multiple_content_length) {
+      message = "invalid or repeated Content-Length";
+    } else if (ec == http::error::bad_transfer_encoding) {
+      message = "invalid Transfer-Encoding (or with a Content-Length)";
+    } else if (ec == http::error::end_of_stream || ec == http::error::partial_message ||
+               ec.category() != http::make_error_code(http::error::bad_method).category()) {
+      return shutdown();  // a connection closed or timed out: nobody to answer
+    }
+    Response response = error_response(ReplyTo{11, false}, status, "bad_http", message);
+    reply_then_close(std::move(response));
   }
 
   bool is_upload(const Target& target) const { return target.path == kUploadsPath && parser_->get().method() == http::verb::post; }

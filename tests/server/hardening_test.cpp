@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tetrascope/protocol/protocol.h"
 #include "tetrascope/server/client.h"
 #include "tetrascope/server/server.h"
 #include "test_paths.h"
@@ -397,6 +398,90 @@ TEST_F(HardeningTest, WithATokenTheTokenIsTheAuthorityAsBefore) {
   const std::string get = "GET /api/v1/datasets HTTP/1.1\r\nConnection: close\r\nHost: tetrascope.example\r\nOrigin: https://viewer.example\r\n";
   EXPECT_EQ(raw(get + "\r\n").first, 401);
   EXPECT_EQ(raw(get + "Authorization: Bearer s3cret\r\n\r\n").first, 200);
+}
+
+// ---- malformed HTTP gets an answer, not a silent close -------------------------------------
+
+TEST_F(HardeningTest, MalformedHttpIsAnsweredWith4xxOr505) {
+  start();
+  const std::string host = "Host: " + local_host() + "\r\nX-Tetrascope: 1\r\n";
+  auto status = [&](const std::string& request) {
+    auto [code, reply] = raw(request);
+    EXPECT_NE(reply.find("bad_http"), std::string::npos) << reply;
+    return code;
+  };
+  EXPECT_EQ(status("POST /api/v1/jobs HTTP/1.1\r\n" + host + "Content-Length: 100000000000000000000\r\n\r\n"), 400);
+  EXPECT_EQ(status("POST /api/v1/jobs HTTP/1.1\r\n" + host + "Content-Length: 5\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n"), 400);
+  EXPECT_EQ(status("POST /api/v1/jobs HTTP/1.1\r\n" + host + "Content-Length: 2\r\nContent-Length: 3\r\n\r\n{}"), 400);
+  EXPECT_EQ(status("GET /api/v1/health HTTP/1.1\r\n" + host + "X-Padding: " + std::string(20 * 1024, 'p') + "\r\n\r\n"), 431);
+  EXPECT_EQ(status("GET /api/v1/health HTTP/9.9\r\n" + host + "\r\n"), 505);
+  EXPECT_EQ(http_request(base_ + "/api/v1/health", "GET").status, 200);  // and the server carries on
+}
+
+// ---- sessions -----------------------------------------------------------------------------
+
+TEST_F(HardeningTest, AWebSocketThatNeverSaysHelloLosesItsSessionSlot) {
+  ServerOptions o = options();
+  o.limits.max_sessions = 1;
+  o.hello_timeout = 500ms;
+  start(o);
+  RawConnection silent(port());
+  silent.send("GET /api/v1/session HTTP/1.1\r\nHost: " + local_host() +
+              "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n");
+  const std::string upgraded = silent.receive(2000ms);  // 101, then closed at the deadline
+  EXPECT_EQ(status_of(upgraded), 101) << upgraded;
+  std::this_thread::sleep_for(200ms);
+  SessionClient c("ws://127.0.0.1:" + std::to_string(port()) + "/api/v1/session");
+  c.send("hello", {{"version", 1}});
+  EXPECT_TRUE(c.expect("hello.ok").is_object());
+}
+
+// ---- memory -------------------------------------------------------------------------------
+
+uint64_t resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  uint64_t pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * static_cast<uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+TEST_F(HardeningTest, ALargePngStillDoesNotKeepItsMemory) {
+  const fs::path store = data_dir() / "disk";
+  const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + store.string() +
+                              " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  start();
+  SessionClient c("ws://127.0.0.1:" + std::to_string(port()) + "/api/v1/session");
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  c.send("view.resize", {{"width", 320}, {"height", 240}});
+  c.send("dataset.open", {{"name", "disk"}});
+  c.expect("dataset.info", 60s);
+  auto wait_still = [&](uint32_t width) {
+    const auto deadline = std::chrono::steady_clock::now() + 120s;
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto m = c.read(60s);
+      if (!m) break;
+      if (!m->binary) {
+        EXPECT_EQ(m->data.find("\"error\""), std::string::npos) << m->data;
+        continue;
+      }
+      if (m->data.size() < protocol::kFrameHeaderBytes) continue;
+      auto h = protocol::decode_frame_header(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(m->data.data()), m->data.size()), protocol::Limits{});
+      if (h.still && h.width == width) return true;
+    }
+    return false;
+  };
+  ASSERT_TRUE(wait_still(320));
+  const uint64_t before = resident_bytes();
+  c.send("quality.set", {{"still_codec", "png"}});
+  c.send("view.resize", {{"width", 4096}, {"height", 4096}});
+  ASSERT_TRUE(wait_still(4096));
+  c.send("view.resize", {{"width", 320}, {"height", 240}});
+  ASSERT_TRUE(wait_still(320));
+  std::this_thread::sleep_for(300ms);
+  const uint64_t after = resident_bytes();
+  EXPECT_LT(after, before + (160ull << 20)) << "resident memory went from " << (before >> 20) << " MB to " << (after >> 20) << " MB";
 }
 
 }  // namespace

@@ -43,6 +43,7 @@ struct ServerOptions {
   int interaction_quality = 60, still_quality = 90;
   double interaction_scale = 0.375;    // of the view size, for interaction frames (fragments dominate on llvmpipe; bench/server_bench.sh)
   std::chrono::milliseconds still_delay{150};
+  std::chrono::milliseconds hello_timeout{10000};  // a WebSocket that has not sent hello by then is closed (its session slot freed)
   std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
 };
 
