@@ -26,7 +26,9 @@ std::string bytes_text(uint64_t bytes) { return std::to_string(bytes); }
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(Server::Impl& server, tcp::socket socket) : server_(server), stream_(std::move(socket)) { ++server_.http_connections; }
+  HttpSession(Server::Impl& server, tcp::socket socket) : server_(server), stream_(std::move(socket)), upload_timer_(stream_.get_executor()) {
+    ++server_.http_connections;
+  }
   ~HttpSession() {
     --server_.http_connections;
     if (upload_.temp_fd >= 0) ::close(upload_.temp_fd);
@@ -159,16 +161,43 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     upload_parser_->get().body().reset(std::move(file), open_ec);
     if (open_ec) return reply_then_close(error_response(upload_parser_->get(), http::status::internal_server_error, "internal", "cannot write the upload: " + open_ec.message()));
     stream_.expires_after(kUploadTimeout);
+    upload_checked_bytes_ = 0;
+    upload_too_slow_ = false;
+    check_upload_rate();
     http::async_read(stream_, buffer_, *upload_parser_, beast::bind_front_handler(&HttpSession::on_upload, shared_from_this()));
+  }
+
+  // Every window, the body must have grown by the minimum rate; a trickle (1 byte every few
+  // seconds) would otherwise hold a connection and a file for the whole upload timeout.
+  void check_upload_rate() {
+    if (server_.options.min_upload_bytes_per_second == 0) return;
+    upload_timer_.expires_after(server_.options.upload_rate_window);
+    upload_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+      if (ec || !self->upload_parser_ || self->upload_parser_->is_done()) return;
+      beast::error_code size_ec;
+      const uint64_t received = self->upload_parser_->get().body().file().size(size_ec);
+      const double window_s = std::chrono::duration<double>(self->server_.options.upload_rate_window).count();
+      if (static_cast<double>(received - self->upload_checked_bytes_) < window_s * static_cast<double>(self->server_.options.min_upload_bytes_per_second)) {
+        self->upload_too_slow_ = true;
+        self->stream_.cancel();  // on_upload answers 408 and removes the file
+        return;
+      }
+      self->upload_checked_bytes_ = received;
+      self->check_upload_rate();
+    });
   }
 
   void on_upload(beast::error_code ec, size_t) {
     const auto& request = upload_parser_->get();
     upload_parser_->get().body().close();
+    upload_timer_.cancel();
     if (ec) {
       std::error_code rm;
       fs::remove(upload_.temp_path, rm);
       upload_ = {};  // releases the name
+      if (upload_too_slow_)
+        return reply_then_close(error_response(request, http::status::request_timeout, "too_slow",
+                                               "upload slower than " + bytes_text(server_.options.min_upload_bytes_per_second) + " bytes a second"));
       if (ec == http::error::body_limit)
         return reply_then_close(error_response(request, http::status::payload_too_large, "too_large", "upload over the limit of " + bytes_text(server_.options.max_upload_bytes) + " bytes"));
       return shutdown();
@@ -205,6 +234,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::optional<http::request_parser<http::string_body>> body_parser_;
   std::optional<http::request_parser<http::file_body>> upload_parser_;
   UploadPaths upload_;
+  net::steady_timer upload_timer_;
+  uint64_t upload_checked_bytes_ = 0;
+  bool upload_too_slow_ = false;
 };
 
 }  // namespace

@@ -264,6 +264,21 @@ TEST_F(HardeningTest, AnUploadCutOffMidwayLeavesNoTemporaryFile) {
   EXPECT_EQ(leftovers(), 0u);
 }
 
+TEST_F(HardeningTest, AnUploadTrickledSlowerThanTheMinimumRateIsCutOff) {
+  ServerOptions o = options();
+  o.min_upload_bytes_per_second = 1000;
+  o.upload_rate_window = 300ms;
+  start(o);
+  RawConnection slow(port());
+  slow.send("POST /api/v1/uploads?name=slow.vtk HTTP/1.1\r\nHost: " + local_host() + "\r\nX-Tetrascope: 1\r\nContent-Length: 100000\r\n\r\n" + std::string(10, 's'));
+  const std::string reply = slow.receive(3000ms);
+  EXPECT_EQ(status_of(reply), 408) << reply;
+  std::error_code ec;
+  EXPECT_EQ(std::distance(fs::directory_iterator(data_dir() / "uploads", ec), fs::directory_iterator()), 0);
+  // at the rate, an upload goes through
+  EXPECT_EQ(http_request(base_ + "/api/v1/uploads?name=fast.vtk", "POST", std::string(50000, 'f'), "", "application/octet-stream").status, 201);
+}
+
 TEST_F(HardeningTest, PartFilesOfAServerKilledMidUploadAreSweptOnStart) {
   fs::create_directories(data_dir() / "uploads");
   std::ofstream(data_dir() / "uploads" / ".mesh.vtk.part") << "half";

@@ -32,6 +32,8 @@ struct ServerOptions {
   protocol::Limits limits;
   uint64_t max_upload_bytes = 8ull << 30;
   uint64_t max_request_body_bytes = 1 << 20;  // REST bodies other than uploads
+  uint64_t min_upload_bytes_per_second = 4096;  // an upload slower than this over a window is cut off (408)
+  std::chrono::milliseconds upload_rate_window{10000};
   unsigned max_running_jobs = 1;
   unsigned max_connections = 256;      // HTTP connections at once (WebSocket sessions count in max_sessions); more are answered 503
   unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
