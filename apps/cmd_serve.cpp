@@ -22,7 +22,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 
 int run_serve(const Arguments& raw) {
   Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
-                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-fps", "--budget", "--interaction-budget",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
@@ -47,6 +47,11 @@ int run_serve(const Arguments& raw) {
   o.limits.max_image_side = std::min(renderer::kMaxImageSide, args.number("--max-image-side", o.limits.max_image_side));
   o.max_upload_bytes = uint64_t(args.number("--max-upload-mb", static_cast<uint32_t>(o.max_upload_bytes >> 20))) << 20;
   o.max_running_jobs = std::max(1u, args.number("--max-jobs", o.max_running_jobs));
+  o.max_queued_jobs = args.number("--max-queued-jobs", o.max_queued_jobs);
+  o.max_connections = std::max(1u, args.number("--max-connections", o.max_connections));
+  o.min_upload_bytes_per_second = args.number("--min-upload-rate", static_cast<uint32_t>(o.min_upload_bytes_per_second));
+  o.hello_timeout = std::chrono::seconds(std::max(1u, args.number("--hello-timeout", static_cast<uint32_t>(o.hello_timeout.count() / 1000))));
+  o.job_memory_bytes = uint64_t(args.number("--job-memory-mb", static_cast<uint32_t>(o.job_memory_bytes >> 20))) << 20;
   o.max_fps = args.positive("--max-fps", o.max_fps);
   o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));

@@ -13,7 +13,8 @@ import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from '
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 const token = params.get('token') ?? '';
-const authHeaders = token ? { Authorization: `Bearer ${token}` } : {};
+// X-Tetrascope: the server refuses state-changing calls without it (or JSON) when it has no token
+const authHeaders = token ? { Authorization: `Bearer ${token}`, 'X-Tetrascope': '1' } : { 'X-Tetrascope': '1' };
 const kSmallScreen = window.matchMedia('(max-width: 700px)');
 const kRotateStep = 1 / 12;  // arrow keys: 15° (orbit takes fractions of pi)
 const kZoomStep = 1.2;

@@ -163,6 +163,7 @@ HttpResult http_request(const std::string& url, const std::string& method, const
   stream.connect(resolver.resolve(p.host, p.port));
   http::request<http::string_body> request{http::string_to_verb(method), p.target, 11};
   request.set(http::field::host, p.host);
+  request.set("X-Tetrascope", "1");  // a same-origin client's intent (server/src/same_origin.h)
   if (!token.empty()) request.set(http::field::authorization, "Bearer " + token);
   if (!body.empty() || method == "POST") {
     request.set(http::field::content_type, content_type);

@@ -1,10 +1,16 @@
 #include "frame_maker.h"
 
+#include <malloc.h>
+
 #include <chrono>
 #include <cmath>
 
 namespace tetrascope::server {
 namespace {
+
+// After a frame this large (2048^2 and up: a big PNG still) its image buffers, tens of MB, are
+// given back to the system; otherwise the allocator keeps them and the server's RSS stays up.
+constexpr uint64_t kTrimAfterPixels = uint64_t{2048} * 2048;
 
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
@@ -14,6 +20,12 @@ uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protoco
 }  // namespace
 
 RenderedFrame FrameMaker::render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number) {
+  RenderedFrame frame = render_frame(state, still, worker, frame_number);
+  if (uint64_t{frame.header.width} * frame.header.height >= kTrimAfterPixels) ::malloc_trim(0);  // the image is freed by now
+  return frame;
+}
+
+RenderedFrame FrameMaker::render_frame(const ViewState& state, bool still, Worker& worker, uint32_t frame_number) {
   const auto start = Clock::now();
   if (dataset_ != state.dataset) {
     dataset_ = state.dataset;

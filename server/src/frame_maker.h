@@ -44,6 +44,8 @@ class FrameMaker {
   RenderedFrame render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number);
 
  private:
+  // render() without the memory return of large frames (malloc_trim after 2048^2 pixels and up)
+  RenderedFrame render_frame(const ViewState& state, bool still, Worker& worker, uint32_t frame_number);
   std::shared_ptr<Dataset> dataset_;  // the pipeline's
   std::unique_ptr<renderer::ViewPipeline> pipeline_;
 };

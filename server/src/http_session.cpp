@@ -1,10 +1,13 @@
 // One HTTP connection (keep-alive): reads a request header, checks the token on the API,
 // hands WebSocket upgrades to a viewing session, streams uploads to disk and passes every
 // other request, its small body read in full, to handle_request (http_router.cpp).
+#include <unistd.h>
+
 #include <boost/beast/version.hpp>
 #include <boost/beast/websocket.hpp>
 
 #include "rest.h"
+#include "same_origin.h"
 
 namespace tetrascope::server {
 namespace {
@@ -23,7 +26,17 @@ std::string bytes_text(uint64_t bytes) { return std::to_string(bytes); }
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(Server::Impl& server, tcp::socket socket) : server_(server), stream_(std::move(socket)) {}
+  HttpSession(Server::Impl& server, tcp::socket socket) : server_(server), stream_(std::move(socket)), upload_timer_(stream_.get_executor()) {
+    ++server_.http_connections;
+  }
+  ~HttpSession() {
+    --server_.http_connections;
+    if (upload_.temp_fd >= 0) ::close(upload_.temp_fd);
+    if (!upload_.temp_path.empty()) {
+      std::error_code ec;
+      fs::remove(upload_.temp_path, ec);  // a body cut off midway; after success it was renamed
+    }
+  }
   void start() { do_read_header(); }
 
  private:
@@ -36,11 +49,14 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   }
 
   void on_header(beast::error_code ec, size_t) {
-    if (ec) return shutdown();
+    if (ec) return refuse_malformed(ec);
     ++server_.metrics.http_requests;
     const auto& request = parser_->get();
     const Target target = parse_target(request.target());
     const bool api = target.path.rfind("/api/", 0) == 0 || target.path == "/metrics";
+    if (server_.options.token.empty()) {
+      if (auto refusal = check_same_origin(request, api)) return reply_then_close(error_response(request, refusal->status, refusal->code, refusal->message));
+    }
     if (api && !authorised(request, target))
       return reply_then_close(error_response(request, http::status::unauthorized, "unauthorized",
                                              "this server needs a token: Authorization: Bearer TOKEN (or ?token= on the WebSocket URL)"));
@@ -60,6 +76,31 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return;
     }
     read_body(target);
+  }
+
+  // A request Beast cannot parse gets a status that says why (RFC 9110/6585), then the
+  // connection closes: the rest of the stream cannot be trusted to start a new request.
+  void refuse_malformed(beast::error_code ec) {
+    http::status status = http::status::bad_request;
+    std::string message = "malformed HTTP request: " + ec.message();
+    if (ec == http::error::header_limit) {
+      status = http::status::request_header_fields_too_large;
+      message = "request header over " + std::to_string(kMaxHeaderBytes) + " bytes";
+    } else if (ec == http::error::body_limit) {
+      status = http::status::payload_too_large;
+    } else if (ec == http::error::bad_version) {
+      status = http::status::http_version_not_supported;
+      message = "HTTP/1.0 and HTTP/1.1 only";
+    } else if (ec == http::error::bad_content_length || ec == http::error::multiple_content_length) {
+      message = "invalid or repeated Content-Length";
+    } else if (ec == http::error::bad_transfer_encoding) {
+      message = "invalid Transfer-Encoding (or with a Content-Length)";
+    } else if (ec == http::error::end_of_stream || ec == http::error::partial_message ||
+               ec.category() != http::make_error_code(http::error::bad_method).category()) {
+      return shutdown();  // a connection closed or timed out: nobody to answer
+    }
+    Response response = error_response(ReplyTo{11, false}, status, "bad_http", message);
+    reply_then_close(std::move(response));
   }
 
   bool is_upload(const Target& target) const { return target.path == kUploadsPath && parser_->get().method() == http::verb::post; }
@@ -114,23 +155,56 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     upload_parser_.emplace(std::move(*parser_));
     upload_parser_->body_limit(server_.options.max_upload_bytes);
     beast::error_code open_ec;
-    upload_parser_->get().body().open(upload_.temp_path.c_str(), beast::file_mode::write, open_ec);
+    beast::file file;  // the request's own temporary file, created O_EXCL by upload_paths
+    file.native_handle(upload_.temp_fd);
+    upload_.temp_fd = -1;
+    upload_parser_->get().body().reset(std::move(file), open_ec);
     if (open_ec) return reply_then_close(error_response(upload_parser_->get(), http::status::internal_server_error, "internal", "cannot write the upload: " + open_ec.message()));
     stream_.expires_after(kUploadTimeout);
+    upload_checked_bytes_ = 0;
+    upload_too_slow_ = false;
+    check_upload_rate();
     http::async_read(stream_, buffer_, *upload_parser_, beast::bind_front_handler(&HttpSession::on_upload, shared_from_this()));
+  }
+
+  // Every window, the body must have grown by the minimum rate; a trickle (1 byte every few
+  // seconds) would otherwise hold a connection and a file for the whole upload timeout.
+  void check_upload_rate() {
+    if (server_.options.min_upload_bytes_per_second == 0) return;
+    upload_timer_.expires_after(server_.options.upload_rate_window);
+    upload_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+      if (ec || !self->upload_parser_ || self->upload_parser_->is_done()) return;
+      beast::error_code size_ec;
+      const uint64_t received = self->upload_parser_->get().body().file().size(size_ec);
+      const double window_s = std::chrono::duration<double>(self->server_.options.upload_rate_window).count();
+      if (static_cast<double>(received - self->upload_checked_bytes_) < window_s * static_cast<double>(self->server_.options.min_upload_bytes_per_second)) {
+        self->upload_too_slow_ = true;
+        self->stream_.cancel();  // on_upload answers 408 and removes the file
+        return;
+      }
+      self->upload_checked_bytes_ = received;
+      self->check_upload_rate();
+    });
   }
 
   void on_upload(beast::error_code ec, size_t) {
     const auto& request = upload_parser_->get();
     upload_parser_->get().body().close();
+    upload_timer_.cancel();
     if (ec) {
       std::error_code rm;
       fs::remove(upload_.temp_path, rm);
+      upload_ = {};  // releases the name
+      if (upload_too_slow_)
+        return reply_then_close(error_response(request, http::status::request_timeout, "too_slow",
+                                               "upload slower than " + bytes_text(server_.options.min_upload_bytes_per_second) + " bytes a second"));
       if (ec == http::error::body_limit)
         return reply_then_close(error_response(request, http::status::payload_too_large, "too_large", "upload over the limit of " + bytes_text(server_.options.max_upload_bytes) + " bytes"));
       return shutdown();
     }
-    reply(finish_upload(reply_to(request), upload_));
+    Response response = finish_upload(reply_to(request), upload_);
+    upload_ = {};
+    reply(std::move(response));
   }
 
   void reply(Response response) {
@@ -160,6 +234,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::optional<http::request_parser<http::string_body>> body_parser_;
   std::optional<http::request_parser<http::file_body>> upload_parser_;
   UploadPaths upload_;
+  net::steady_timer upload_timer_;
+  uint64_t upload_checked_bytes_ = 0;
+  bool upload_too_slow_ = false;
 };
 
 }  // namespace
@@ -167,8 +244,33 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 void Server::Impl::accept() {
   acceptor->async_accept(net::make_strand(io), [this](beast::error_code ec, tcp::socket socket) {
     if (stopped) return;
-    if (!ec) std::make_shared<HttpSession>(*this, std::move(socket))->start();
+    if (ec) return on_accept_failed(ec);
+    if (http_connections >= static_cast<int64_t>(options.max_connections)) {
+      // over the cap: a short answer instead of a connection that holds a descriptor
+      static constexpr std::string_view kBusy =
+          "HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: 40\r\nConnection: close\r\n\r\n"
+          "too many connections; try again shortly\n";
+      beast::error_code ignored;
+      socket.non_blocking(true, ignored);
+      socket.write_some(net::buffer(kBusy), ignored);
+      socket.close(ignored);
+      ++metrics.http_requests;
+    } else {
+      std::make_shared<HttpSession>(*this, std::move(socket))->start();
+    }
     accept();
+  });
+}
+
+void Server::Impl::on_accept_failed(const boost::system::error_code& ec) {
+  // Out of descriptors (EMFILE/ENFILE) or memory: the pending connection stays in the backlog,
+  // so accepting again at once would fail again at once, at 100% of a core. Wait a little.
+  const bool resources = ec == net::error::no_descriptors || ec == boost::system::errc::too_many_files_open_in_system ||
+                         ec == net::error::no_buffer_space || ec == net::error::no_memory;
+  if (!resources) return accept();  // e.g. a connection reset before it was accepted
+  accept_pause->expires_after(kAcceptPause);
+  accept_pause->async_wait([this](const boost::system::error_code& wait_ec) {
+    if (!wait_ec && !stopped) accept();
   });
 }
 

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -48,10 +49,22 @@ std::string new_id() {
 const std::map<std::string, std::string> kOptionFlags = {{"base_tets", "--base-tets"}, {"segment_tets", "--segment-tets"}, {"level_ratio", "--level-ratio"},
                                                          {"bins", "--bins"},           {"threads", "--threads"},           {"seed", "--seed"}};
 
+// What a job leaves while it runs: the store (out/), the writer's temporary (out.tmp/) and
+// the copy it replaces (out.old/). None of them outlives the job.
+void remove_job_output(const fs::path& folder) {
+  std::error_code ec;
+  for (const char* name : {"out", "out.tmp", "out.old"}) fs::remove_all(folder / name, ec);
+}
+
 }  // namespace
 
-JobRunner::JobRunner(fs::path data_dir, fs::path binary, unsigned max_running)
-    : data_dir_(std::move(data_dir)), jobs_dir_(data_dir_ / ".jobs"), binary_(std::move(binary)), max_running_(std::max(1u, max_running)) {
+uint64_t physical_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? static_cast<uint64_t>(pages) * static_cast<uint64_t>(page) : 0;
+}
+
+JobRunner::JobRunner(fs::path data_dir, fs::path binary, unsigned max_running, JobLimits limits)
+    : data_dir_(std::move(data_dir)), jobs_dir_(data_dir_ / ".jobs"), binary_(std::move(binary)), max_running_(std::max(1u, max_running)), limits_(limits) {
   fs::create_directories(jobs_dir_);
   std::lock_guard lock(mutex_);
   load();
@@ -82,6 +95,9 @@ void JobRunner::load() {
     auto job = std::make_shared<Job>();
     job->id = text("id");
     if (job->id != entry.path().filename().string()) continue;
+    // no job runs yet: whatever output a killed server left is stale
+    remove_job_output(entry.path());
+    fs::remove(entry.path() / "job.json.tmp", ec);
     job->source = text("source");
     job->name = text("name");
     if (j.contains("options") && j["options"].is_object()) job->options = j["options"];
@@ -101,7 +117,6 @@ void JobRunner::load() {
       job->state = "failed";
       job->error = "the server stopped while this job ran; submit it again";
       job->finished = now_s();
-      fs::remove_all(entry.path() / "out", ec);
       save(*job);
     } else if (job->state == "queued") {
       queued.push_back(job);
@@ -137,6 +152,10 @@ nlohmann::json JobRunner::submit(const nlohmann::json& body) {
   std::lock_guard lock(mutex_);
   for (const auto& [id, job] : jobs_)
     if (job->name == name && (job->state == "queued" || job->state == "running")) throw BadRequest(409, "exists", "job " + id + " is already making '" + name + "'");
+  if (queue_.size() >= limits_.max_queued) {
+    throw BadRequest(429, "too_many_jobs", std::to_string(queue_.size()) + " jobs are waiting already (at most " + std::to_string(limits_.max_queued) +
+                                               ", serve --max-queued-jobs); try again when one has started");
+  }
   auto job = std::make_shared<Job>();
   job->id = new_id();
   job->source = source;
@@ -208,7 +227,7 @@ void JobRunner::schedule() {
 void JobRunner::run(std::shared_ptr<Job> job) {
   const fs::path folder = jobs_dir_ / job->id, out = folder / "out";
   std::error_code ec;
-  fs::remove_all(out, ec);
+  remove_job_output(folder);
   std::vector<std::string> args = {binary_.string(), "preprocess", (data_dir_ / job->source).string(), "-o", out.string(), "--progress", "json"};
   for (const auto& [key, value] : job->options.items()) {
     args.push_back(kOptionFlags.at(key));
@@ -222,6 +241,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
   int pipe_fds[2] = {-1, -1};
   std::string failure;
   pid_t pid = -1;
+  const rlimit memory_limit{limits_.memory_bytes, limits_.memory_bytes};  // prepared before fork: the child only calls setrlimit
   if (::pipe2(pipe_fds, O_CLOEXEC) != 0) {
     failure = std::string("cannot start the job: ") + std::strerror(errno);
   } else {
@@ -234,6 +254,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
         (void)!::write(adj, "1000", 4);
         ::close(adj);
       }
+      if (memory_limit.rlim_cur > 0) ::setrlimit(RLIMIT_AS, &memory_limit);
       ::dup2(pipe_fds[1], STDOUT_FILENO);
       ::dup2(pipe_fds[1], STDERR_FILENO);
       ::execv(argv[0], argv.data());
@@ -290,6 +311,12 @@ void JobRunner::run(std::shared_ptr<Job> job) {
       std::lock_guard lock(mutex_);
       failure = "preprocess exited with status " + std::to_string(WEXITSTATUS(status));
       if (!job->log_tail.empty()) failure += ": " + job->log_tail.back();
+      const bool out_of_memory = !job->log_tail.empty() && (job->log_tail.back().find("bad_alloc") != std::string::npos ||
+                                                            job->log_tail.back().find("cannot allocate memory") != std::string::npos);
+      if (out_of_memory && limits_.memory_bytes > 0) {
+        failure = "out of memory: the job needed more than its limit of " + std::to_string(limits_.memory_bytes >> 20) +
+                  " MiB (serve --job-memory-mb)";
+      }
     }
   }
   if (pipe_fds[0] >= 0) ::close(pipe_fds[0]);
@@ -320,7 +347,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
       job->eta_s = 0;
     }
   }
-  if (job->state != "done") fs::remove_all(out, ec);
+  remove_job_output(folder);  // after a rename, out/ is gone already; otherwise nothing is kept
   save(*job);
   --running_;
   schedule();

@@ -5,6 +5,12 @@
 // finished store is renamed to DATA/NAME, so a dataset never appears half written; a failed
 // or cancelled job's out/ is removed. After a restart, jobs that were running are reported
 // failed and queued ones run.
+//
+// What a job may cost (issue 13): each child runs under RLIMIT_AS (JobLimits::memory_bytes), so
+// a hostile mesh fails its own job with "out of memory" instead of pushing the machine into
+// swap; at most JobLimits::max_queued jobs wait (submit answers 429 past it). Whatever ends a
+// job (done, failed, cancelled, killed, out of memory) its out/ and out.tmp/ are removed, and
+// on start the runner sweeps what a killed server left behind.
 #pragma once
 
 #include <sys/types.h>
@@ -36,9 +42,18 @@ class BadRequest : public std::runtime_error {
   std::string code_;
 };
 
+struct JobLimits {
+  static constexpr unsigned kDefaultMaxQueued = 16;
+  uint64_t memory_bytes = 0;                // address space of each child (RLIMIT_AS); 0: no limit
+  unsigned max_queued = kDefaultMaxQueued;  // jobs waiting for a slot; submit answers 429 past it
+};
+
+// The machine's physical memory: the default job memory limit.
+uint64_t physical_memory_bytes();
+
 class JobRunner {
  public:
-  JobRunner(std::filesystem::path data_dir, std::filesystem::path binary, unsigned max_running);
+  JobRunner(std::filesystem::path data_dir, std::filesystem::path binary, unsigned max_running, JobLimits limits = {});
   ~JobRunner();  // kills running children, waits for their threads
 
   // body: {"source": "uploads/mesh.vtk" (inside the data folder), "name": "mesh",
@@ -60,6 +75,7 @@ class JobRunner {
 
   std::filesystem::path data_dir_, jobs_dir_, binary_;
   unsigned max_running_;
+  JobLimits limits_;
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Job>> jobs_;
   std::deque<std::string> queue_;

@@ -42,10 +42,16 @@ Response cancel_job(const RestRequest& r);
 Response list_uploads(const RestRequest& r);
 struct UploadPaths {
   std::filesystem::path final_path;  // uploads/NAME
-  std::filesystem::path temp_path;   // uploads/.NAME.part while the body streams in
+  std::filesystem::path temp_path;   // uploads/.NAME.XXXXXX.part, unique to this request, while the body streams in
+  int temp_fd = -1;                  // temp_path, created O_EXCL (mkstemps); the upload body takes it
+  std::shared_ptr<void> claim;       // holds NAME in Server::Impl::uploads_in_progress until released
 };
-// Where POST /api/v1/uploads?name=NAME writes; creates uploads/. Throws BadRequest for a bad name.
-UploadPaths upload_paths(const Server::Impl& server, const Target& target);
+// Where POST /api/v1/uploads?name=NAME writes: claims NAME (a second upload of it while this
+// one streams gets BadRequest 409, so two bodies never mix) and creates a temporary file of
+// its own. Creates uploads/. Throws BadRequest for a bad name.
+UploadPaths upload_paths(Server::Impl& server, const Target& target);
+// Removes uploads/.*.part and uploads/*.tmp: what uploads cut off by a killed server left.
+void sweep_stale_uploads(const std::filesystem::path& data_dir);
 // Moves a complete upload into place: 201 {path, bytes}, or 500 when it cannot.
 Response finish_upload(ReplyTo to, const UploadPaths& paths);
 

@@ -1,6 +1,13 @@
 // GET /api/v1/uploads, and where POST /api/v1/uploads?name=FILE puts its body: streamed into
 // uploads/.FILE.part by HttpSession (never held in memory), renamed to uploads/FILE when
 // complete, so a half upload never appears under its name.
+#include <fcntl.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
 #include "rest.h"
 
 namespace tetrascope::server {
@@ -10,19 +17,45 @@ Response list_uploads(const RestRequest& r) {
   nlohmann::json out = nlohmann::json::array();
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(r.server.options.data_dir / "uploads", ec))
-    if (entry.is_regular_file() && valid_name(entry.path().filename().string()))
+    // a symlink is not an upload: listing it would report its target's size (a file elsewhere)
+    if (!entry.is_symlink(ec) && entry.is_regular_file(ec) && valid_name(entry.path().filename().string()))
       out.push_back({{"path", "uploads/" + entry.path().filename().string()}, {"bytes", entry.file_size()}});
   return json_response(r.request, http::status::ok, {{"uploads", out}});
 }
 
-UploadPaths upload_paths(const Server::Impl& server, const Target& target) {
+UploadPaths upload_paths(Server::Impl& server, const Target& target) {
   auto it = target.query.find("name");
   const std::string name = it == target.query.end() ? "" : it->second;
   if (!valid_name(name)) throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.'");
   const fs::path folder = server.options.data_dir / "uploads";
   std::error_code ec;
   fs::create_directories(folder, ec);
-  return {folder / name, folder / ("." + name + ".part")};
+  UploadPaths paths;
+  paths.final_path = folder / name;
+  {
+    std::lock_guard lock(server.uploads_mutex);
+    if (!server.uploads_in_progress.insert(name).second)
+      throw BadRequest(409, "upload_in_progress", "an upload of '" + name + "' is streaming in already; try again when it has finished");
+  }
+  Server::Impl* owner = &server;
+  paths.claim = std::shared_ptr<void>(nullptr, [owner, name](void*) {
+    std::lock_guard lock(owner->uploads_mutex);
+    owner->uploads_in_progress.erase(name);
+  });
+  std::string temp = (folder / ("." + name + ".XXXXXX.part")).string();
+  paths.temp_fd = ::mkostemps(temp.data(), 5, O_CLOEXEC);
+  if (paths.temp_fd < 0) throw BadRequest(500, "internal", "cannot create the upload's temporary file: " + std::string(std::strerror(errno)));
+  paths.temp_path = temp;
+  return paths;
+}
+
+void sweep_stale_uploads(const fs::path& data_dir) {
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(data_dir / "uploads", ec)) {
+    const std::string file = entry.path().filename().string();
+    const bool part = file.size() > 6 && file.front() == '.' && file.ends_with(".part");
+    if ((part || file.ends_with(".tmp")) && !entry.is_directory(ec)) fs::remove(entry.path(), ec);
+  }
 }
 
 Response finish_upload(ReplyTo to, const UploadPaths& paths) {

@@ -2,6 +2,7 @@
 
 #include <csignal>
 
+#include "rest.h"
 #include "server_impl.h"
 
 namespace tetrascope::server {
@@ -22,9 +23,14 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   if (options.job_binary.empty()) options.job_binary = fs::read_symlink("/proc/self/exe", ec);
   s.options = std::move(options);
   s.datasets = std::make_unique<DatasetRegistry>(s.options.data_dir, s.options.cache_bytes);
-  s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs);
+  JobLimits job_limits;
+  job_limits.memory_bytes = s.options.job_memory_bytes > 0 ? s.options.job_memory_bytes : physical_memory_bytes();
+  job_limits.max_queued = s.options.max_queued_jobs;
+  s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs, job_limits);
+  sweep_stale_uploads(s.options.data_dir);  // no upload runs yet: every .part is a leftover
   s.pool = std::make_unique<RenderPool>(s.options.render_workers);
   s.acceptor = std::make_unique<net::ip::tcp::acceptor>(s.io);
+  s.accept_pause = std::make_unique<net::steady_timer>(s.io);
   const net::ip::tcp::endpoint endpoint(address, s.options.port);
   s.acceptor->open(endpoint.protocol());
   s.acceptor->set_option(net::socket_base::reuse_address(true));

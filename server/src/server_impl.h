@@ -4,6 +4,9 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <mutex>
+#include <set>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -32,8 +35,16 @@ struct Server::Impl {
   std::unique_ptr<JobRunner> jobs;
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   std::atomic<bool> stopped{false};
+  std::atomic<int64_t> http_connections{0};
+  // accept() waits this long when the process is out of file descriptors, instead of spinning
+  static constexpr std::chrono::milliseconds kAcceptPause{100};
+  std::unique_ptr<net::steady_timer> accept_pause;
+  // names under uploads/ whose upload is streaming in: a second one is refused (409)
+  std::mutex uploads_mutex;
+  std::set<std::string> uploads_in_progress;
 
   void accept();
+  void on_accept_failed(const boost::system::error_code& ec);
   // constant time in the token's length
   bool token_matches(std::string_view offered) const;
 };

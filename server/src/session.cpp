@@ -34,7 +34,7 @@ enum class Pending { kNone, kInteraction, kStill };
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
   WsSession(Server::Impl& server, beast::tcp_stream stream)
-      : server_(server), ws_(std::move(stream)), still_timer_(ws_.get_executor()), pace_timer_(ws_.get_executor()) {
+      : server_(server), ws_(std::move(stream)), still_timer_(ws_.get_executor()), pace_timer_(ws_.get_executor()), hello_timer_(ws_.get_executor()) {
     ++server_.metrics.sessions_active;
     ++server_.metrics.sessions_total;
     const auto& o = server_.options;
@@ -51,13 +51,20 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     ws_.set_option(websocket::stream_base::decorator([](websocket::response_type& r) { r.set(http::field::server, "tetrascope"); }));
     // Messages up to the hard cap are read and answered (too_large past the protocol limit);
     // past the cap Beast closes the connection (1009).
-    ws_.read_message_max(std::max<size_t>(4 * server_.options.limits.max_message_bytes, 1 << 20));
+    ws_.read_message_max(kHardCapFactor * server_.options.limits.max_message_bytes);
     ws_.async_accept(request, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));
   }
 
  private:
   void on_accept(beast::error_code ec) {
     if (ec) return;
+    // a connection that never says hello would hold a session slot: it gets hello_timeout
+    hello_timer_.expires_after(server_.options.hello_timeout);
+    hello_timer_.async_wait([self = shared_from_this()](beast::error_code wait_ec) {
+      if (wait_ec || self->hello_) return;
+      beast::error_code ignored;
+      beast::get_lowest_layer(self->ws_).socket().close(ignored);  // the read fails, the session ends, its slot is free
+    });
     do_read();
   }
 
@@ -141,6 +148,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     if (!server_.options.token.empty() && !m.token.empty() && !server_.token_matches(m.token))
       throw protocol::ProtocolError(protocol::code::kUnauthorized, "wrong token", id);
     hello_ = true;
+    hello_timer_.cancel();
     send_text(hello_ok_reply(server_.options, server_.pool->description(), id));
     return Then::kReplied;
   }
@@ -363,11 +371,13 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     }
     still_timer_.cancel();
     pace_timer_.cancel();
+    hello_timer_.cancel();
   }
 
   Server::Impl& server_;
   websocket::stream<beast::tcp_stream> ws_;
-  net::steady_timer still_timer_, pace_timer_;
+  net::steady_timer still_timer_, pace_timer_, hello_timer_;
+  static constexpr size_t kHardCapFactor = 4;  // README: "closed past 4x the message limit"
   beast::flat_buffer buffer_;
   // strand only
   bool hello_ = false, closing_ = false, writing_ = false;

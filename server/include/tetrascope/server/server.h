@@ -32,7 +32,12 @@ struct ServerOptions {
   protocol::Limits limits;
   uint64_t max_upload_bytes = 8ull << 30;
   uint64_t max_request_body_bytes = 1 << 20;  // REST bodies other than uploads
+  uint64_t min_upload_bytes_per_second = 4096;  // an upload slower than this over a window is cut off (408)
+  std::chrono::milliseconds upload_rate_window{10000};
   unsigned max_running_jobs = 1;
+  unsigned max_connections = 256;      // HTTP connections at once (WebSocket sessions count in max_sessions); more are answered 503
+  unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
+  uint64_t job_memory_bytes = 0;       // address space (RLIMIT_AS) of each job; 0: the machine's physical memory
   uint64_t cache_bytes = 2ull << 30;   // segment cache of each open dataset (each has its own of this size)
   double max_fps = 30;
   uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
@@ -40,6 +45,7 @@ struct ServerOptions {
   int interaction_quality = 60, still_quality = 90;
   double interaction_scale = 0.375;    // of the view size, for interaction frames (fragments dominate on llvmpipe; bench/server_bench.sh)
   std::chrono::milliseconds still_delay{150};
+  std::chrono::milliseconds hello_timeout{10000};  // a WebSocket that has not sent hello by then is closed (its session slot freed)
   std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
 };
 
