@@ -32,6 +32,8 @@
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 
+int run_streamlines(const std::vector<std::string>& raw);  // apps/cmd_streamlines.cpp
+
 namespace {
 
 constexpr const char* kUsage =
@@ -67,7 +69,9 @@ constexpr const char* kUsage =
     "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"
     "  loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random]\n"
     "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--json]\n"
-    "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors"
+    "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors\n"
+    "  streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both] [--max-steps S]\n"
+    "                                [--max-length L] [--tolerance T] [--json]   stream lines as VTK polylines (docs/streamlines.md)"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off\n";
 
@@ -684,6 +688,7 @@ int main(int argc, char** argv) {
     if (command == "error") return run_error(args);
     if (command == "serve") return run_serve(args);
     if (command == "loadtest") return run_loadtest(args);
+    if (command == "streamlines") return run_streamlines(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
     return 2;
   } catch (const std::invalid_argument& e) {
