@@ -273,5 +273,22 @@ TEST(StreamlinesCli, SampleMeshVelocity) {
   EXPECT_EQ(usage.status, 2);
 }
 
+// A store is traced on its full-resolution mesh: the same lines as the mesh it was made from
+// (up to the store's vertex order, so compare counts and ends, not bytes).
+TEST(StreamlinesCli, StoreGivesTheMeshsLines) {
+  auto dir = scratch_dir("streamlines_store");
+  CliResult made = run_cli("preprocess " + sample_mesh().string() + " -o " + (dir / "store").string() + " --progress none");
+  ASSERT_EQ(made.status, 0) << made.out;
+  const std::string common = " --field Velocity --seeds line:0,-5,2,0,5,2,50 --direction forward --max-length 30 --json -o ";
+  CliResult mesh = run_cli("streamlines " + sample_mesh().string() + common + (dir / "m.vtk").string());
+  CliResult store = run_cli("streamlines " + (dir / "store").string() + common + (dir / "s.vtk").string());
+  ASSERT_EQ(mesh.status, 0) << mesh.out;
+  ASSERT_EQ(store.status, 0) << store.out;
+  auto a = nlohmann::json::parse(mesh.out), b = nlohmann::json::parse(store.out);
+  EXPECT_EQ(a["lines"], b["lines"]);
+  EXPECT_EQ(a["tets"], b["tets"]);
+  EXPECT_NEAR(a["points"].get<double>(), b["points"].get<double>(), 0.05 * a["points"].get<double>());
+}
+
 }  // namespace
 }  // namespace tetrascope::testing
