@@ -128,7 +128,7 @@ SeedSpec parse_seeds(const std::string& text) {
     if (spec.points.empty()) throw std::invalid_argument("points seeds: no point given");
   } else if (kind == "dense") {
     spec.dense_resolution = parse_count(body, "dense seed resolution");
-    if (spec.dense_resolution > 1024) throw std::invalid_argument("dense seed resolution must be at most 1024");
+    if (spec.dense_resolution > kMaxDenseResolution) throw std::invalid_argument("dense seed resolution must be at most " + std::to_string(kMaxDenseResolution));
   } else {
     throw std::invalid_argument("seeds '" + text + "': unknown kind '" + kind + "' (line, plane, points or dense)");
   }
@@ -204,6 +204,11 @@ struct StreamlineTracer::Impl {
   // kNoTet when the walk leaves through the boundary. A walk that does not settle (a cycle in
   // a badly shaped region) falls back to the grid.
   uint32_t walk(const Vec3& p, uint32_t t, double b[4]) const {
+    if (!std::isfinite(p[0] + p[1] + p[2])) {
+      // a stage after a non-finite field value: stay, so the step's error is not finite and the line ends as lost
+      b[0] = b[1] = b[2] = b[3] = std::numeric_limits<double>::quiet_NaN();
+      return t;
+    }
     uint32_t previous = kNoTet;
     for (int step = 0; step < kMaxWalkTets; ++step) {
       barycentric(t, p, b);
@@ -320,6 +325,7 @@ struct StreamlineTracer::Impl {
         // the error is measured against the cell and, for short steps, the step itself: near a
         // sink an absolute bound alone accepts unstable steps that hover instead of converging
         const double ratio = length(error) / (o.tolerance * std::min(cell, length(stage_point - p)));
+        if (!std::isfinite(ratio)) return StopReason::lost;  // a non-finite field value
         if (ratio > 1 && h > h_min * (1 + 1e-9)) {
           h = std::max(h * std::max(kShrinkLimit, kSafety * std::pow(ratio, -0.2)), h_min);
           last = false;

@@ -118,6 +118,22 @@ TEST(Streamlines, SeedsOutsideTheDomainGiveNoLine) {
   EXPECT_EQ(t.lines.line_seed[0], 1000u);
 }
 
+TEST(Streamlines, NonFiniteFieldEndsTheLine) {
+  storage::TetMesh mesh = box_with_field(4, 0, [](double, double, double) { return Vec3{1, 0, 0}; });
+  auto& v = mesh.attributes.back().values;
+  for (size_t i = 0; i < mesh.vertex_count(); ++i)
+    if (mesh.x[i] > 0.6f) v[3 * i] = std::nanf("");
+  auto opposite = pair_faces(mesh.tets).opposite;
+  lod::StreamlineTracer tracer(mesh, opposite, "v");
+  lod::StreamlineOptions o;
+  o.direction = lod::StreamDirection::forward;
+  std::vector<Vec3> seeds{{0.1, 0.4, 0.4}};
+  auto lines = tracer.trace(std::span<const Vec3>(seeds), o);
+  ASSERT_EQ(lines.line_count(), 1u);
+  EXPECT_EQ(lines.stops[size_t(StopReason::lost)] + lines.stops[size_t(StopReason::zero_velocity)], 1u);
+  for (size_t i = 0; i < lines.point_count(); ++i) EXPECT_TRUE(std::isfinite(lines.x[i]));
+}
+
 TEST(Streamlines, SinkStopsAtZeroVelocity) {
   auto sink = [](double x, double y, double z) { return Vec3{-(x - 0.5), -(y - 0.5), -(z - 0.5)}; };
   lod::StreamlineOptions o;
@@ -182,11 +198,13 @@ TEST(Streamlines, WrongFieldsAndMalformedSeedsAreClearErrors) {
   EXPECT_THROW(lod::StreamlineTracer(mesh, opposite, "nope"), std::invalid_argument);
   EXPECT_THROW(lod::StreamlineTracer(mesh, opposite, "f"), std::invalid_argument);  // a scalar
   for (const char* bad : {"", "line:", "line:0,0,0,1,1,1", "line:0,0,0,1,1,1,0", "line:0,0,0,1,1,1,2.5", "line:a,0,0,1,1,1,3", "line:0,0,0,1,1,1,1e30",
-                          "plane:0,0,0,1,0,0,0,1,0,5", "plane:0,0,0,1,0,0,0,1,0,5000,5000", "points:1,2", "points:", "dense:0", "dense:99999", "circle:1", "line:0,0,nan,1,1,1,3"})
+                          "plane:0,0,0,1,0,0,0,1,0,5", "plane:0,0,0,1,0,0,0,1,0,5000,5000", "points:1,2", "points:", "dense:0", "dense:257", "line:0,0,0,1,1,1,1000001", "circle:1", "line:0,0,nan,1,1,1,3"})
     EXPECT_THROW(lod::parse_seeds(bad), std::invalid_argument) << bad;
   EXPECT_EQ(lod::parse_seeds("line:0,0,0,1,1,1,5").points.size(), 5u);
   EXPECT_EQ(lod::parse_seeds("plane:0,0,0,1,0,0,0,1,0,3,4").points.size(), 12u);
   EXPECT_EQ(lod::parse_seeds("points:1,2,3;4,5,6").points.size(), 2u);
+  EXPECT_EQ(lod::parse_seeds("line:0,0,0,1,1,1,1000000").points.size(), lod::kMaxSeeds);  // at the limit
+  EXPECT_EQ(lod::parse_seeds("dense:256").dense_resolution, lod::kMaxDenseResolution);
 }
 
 // Reads back the binary POLYDATA: point and line counts and the connectivity.

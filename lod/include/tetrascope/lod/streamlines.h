@@ -22,7 +22,7 @@ enum class StopReason : uint8_t {
   zero_velocity,  // |v| fell below the zero speed
   max_length,     // reached the maximal length
   max_steps,      // reached the maximal step count
-  lost,           // the walk found no tet (a degenerate or non-conforming region)
+  lost,           // the walk found no tet, or the field is not finite there
   kCount
 };
 const char* stop_reason_name(StopReason reason);
@@ -46,7 +46,8 @@ struct SeedSpec {
   std::vector<Vec3> points;
   uint32_t dense_resolution = 0;  // cells along the longest side of the bounding box
 };
-constexpr uint32_t kMaxSeeds = 10'000'000;
+constexpr uint32_t kMaxSeeds = 1'000'000;
+constexpr uint32_t kMaxDenseResolution = 256;  // the coverage grid has at most 256^3 cells
 SeedSpec parse_seeds(const std::string& text);
 
 // The traced lines: points of all lines back to back, line l spanning
