@@ -1,9 +1,9 @@
 # ParaView's Stream Tracer (vtkStreamTracer, RK4-5) on the seeds of `tetrascope streamlines
 # --seeds line:...`, for bench/streamlines_bench.sh: its integration time (median of RUNS), and the
-# distance between its lines and ours (OURS.vtk, matched by seed id), both resampled by arc length
+# distance between its lines and each of ours (OURS.vtk, matched by seed id), both resampled by arc length
 # over their common length, relative to the local cell size (cube root of 6x the volume of the tet
 # holding the sample, at least a tenth of its longest edge: tetrascope's own measure).
-#   pvpython paraview_streamlines.py MESH FIELD x0,y0,z0,x1,y1,z1,N MAX_LENGTH OURS.vtk RUNS
+#   pvpython paraview_streamlines.py MESH FIELD x0,y0,z0,x1,y1,z1,N MAX_LENGTH LABEL=OURS.vtk[,LABEL=OURS2.vtk] RUNS
 # Prints one JSON line.
 import json
 import math
@@ -89,11 +89,6 @@ def arc_length(line):
     return float(np.sum(np.linalg.norm(np.diff(line, axis=0), axis=1)))
 
 
-ours_reader = vtkPolyDataReader()
-ours_reader.SetFileName(ours_path)
-ours_reader.ReadAllScalarsOn()
-ours_reader.Update()
-ours = lines_by_seed(ours_reader.GetOutput(), "seed_id")
 theirs_lines = lines_by_seed(theirs, "SeedIds")
 
 locator = vtkStaticCellLocator()
@@ -113,37 +108,54 @@ def cell_size(p):
     return max(volume ** (1.0 / 3.0), 0.1 * max(edges))
 
 
-per_line_mean, overall_max, matched, length_ratio = [], 0.0, 0, []
-for seed, theirs_line in theirs_lines.items():
-    if seed not in ours:
-        continue
-    mine = ours[seed]
-    la, lb = arc_length(mine), arc_length(theirs_line)
-    length_ratio.append(la / lb if lb > 0 else float("nan"))
-    common = min(la, lb)
-    if common <= 0:
-        continue
-    a, b = resample(mine, common), resample(theirs_line, common)
-    rel = []
-    for k in range(SAMPLES):
-        h = cell_size(b[k])
-        if not math.isfinite(h) or h <= 0:
-            h = cell_size(a[k])
-        if math.isfinite(h) and h > 0:
-            rel.append(float(np.linalg.norm(a[k] - b[k])) / h)
-    if rel:
-        matched += 1
-        per_line_mean.append(sum(rel) / len(rel))
-        overall_max = max(overall_max, max(rel))
+def compare(path):
+    ours_reader = vtkPolyDataReader()
+    ours_reader.SetFileName(path)
+    ours_reader.ReadAllScalarsOn()
+    ours_reader.Update()
+    ours = lines_by_seed(ours_reader.GetOutput(), "seed_id")
+    per_line_mean, overall_max, matched, length_ratio = [], 0.0, 0, []
+    for seed, theirs_line in theirs_lines.items():
+        if seed not in ours:
+            continue
+        mine = ours[seed]
+        la, lb = arc_length(mine), arc_length(theirs_line)
+        length_ratio.append(la / lb if lb > 0 else float("nan"))
+        common = min(la, lb)
+        if common <= 0:
+            continue
+        a, b = resample(mine, common), resample(theirs_line, common)
+        rel = []
+        for k in range(SAMPLES):
+            h = cell_size(b[k])
+            if not math.isfinite(h) or h <= 0:
+                h = cell_size(a[k])
+            if math.isfinite(h) and h > 0:
+                rel.append(float(np.linalg.norm(a[k] - b[k])) / h)
+        if rel:
+            matched += 1
+            per_line_mean.append(sum(rel) / len(rel))
+            overall_max = max(overall_max, max(rel))
+    per_line_mean.sort()
+    return {
+        "ours_lines": len(ours), "matched_lines": matched,
+        "distance_cells_mean": sum(per_line_mean) / len(per_line_mean) if per_line_mean else None,
+        "distance_cells_median_line": per_line_mean[len(per_line_mean) // 2] if per_line_mean else None,
+        "distance_cells_p95_line": per_line_mean[int(0.95 * (len(per_line_mean) - 1))] if per_line_mean else None,
+        "distance_cells_max": overall_max,
+        "length_ratio_median": statistics.median(length_ratio) if length_ratio else None,
+    }
 
-per_line_mean.sort()
+
+# vtkStreamTracer::ReasonForTermination
+REASONS = {1: "boundary", 2: "not_initialized", 3: "unexpected_value", 4: "max_length", 5: "max_steps", 6: "zero_velocity"}
+stops = {}
+reason_array = theirs.GetCellData().GetArray("ReasonForTermination")
+for c in range(theirs.GetNumberOfCells() if reason_array else 0):
+    name = REASONS.get(int(reason_array.GetValue(c)), str(int(reason_array.GetValue(c))))
+    stops[name] = stops.get(name, 0) + 1
 print(json.dumps({
     "paraview_seconds": statistics.median(times), "paraview_runs": times,
-    "paraview_lines": len(theirs_lines), "paraview_points": theirs.GetNumberOfPoints(), "ours_lines": len(ours),
-    "matched_lines": matched,
-    "distance_cells_mean": sum(per_line_mean) / len(per_line_mean) if per_line_mean else None,
-    "distance_cells_median_line": per_line_mean[len(per_line_mean) // 2] if per_line_mean else None,
-    "distance_cells_p95_line": per_line_mean[int(0.95 * (len(per_line_mean) - 1))] if per_line_mean else None,
-    "distance_cells_max": overall_max,
-    "length_ratio_median": statistics.median(length_ratio) if length_ratio else None,
+    "paraview_lines": len(theirs_lines), "paraview_points": theirs.GetNumberOfPoints(), "paraview_stops": stops,
+    "against": {label: compare(path) for label, path in (item.split("=", 1) for item in ours_path.split(","))},
 }))
