@@ -24,7 +24,7 @@ namespace {
 
 constexpr const char* kStreamlinesUsage =
     "usage: tetrascope streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both]\n"
-    "                              [--max-steps S] [--max-length L] [--tolerance T] [--threads N] [--json]\n"
+    "                              [--max-steps S] [--max-length L] [--tolerance T] [--max-points P] [--threads N] [--json]\n"
     "  SPEC: line:x0,y0,z0,x1,y1,z1,N | plane:ox,oy,oz,ux,uy,uz,vx,vy,vz,NU,NV | points:x,y,z;x,y,z... | dense:N\n";
 
 double positive_number(const std::string& name, const std::string& text) {
@@ -47,7 +47,7 @@ int run_streamlines(const std::vector<std::string>& raw) {
   std::map<std::string, std::string> options;
   std::vector<std::string> positionals;
   bool json = false;
-  const std::vector<std::string> valued = {"--field", "--seeds", "--output", "--direction", "--max-steps", "--max-length", "--tolerance", "--threads"};
+  const std::vector<std::string> valued = {"--field", "--seeds", "--output", "--direction", "--max-steps", "--max-length", "--tolerance", "--threads", "--max-points"};
   for (size_t i = 0; i < raw.size(); ++i) {
     const std::string name = raw[i] == "-o" ? "--output" : raw[i];
     if (name == "--json") {
@@ -76,6 +76,7 @@ int run_streamlines(const std::vector<std::string>& raw) {
   if (options.count("--max-steps")) o.max_steps = whole_number("--max-steps", options["--max-steps"]);
   if (options.count("--max-length")) o.max_length = positive_number("--max-length", options["--max-length"]);
   if (options.count("--tolerance")) o.tolerance = positive_number("--tolerance", options["--tolerance"]);
+  if (options.count("--max-points")) o.max_points = whole_number("--max-points", options["--max-points"]);
   if (options.count("--threads")) o.threads = whole_number("--threads", options["--threads"]);
   const lod::SeedSpec seeds = lod::parse_seeds(options["--seeds"]);
 

@@ -4,6 +4,7 @@
 #include "tetrascope/lod/streamlines.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -92,6 +93,7 @@ const char* stop_reason_name(StopReason reason) {
     case StopReason::max_length: return "max_length";
     case StopReason::max_steps: return "max_steps";
     case StopReason::lost: return "lost";
+    case StopReason::point_budget: return "point_budget";
     default: return "unknown";
   }
 }
@@ -279,7 +281,7 @@ struct StreamlineTracer::Impl {
     return false;
   }
 
-  StopReason trace_direction(const Vec3& seed, uint32_t seed_tet, double sign, const StreamlineOptions& o, double max_length, double zero_speed, Trace& out) const {
+  StopReason trace_direction(const Vec3& seed, uint32_t seed_tet, double sign, const StreamlineOptions& o, double max_length, double zero_speed, std::atomic<int64_t>& points_left, Trace& out) const {
     Vec3 p = seed;
     uint32_t t = seed_tet;
     Vec3 k[7];
@@ -338,6 +340,7 @@ struct StreamlineTracer::Impl {
           for (int s = 1; s < 7; ++s) change = std::max(change, length(k[s] - k[0]));
           if (change > speed) return StopReason::zero_velocity;
         }
+        if (points_left.fetch_sub(1, std::memory_order_relaxed) <= 0) return StopReason::point_budget;
         travelled += length(stage_point - p);
         p = stage_point;  // stage 7 sits at the 5th-order solution (FSAL)
         t = stage_tet;
@@ -359,14 +362,15 @@ struct StreamlineTracer::Impl {
 
   size_t value_count() const { return 1 + scalars.size(); }
 
-  void trace_seed(const Vec3& seed, const StreamlineOptions& o, double max_length, double zero_speed, Trace scratch[2], Line& line) const {
+  void trace_seed(const Vec3& seed, const StreamlineOptions& o, double max_length, double zero_speed, std::atomic<int64_t>& points_left, Trace scratch[2],
+                  Line& line) const {
     const uint32_t seed_tet = locate(seed);
     if (seed_tet == kNoTet) return;
     line.traced = true;
     scratch[0].clear();
     scratch[1].clear();
-    if (o.direction != StreamDirection::forward) line.stops[1] = trace_direction(seed, seed_tet, -1, o, max_length, zero_speed, scratch[1]);
-    if (o.direction != StreamDirection::backward) line.stops[0] = trace_direction(seed, seed_tet, 1, o, max_length, zero_speed, scratch[0]);
+    if (o.direction != StreamDirection::forward) line.stops[1] = trace_direction(seed, seed_tet, -1, o, max_length, zero_speed, points_left, scratch[1]);
+    if (o.direction != StreamDirection::backward) line.stops[0] = trace_direction(seed, seed_tet, 1, o, max_length, zero_speed, points_left, scratch[0]);
     auto emit = [&](const Vec3& p, uint32_t t) {
       double b[4];
       barycentric(t, p, b);
@@ -389,12 +393,12 @@ struct StreamlineTracer::Impl {
   double max_length_of(const StreamlineOptions& o) const { return o.max_length > 0 ? o.max_length : 4 * diagonal; }
   double zero_speed_of(const StreamlineOptions& o) const { return o.zero_speed > 0 ? o.zero_speed : 1e-6 * max_speed; }
 
-  void trace_all(std::span<const Vec3> seeds, const StreamlineOptions& o, std::vector<Line>& lines) const {
+  void trace_all(std::span<const Vec3> seeds, const StreamlineOptions& o, std::atomic<int64_t>& points_left, std::vector<Line>& lines) const {
     lines.assign(seeds.size(), Line{});
     const unsigned w = workers(o);
     std::vector<std::array<Trace, 2>> scratch(w);
     const double max_length = max_length_of(o), zero_speed = zero_speed_of(o);
-    parallel_for(seeds.size(), w, [&](size_t i, unsigned worker) { trace_seed(seeds[i], o, max_length, zero_speed, scratch[worker].data(), lines[i]); });
+    parallel_for(seeds.size(), w, [&](size_t i, unsigned worker) { trace_seed(seeds[i], o, max_length, zero_speed, points_left, scratch[worker].data(), lines[i]); });
   }
 
   void append(Streamlines& out, Line& line, uint32_t seed) const {
@@ -470,7 +474,8 @@ Streamlines StreamlineTracer::trace(std::span<const Vec3> seeds, const Streamlin
   if (!(options.tolerance > 0) || !(options.max_step_cells > 0) || !(options.min_step_cells > 0) || options.min_step_cells > options.max_step_cells)
     throw std::invalid_argument("tolerance and step limits must be positive, the smallest step below the largest");
   std::vector<Impl::Line> lines;
-  impl_->trace_all(seeds, options, lines);
+  std::atomic<int64_t> points_left{static_cast<int64_t>(std::min<uint64_t>(options.max_points, INT64_MAX))};
+  impl_->trace_all(seeds, options, points_left, lines);
   Streamlines out = impl_->empty_result();
   out.seeds = seeds.size();
   for (size_t i = 0; i < lines.size(); ++i) impl_->append(out, lines[i], static_cast<uint32_t>(i));
@@ -504,6 +509,7 @@ Streamlines StreamlineTracer::trace_dense(uint32_t resolution, const StreamlineO
   std::vector<Impl::Line> lines;
   size_t next = 0;
   uint32_t seed_index = 0;
+  std::atomic<int64_t> points_left{static_cast<int64_t>(std::min<uint64_t>(options.max_points, INT64_MAX))};
   while (next < cells) {
     seeds.clear();
     seed_cells.clear();
@@ -514,7 +520,8 @@ Streamlines StreamlineTracer::trace_dense(uint32_t resolution, const StreamlineO
       seeds.push_back(c);
       seed_cells.push_back(next);
     }
-    m.trace_all(seeds, options, lines);
+    if (points_left.load() <= 0) break;
+    m.trace_all(seeds, options, points_left, lines);
     for (size_t i = 0; i < seeds.size(); ++i) {
       if (covered[seed_cells[i]]) continue;
       Impl::Line& line = lines[i];

@@ -134,6 +134,21 @@ TEST(Streamlines, NonFiniteFieldEndsTheLine) {
   for (size_t i = 0; i < lines.point_count(); ++i) EXPECT_TRUE(std::isfinite(lines.x[i]));
 }
 
+TEST(Streamlines, PointBudgetBoundsAllLinesTogether) {
+  auto rotation = [](double x, double y, double) { return Vec3{-(y - 0.5), x - 0.5, 0}; };
+  lod::StreamlineOptions o;
+  o.max_length = 1e9;
+  o.max_steps = 100000;
+  o.max_points = 500;
+  o.threads = 2;
+  std::vector<Vec3> seeds;
+  for (int i = 0; i < 20; ++i) seeds.push_back({0.6 + 0.015 * i, 0.5, 0.5});
+  auto t = trace(4, rotation, seeds, o);
+  EXPECT_EQ(t.lines.line_count(), 20u);
+  EXPECT_LE(t.lines.point_count(), 500u + 20u);  // the budget plus the seeds themselves
+  EXPECT_EQ(t.lines.stops[size_t(StopReason::point_budget)], 40u);
+}
+
 TEST(Streamlines, SinkStopsAtZeroVelocity) {
   auto sink = [](double x, double y, double z) { return Vec3{-(x - 0.5), -(y - 0.5), -(z - 0.5)}; };
   lod::StreamlineOptions o;

@@ -23,6 +23,7 @@ enum class StopReason : uint8_t {
   max_length,     // reached the maximal length
   max_steps,      // reached the maximal step count
   lost,           // the walk found no tet, or the field is not finite there
+  point_budget,   // all lines together reached StreamlineOptions::max_points
   kCount
 };
 const char* stop_reason_name(StopReason reason);
@@ -36,6 +37,7 @@ struct StreamlineOptions {
   double zero_speed = 0;               // |v| below this stops; 0: 1e-6 of the field's largest |v|
   double max_step_cells = 2;           // a step advances at most this many local cell sizes
   double min_step_cells = 1e-4;        // the smallest step before a stop at the boundary
+  uint64_t max_points = 50'000'000;    // integration points of all lines together (memory bound)
   unsigned threads = 0;                // 0: hardware concurrency
 };
 
