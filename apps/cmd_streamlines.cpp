@@ -20,6 +20,11 @@
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/tet_topology.h"
 
+#include "args.h"
+#include "commands.h"
+
+namespace tetrascope::apps {
+
 namespace {
 
 constexpr const char* kStreamlinesUsage =
@@ -27,57 +32,32 @@ constexpr const char* kStreamlinesUsage =
     "                              [--max-steps S] [--max-length L] [--tolerance T] [--max-points P] [--threads N] [--json]\n"
     "  SPEC: line:x0,y0,z0,x1,y1,z1,N | plane:ox,oy,oz,ux,uy,uz,vx,vy,vz,NU,NV | points:x,y,z;x,y,z... | dense:N\n";
 
-double positive_number(const std::string& name, const std::string& text) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v) || v <= 0) throw std::invalid_argument(name + " expects a positive number, got '" + text + "'");
-  return v;
-}
-
-uint32_t whole_number(const std::string& name, const std::string& text) {
-  const double v = positive_number(name, text);
-  if (v != std::floor(v) || v > 4e9) throw std::invalid_argument(name + " expects a whole number, got '" + text + "'");
-  return static_cast<uint32_t>(v);
-}
-
 }  // namespace
 
-int run_streamlines(const std::vector<std::string>& raw) {
-  namespace lod = tetrascope::lod;
-  std::map<std::string, std::string> options;
-  std::vector<std::string> positionals;
-  bool json = false;
-  const std::vector<std::string> valued = {"--field", "--seeds", "--output", "--direction", "--max-steps", "--max-length", "--tolerance", "--threads", "--max-points"};
-  for (size_t i = 0; i < raw.size(); ++i) {
-    const std::string name = raw[i] == "-o" ? "--output" : raw[i];
-    if (name == "--json") {
-      json = true;
-    } else if (std::find(valued.begin(), valued.end(), name) != valued.end()) {
-      if (i + 1 >= raw.size()) throw std::invalid_argument(name + " needs a value");
-      options[name] = raw[++i];
-    } else if (name.size() > 1 && name[0] == '-') {
-      throw std::invalid_argument("unknown option " + raw[i]);
-    } else {
-      positionals.push_back(raw[i]);
-    }
-  }
-  if (positionals.size() != 1 || !options.count("--field") || !options.count("--seeds") || !options.count("--output")) {
+int run_streamlines(const Arguments& raw) {
+  Args args(raw, {"--json"}, {"--field", "--seeds", "--output", "--direction", "--max-steps", "--max-length", "--tolerance", "--threads", "--max-points"});
+  if (args.positionals().size() != 1 || !args.has("--field") || !args.has("--seeds") || !args.has("--output")) {
     std::fputs(kStreamlinesUsage, stderr);
     return 2;
   }
+  const bool json = args.has("--json");
+  std::map<std::string, std::string> options = {{"--field", args.get("--field")}, {"--seeds", args.get("--seeds")}, {"--output", args.get("--output")}};
+  const std::vector<std::string> positionals = args.positionals();
   lod::StreamlineOptions o;
-  if (options.count("--direction")) {
-    const std::string& d = options["--direction"];
+  if (args.has("--direction")) {
+    const std::string d = args.get("--direction");
     if (d == "forward") o.direction = lod::StreamDirection::forward;
     else if (d == "backward") o.direction = lod::StreamDirection::backward;
     else if (d == "both") o.direction = lod::StreamDirection::both;
     else throw std::invalid_argument("--direction expects forward, backward or both, got '" + d + "'");
   }
-  if (options.count("--max-steps")) o.max_steps = whole_number("--max-steps", options["--max-steps"]);
-  if (options.count("--max-length")) o.max_length = positive_number("--max-length", options["--max-length"]);
-  if (options.count("--tolerance")) o.tolerance = positive_number("--tolerance", options["--tolerance"]);
-  if (options.count("--max-points")) o.max_points = whole_number("--max-points", options["--max-points"]);
-  if (options.count("--threads")) o.threads = whole_number("--threads", options["--threads"]);
+  o.max_steps = args.number("--max-steps", o.max_steps);
+  if (o.max_steps == 0) throw std::invalid_argument("--max-steps must be at least 1");
+  o.max_length = args.positive("--max-length", 0);
+  o.tolerance = args.positive("--tolerance", o.tolerance);
+  o.threads = args.number("--threads", 0);
+  o.max_points = args.number("--max-points", 50'000'000);
+  if (o.max_points == 0) throw std::invalid_argument("--max-points must be at least 1");
   const lod::SeedSpec seeds = lod::parse_seeds(options["--seeds"]);
 
   const std::string input = positionals[0];
@@ -119,3 +99,5 @@ int run_streamlines(const std::vector<std::string>& raw) {
   }
   return 0;
 }
+
+}  // namespace tetrascope::apps

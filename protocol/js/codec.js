@@ -107,7 +107,8 @@ const checkers = {
   },
   'tf.set'(f, limits) {
     f.string('attribute', 128);
-    f.string('colormap', 64);
+    const colormap = f.string('colormap', 64);
+    if (colormap !== undefined && !COLORMAPS.includes(colormap)) f.fail('colormap', `unknown '${colormap}' (viridis, plasma, cool-warm, grayscale)`);
     const r = f.find('range');
     if (r !== undefined) {
       if (!Array.isArray(r) || r.length !== 2) f.fail('range', 'expected [low, high]');
@@ -179,6 +180,8 @@ export function encodeMessage(type, id, body = {}) {
 }
 
 const CODECS = ['jpeg', 'png'];
+// the colormaps the renderer draws (protocol/transfer_function.h kColormapNames)
+export const COLORMAPS = ['viridis', 'plasma', 'cool-warm', 'grayscale'];
 
 export function decodeFrame(buffer, limits = DEFAULT_LIMITS) {
   const bytes = buffer instanceof Uint8Array ? buffer : new Uint8Array(buffer);

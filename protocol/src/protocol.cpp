@@ -66,23 +66,7 @@ class Fields {
     for (size_t i = 0; i < 3; ++i) out[i] = number(field, v[i], -1e30, 1e30);
     return out;
   }
-  // [[v, a...], ...] with `width` numbers per point, values ascending, the rest in [0, 1]
-  void points(const std::string& field, size_t width, size_t max_points) const {
-    const json* v = find(field);
-    if (!v) return;
-    if (!v->is_array()) fail(field, "expected a list of points");
-    if (v->size() > max_points) fail(field, "more than " + std::to_string(max_points) + " points");
-    double previous = -INFINITY;
-    for (size_t i = 0; i < v->size(); ++i) {
-      const json& p = (*v)[i];
-      const std::string name = field + "[" + std::to_string(i) + "]";
-      if (!p.is_array() || p.size() != width) fail(name, "expected " + std::to_string(width) + " numbers");
-      const double value = number(name, p[0], -1e30, 1e30);
-      if (value < previous) fail(name, "values must ascend");
-      previous = value;
-      for (size_t k = 1; k < width; ++k) number(name, p[k], 0, 1);
-    }
-  }
+  const json& object() const { return object_; }
 
  private:
   static std::string text(double v) {
@@ -127,24 +111,7 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     if (!(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * dl * ul)) f.fail("up", "zero or parallel to the view direction");
     return m;
   }
-  if (type == "tf.set") {
-    TfSet m;
-    json tf = json::object();
-    if (auto a = f.string("attribute", 128)) tf["attribute"] = *a;
-    if (auto c = f.string("colormap", 64)) tf["colormap"] = *c;
-    if (const json* r = f.find("range")) {
-      if (!r->is_array() || r->size() != 2) f.fail("range", "expected [low, high]");
-      const double lo = f.number("range", (*r)[0], -1e30, 1e30), hi = f.number("range", (*r)[1], -1e30, 1e30);
-      if (!(hi > lo)) f.fail("range", "high must exceed low");
-      tf["range"] = {lo, hi};
-    }
-    f.points("opacity", 2, limits.max_tf_points);
-    f.points("colors", 4, limits.max_tf_points);
-    if (const json* o = f.find("opacity")) tf["opacity"] = *o;
-    if (const json* c = f.find("colors")) tf["colors"] = *c;
-    m.tf = std::move(tf);
-    return m;
-  }
+  if (type == "tf.set") return TfSet{parse_transfer_function(f.object(), limits.max_tf_points, id)};
   if (type == "mode.set") {
     ModeSet m;
     const std::string mode = f.string("mode", 64).value_or("");
@@ -173,26 +140,26 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
   }
   if (type == "lod.set") {
     LodSet m;
-    m.budget = f.integer("budget", 1, 4000000000ull);
-    m.interaction_budget = f.integer("interaction_budget", 1, 4000000000ull);
+    m.budget = f.integer("budget", 1, kMaxBudget);
+    m.interaction_budget = f.integer("interaction_budget", 1, kMaxBudget);
     if (!m.budget && !m.interaction_budget) f.fail("budget", "missing (budget or interaction_budget)");
     return m;
   }
   if (type == "view.resize") {
     ViewResize m;
-    m.width = static_cast<uint32_t>(f.integer("width", 16, limits.max_image_side).value_or(0));
-    m.height = static_cast<uint32_t>(f.integer("height", 16, limits.max_image_side).value_or(0));
+    m.width = static_cast<uint32_t>(f.integer("width", kMinImageSide, limits.max_image_side).value_or(0));
+    m.height = static_cast<uint32_t>(f.integer("height", kMinImageSide, limits.max_image_side).value_or(0));
     if (!m.width) f.fail("width", "missing");
     if (!m.height) f.fail("height", "missing");
     return m;
   }
   if (type == "quality.set") {
     QualitySet m;
-    if (auto q = f.integer("interaction", 1, 100)) m.interaction = static_cast<int>(*q);
-    if (auto q = f.integer("still", 1, 100)) m.still = static_cast<int>(*q);
+    if (auto q = f.integer("interaction", 1, kMaxJpegQuality)) m.interaction = static_cast<int>(*q);
+    if (auto q = f.integer("still", 1, kMaxJpegQuality)) m.still = static_cast<int>(*q);
     m.still_codec = f.string("still_codec", 8);
     if (m.still_codec && *m.still_codec != "jpeg" && *m.still_codec != "png") f.fail("still_codec", "expected jpeg or png");
-    m.interaction_scale = f.number("interaction_scale", 0.25, 1);
+    m.interaction_scale = f.number("interaction_scale", kMinInteractionScale, 1);
     return m;
   }
   if (type == "ping") return Ping{};

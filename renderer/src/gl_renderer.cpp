@@ -30,6 +30,7 @@ constexpr size_t kMaxCachedIsosurfaces = 8;    // isovalue sets kept per mesh
 struct FrameSetup {
   Frame frame;
   std::array<float, 16> mvp{};
+  double near_depth = 0;  // the near plane's distance from the eye along the view direction
   double lo = 0, hi = 1;  // the transfer function's range
 };
 
@@ -40,15 +41,17 @@ void check_settings(const RenderSettings& s) {
   if (!(s.iso_opacity > 0 && s.iso_opacity <= 1)) throw std::invalid_argument("isosurface opacity must be in (0, 1]");
 }
 
-// The camera, its matrix (near and far planes around the mesh's bounding sphere) and the
-// transfer function's range.
+// The camera, its matrix (near and far planes around the mesh's bounding sphere; with the eye
+// inside it, the near plane just in front of the eye, or for orthographic views at the eye's
+// plane, where the reference's rays start) and the transfer function's range.
 FrameSetup frame_setup(const SceneMesh& mesh, const RenderSettings& s) {
   FrameSetup out;
   out.frame = camera_frame(s.camera, s.width, s.height);
   const Vec3 centre{(mesh.bounds.min[0] + mesh.bounds.max[0]) / 2, (mesh.bounds.min[1] + mesh.bounds.max[1]) / 2, (mesh.bounds.min[2] + mesh.bounds.max[2]) / 2};
   const double distance = length(centre - out.frame.eye);
-  const double far_plane = distance + mesh.diagonal, near_plane = std::max(far_plane * 1e-5, distance - mesh.diagonal);
-  out.mvp = view_projection(out.frame, out.frame.ortho ? distance - mesh.diagonal : near_plane, far_plane);
+  const double far_plane = distance + mesh.diagonal;
+  out.near_depth = out.frame.ortho ? std::max(0.0, distance - mesh.diagonal) : std::max(far_plane * 1e-5, distance - mesh.diagonal);
+  out.mvp = view_projection(out.frame, out.near_depth, far_plane);
   out.lo = mesh.value_min;
   out.hi = mesh.value_max;
   if (s.tf.range) {
@@ -164,6 +167,8 @@ class GlRenderer final : public Renderer {
     if (framebuffer_) {
       glDeleteFramebuffers(1, &framebuffer_);
       glDeleteRenderbuffers(1, &color_);
+      glDeleteFramebuffers(1, &resolve_framebuffer_);
+      glDeleteRenderbuffers(1, &resolve_color_);
       glDeleteTextures(1, &depth_);
       glDeleteTextures(1, &distance_texture_);
       glDeleteTextures(1, &distance_copy_);
@@ -171,7 +176,13 @@ class GlRenderer final : public Renderer {
     }
     glCreateFramebuffers(1, &framebuffer_);
     glCreateRenderbuffers(1, &color_);
-    glNamedRenderbufferStorage(color_, GL_RGBA8, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
+    // float colour: a ray through thousands of tiny tets composes thousands of tiny
+    // contributions, each below the 1/255 step of an 8-bit target, which would drop them
+    glNamedRenderbufferStorage(color_, GL_RGBA32F, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
+    glCreateFramebuffers(1, &resolve_framebuffer_);  // 8-bit, for a fast readback
+    glCreateRenderbuffers(1, &resolve_color_);
+    glNamedRenderbufferStorage(resolve_color_, GL_RGBA8, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
+    glNamedFramebufferRenderbuffer(resolve_framebuffer_, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, resolve_color_);
     glCreateTextures(GL_TEXTURE_2D, 1, &depth_);
     glTextureStorage2D(depth_, 1, GL_DEPTH_COMPONENT32F, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
     for (GLuint* t : {&distance_texture_, &distance_copy_}) {
@@ -340,14 +351,16 @@ class GlRenderer final : public Renderer {
     tm.iso_triangles = count;
   }
 
-  // The volume: visible tets back to front, front faces only, blended premultiplied; with
-  // `opaque`, rays stop at the distance the opaque passes wrote.
+  // The volume: visible tets back to front, blended premultiplied; with `opaque`, rays stop at
+  // the distance the opaque passes wrote. Tets that reach the near plane are drawn in their
+  // place in the order by their back faces, their segments starting at the near plane (their
+  // front faces are clipped there, or behind the eye).
   void draw_volume(const FrameSetup& setup, const RenderSettings& s, bool opaque, FrameTimings& tm) {
     const SceneMesh& mesh = *mesh_;
     const double unit = s.unit_distance > 0 ? s.unit_distance : mesh.diagonal / 100;
     update_table(s.tf, setup.lo, setup.hi, unit, mesh.max_edge);
     const auto sort_start = clock_type::now();
-    const std::span<const uint32_t> order = visibility_.sort(sort_inputs_, setup.lo, setup.hi, setup.frame, tm);
+    const std::span<const uint32_t> order = visibility_.sort(mesh, sort_inputs_, setup.lo, setup.hi, setup.frame, setup.near_depth, tm);
     const auto count = static_cast<uint32_t>(order.size());
     tm.sort_ms = ms_since(sort_start);
     if (!count) return;
@@ -368,31 +381,55 @@ class GlRenderer final : public Renderer {
     glUniform1i(glGetUniformLocation(tet_program_, "depth_limit"), 2);
     glUniform1i(glGetUniformLocation(tet_program_, "clip_depth"), opaque);
     glUniform2f(glGetUniformLocation(tet_program_, "viewport"), float(s.width), float(s.height));
-    glUniform1f(glGetUniformLocation(tet_program_, "max_length"), float(table_.max_length));
+    glUniform1f(glGetUniformLocation(tet_program_, "length_scale"), float(table_.length_scale));
+    glUniform1f(glGetUniformLocation(tet_program_, "inv_log_length_range"), float(1 / std::log1p(table_.max_length / table_.length_scale)));
     glUniform1f(glGetUniformLocation(tet_program_, "table_n"), float(table_.n));
     glUniform1f(glGetUniformLocation(tet_program_, "table_lengths"), float(table_.lengths));
+    glUniform1f(glGetUniformLocation(tet_program_, "near_depth"), float(setup.near_depth));
     glEnable(GL_CULL_FACE);
-    glCullFace(GL_BACK);
     glFrontFace(GL_CCW);
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // back to front, premultiplied
     glDepthMask(GL_FALSE);
     glBindVertexArray(empty_vao_);
     glVertexArrayElementBuffer(empty_vao_, index_buffer_);
-    const GLint first_slot = glGetUniformLocation(tet_program_, "first_slot");
-    for (uint32_t first = 0; first < count; first += kSlotsPerDraw) {
-      glUniform1ui(first_slot, first);
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * std::min(kSlotsPerDraw, count - first)), GL_UNSIGNED_INT, nullptr);
+    uint32_t first = 0;
+    for (uint32_t near : visibility_.near_positions()) {
+      draw_tets(first, near, false);
+      draw_tets(near, near + 1, true);
+      first = near + 1;
     }
+    draw_tets(first, count, false);
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
     glDisable(GL_CULL_FACE);
+    glEnable(GL_DEPTH_TEST);
+  }
+
+  // Tets at positions [first, end) of the order: front faces, or for `near` back faces with
+  // no depth test (the segment from the near plane may end before an opaque surface that
+  // the back face lies behind; the distance limit cuts it there).
+  void draw_tets(uint32_t first, uint32_t end, bool near) {
+    if (first >= end) return;
+    glUniform1i(glGetUniformLocation(tet_program_, "near_pass"), near);
+    glCullFace(near ? GL_FRONT : GL_BACK);
+    if (near) glDisable(GL_DEPTH_TEST);
+    else glEnable(GL_DEPTH_TEST);
+    const GLint first_slot = glGetUniformLocation(tet_program_, "first_slot");
+    for (uint32_t slot = first; slot < end; slot += kSlotsPerDraw) {
+      glUniform1ui(first_slot, slot);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * std::min(kSlotsPerDraw, end - slot)), GL_UNSIGNED_INT, nullptr);
+    }
   }
 
   // The colour target through a pixel buffer, rows flipped to top first.
   Image read_back(uint32_t width, uint32_t height, FrameTimings& tm) {
     const auto read_start = clock_type::now();
     Image image{width, height, std::vector<uint8_t>(size_t{width} * height * 4)};
+    glNamedFramebufferReadBuffer(framebuffer_, GL_COLOR_ATTACHMENT0);
+    glBlitNamedFramebuffer(framebuffer_, resolve_framebuffer_, 0, 0, static_cast<GLint>(width), static_cast<GLint>(height), 0, 0, static_cast<GLint>(width),
+                           static_cast<GLint>(height), GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, resolve_framebuffer_);
     glBindBuffer(GL_PIXEL_PACK_BUFFER, pack_buffer_);
     glReadBuffer(GL_COLOR_ATTACHMENT0);
     glReadPixels(0, 0, static_cast<GLsizei>(width), static_cast<GLsizei>(height), GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
@@ -430,6 +467,7 @@ class GlRenderer final : public Renderer {
   GLuint tet_program_ = 0, surface_program_ = 0, line_program_ = 0, empty_vao_ = 0, surface_vao_ = 0, line_vao_ = 0;
   GLuint cell_buffer_ = 0, index_buffer_ = 0;
   GLuint vertex_buffer_ = 0, tet_buffer_ = 0, order_buffer_ = 0, surface_buffer_ = 0, line_buffer_ = 0, pack_buffer_ = 0;
+  GLuint resolve_framebuffer_ = 0, resolve_color_ = 0;
   GLuint framebuffer_ = 0, color_ = 0, depth_ = 0, distance_texture_ = 0, distance_copy_ = 0, table_texture_ = 0, colormap_texture_ = 0;
   uint32_t fb_width_ = 0, fb_height_ = 0;
   GLsizei surface_vertices_ = 0;

@@ -40,32 +40,52 @@ uniform vec3 eye, forward;
 uniform bool ortho;
 uniform float lo, inv_span;
 uniform sampler3D table;
-uniform float max_length, table_n, table_lengths;
+uniform float table_n, table_lengths;
+uniform float length_scale, inv_log_length_range;  // the table's length axis (PreintegrationTable)
 uniform bool clip_depth;
 uniform sampler2D depth_limit;   // distance along the ray to the nearest opaque surface
 uniform vec2 viewport;
+uniform bool near_pass;          // back faces of a tet that reaches the near plane: the segment ends here
+uniform float near_depth;        // the near plane's distance from the eye along `forward`
 out vec4 color;
 void exit_of(vec4 pl, vec3 d, inout float t) {
   float dn = dot(pl.xyz, d);
   if (dn > 1e-20) t = min(t, -(dot(pl.xyz, world) + pl.w) / dn);
 }
+void entry_of(vec4 pl, vec3 d, inout float s) {
+  float dn = dot(pl.xyz, d);
+  if (dn < -1e-20) s = max(s, -(dot(pl.xyz, world) + pl.w) / dn);
+}
 void main() {
   vec3 d = ortho ? forward : normalize(world - eye);
-  float t = 3.4e38;
-  exit_of(plane0, d, t);
-  exit_of(plane1, d, t);
-  exit_of(plane2, d, t);
-  exit_of(plane3, d, t);
-  t = max(t, 0.0);
+  vec3 front = world;
+  float t;
+  if (near_pass) {  // the segment starts at max(near plane, entry into the tet)
+    float s = -3.4e38;
+    entry_of(plane0, d, s);
+    entry_of(plane1, d, s);
+    entry_of(plane2, d, s);
+    entry_of(plane3, d, s);
+    s = min(max(s, (near_depth - dot(world - eye, forward)) / dot(d, forward)), 0.0);
+    front = world + s * d;
+    t = -s;
+  } else {
+    t = 3.4e38;
+    exit_of(plane0, d, t);
+    exit_of(plane1, d, t);
+    exit_of(plane2, d, t);
+    exit_of(plane3, d, t);
+    t = max(t, 0.0);
+  }
   if (clip_depth) {
     float limit = texture(depth_limit, gl_FragCoord.xy / viewport).r;
-    float here = ortho ? dot(world - eye, forward) : length(world - eye);
+    float here = ortho ? dot(front - eye, forward) : length(front - eye);
     t = min(t, max(limit - here, 0.0));
   }
-  float sf = (dot(field.xyz, world) + field.w - lo) * inv_span;
+  float sf = (dot(field.xyz, front) + field.w - lo) * inv_span;
   float sb = sf + dot(field.xyz, d) * t * inv_span;
   vec3 uvw = vec3((clamp(sf, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n, (clamp(sb, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n,
-                  (clamp(t / max_length, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
+                  (clamp(log(1.0 + t / length_scale) * inv_log_length_range, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
   color = texture(table, uvw);
 }
 )";

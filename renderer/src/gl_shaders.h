@@ -7,7 +7,8 @@
 namespace tetrascope::renderer {
 
 // Volume: one tet's front faces; each fragment intersects its view ray with the tet's planes
-// (exact segment), then looks up the pre-integrated table over (front, back, length).
+// (exact segment), then looks up the pre-integrated table over (front, back, length). With
+// `near_pass`, the tet's back faces, and the segment starts at max(near plane, entry).
 extern const char* const kTetVertex;
 extern const char* const kTetFragment;
 // Lit triangles (boundary surface, isosurfaces) coloured by value or a solid colour; also

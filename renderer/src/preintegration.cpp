@@ -42,12 +42,23 @@ std::array<double, 4> integrate_segment(const lod::TransferFunction& tf, double 
   return {r, g, b, a};
 }
 
+double PreintegrationTable::length_at(uint32_t m) const {
+  return length_scale * std::expm1(double(m) / std::max(1u, lengths - 1) * std::log1p(max_length / length_scale));
+}
+
+double PreintegrationTable::length_coordinate(double length) const {
+  return std::clamp(std::log1p(std::max(length, 0.0) / length_scale) / std::log1p(max_length / length_scale), 0.0, 1.0);
+}
+
 PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n,
                                  uint32_t lengths) {
   PreintegrationTable table;
   table.n = n;
   table.lengths = lengths;
   table.max_length = max_length;
+  // below about 1/16 of the unit distance opacity grows nearly linearly with length: the axis is
+  // linear there and logarithmic above
+  table.length_scale = std::clamp(unit_distance / 16, max_length * 1e-9, max_length);
   table.rgba.resize(size_t{n} * n * lengths * 4);
   // classified values on a fine grid, so the inner loop needs one exp a step
   const int fine = 1024;
@@ -57,7 +68,7 @@ PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, dou
   auto work = [&](uint32_t first_length, uint32_t step) {
     const int steps = 24;
     for (uint32_t m = first_length; m < lengths; m += step) {
-      const double length = max_length * m / std::max(1u, lengths - 1);
+      const double length = table.length_at(m);
       const double dt = length / steps;
       for (uint32_t j = 0; j < n; ++j)
         for (uint32_t i = 0; i < n; ++i) {

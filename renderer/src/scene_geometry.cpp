@@ -56,6 +56,7 @@ TetSortInputs tet_sort_inputs(const SceneMesh& mesh) {
   const size_t tets = mesh.tets.size() / 4;
   TetSortInputs out;
   out.centroid.assign(3 * tets, 0.0f);
+  out.radius.resize(tets);
   out.range.resize(2 * tets);
   for (size_t t = 0; t < tets; ++t) {
     float lo = 3.4e38f, hi = -3.4e38f;
@@ -65,6 +66,14 @@ TetSortInputs tet_sort_inputs(const SceneMesh& mesh) {
       lo = std::min(lo, mesh.value[v]);
       hi = std::max(hi, mesh.value[v]);
     }
+    double r2 = 0;
+    for (int j = 0; j < 4; ++j) {
+      const uint32_t v = mesh.tets[4 * t + j];
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += std::pow(double(mesh.xyz[3 * size_t{v} + k]) - out.centroid[3 * t + k], 2);
+      r2 = std::max(r2, d2);
+    }
+    out.radius[t] = static_cast<float>(std::sqrt(r2) * (1 + 1e-6));  // float centroid: a little slack
     out.range[2 * t] = lo;
     out.range[2 * t + 1] = hi;
   }

@@ -17,10 +17,10 @@ namespace tetrascope::renderer {
 constexpr size_t kFloatsPerTetCell = 20;
 std::vector<float> tet_cells(const SceneMesh& mesh);
 
-// Per tet: centroid (3 floats) and the range of its vertex values (2 floats), the sort and
-// skip inputs of the volume pass.
+// Per tet: centroid (3 floats), the radius of the sphere about it through the farthest vertex,
+// and the range of its vertex values (2 floats): the sort and skip inputs of the volume pass.
 struct TetSortInputs {
-  std::vector<float> centroid, range;
+  std::vector<float> centroid, radius, range;
 };
 TetSortInputs tet_sort_inputs(const SceneMesh& mesh);
 

@@ -5,7 +5,31 @@
 #include <cmath>
 #include <cstring>
 
+#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/storage/vec3.h"
+
 namespace tetrascope::renderer {
+
+namespace {
+
+// Whether `point` lies in tet t (on its boundary included, with a relative tolerance).
+bool tet_contains(const SceneMesh& mesh, size_t t, const Vec3& point) {
+  Vec3 p[4];
+  for (int k = 0; k < 4; ++k) {
+    const uint32_t v = mesh.tets[4 * t + k];
+    p[k] = {mesh.xyz[3 * size_t{v}], mesh.xyz[3 * size_t{v} + 1], mesh.xyz[3 * size_t{v} + 2]};
+  }
+  const double volume6 = std::fabs(dot(p[1] - p[0], cross(p[2] - p[0], p[3] - p[0])));
+  if (!(volume6 > 0)) return false;
+  for (int f = 0; f < 4; ++f) {
+    const Vec3& a = p[kTetFace[f][0]];
+    const double outside = dot(cross(p[kTetFace[f][1]] - a, p[kTetFace[f][2]] - a), point - a);  // > 0: beyond face f
+    if (outside > 1e-9 * volume6) return false;
+  }
+  return true;
+}
+
+}  // namespace
 
 void VisibilityOrder::set_transfer_function(const lod::TransferFunction& tf, double lo, double hi) {
   visible_prefix_.assign(kValueSlots + 1, 0);
@@ -15,10 +39,23 @@ void VisibilityOrder::set_transfer_function(const lod::TransferFunction& tf, dou
   }
 }
 
-std::span<const uint32_t> VisibilityOrder::sort(const TetSortInputs& tets, double lo, double hi, const Frame& f, FrameTimings& tm) {
+// Conservatively, by the tet's bounding sphere: perspective, the ball about the eye through the
+// near rectangle's corners; orthographic, the slab in front of the near plane across the view.
+bool VisibilityOrder::reaches_near_region(const TetSortInputs& tets, size_t t, const Frame& f, double near_depth, double corner) const {
+  const float* c = &tets.centroid[3 * t];
+  const Vec3 q = Vec3{c[0], c[1], c[2]} - f.eye;
+  const double r = tets.radius[t];
+  if (!f.ortho) return dot(q, q) < (r + corner) * (r + corner);
+  return dot(q, f.forward) - r < near_depth && std::fabs(dot(q, f.right)) < f.half_height * f.aspect + r && std::fabs(dot(q, f.up)) < f.half_height + r;
+}
+
+std::span<const uint32_t> VisibilityOrder::sort(const SceneMesh& mesh, const TetSortInputs& tets, double lo, double hi, const Frame& f, double near_depth,
+                                                FrameTimings& tm) {
   const size_t count = tets.centroid.size() / 3;
   keys_.clear();
   ids_.clear();
+  near_.assign(count, 0);
+  const double corner = near_depth * std::sqrt(1 + std::pow(f.tan_half * f.aspect, 2) + std::pow(f.tan_half, 2));  // its distance from the eye
   const double scale = kValueSlots / (hi - lo);
   for (size_t t = 0; t < count; ++t) {
     int a = static_cast<int>(std::floor((tets.range[2 * t] - lo) * scale)), b = static_cast<int>(std::floor((tets.range[2 * t + 1] - lo) * scale));
@@ -36,7 +73,12 @@ std::span<const uint32_t> VisibilityOrder::sort(const TetSortInputs& tets, doubl
     const float fd = static_cast<float>(depth);
     std::memcpy(&bits, &fd, 4);
     bits = (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
-    keys_.push_back(~bits);
+    uint32_t key = ~bits;
+    if (reaches_near_region(tets, t, f, near_depth, corner)) {
+      near_[t] = 1;
+      if (!f.ortho && tet_contains(mesh, t, f.eye)) key = 0xFFFFFFFFu;  // nearest on every ray through it: last
+    }
+    keys_.push_back(key);
     ids_.push_back(static_cast<uint32_t>(t));
   }
   const size_t n = keys_.size();
@@ -54,6 +96,9 @@ std::span<const uint32_t> VisibilityOrder::sort(const TetSortInputs& tets, doubl
     keys_.swap(keys2_);
     ids_.swap(ids2_);
   }
+  near_positions_.clear();
+  for (size_t i = 0; i < n; ++i)
+    if (near_[ids_[i]]) near_positions_.push_back(static_cast<uint32_t>(i));
   tm.tets_drawn = n;
   return ids_;
 }

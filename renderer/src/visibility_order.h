@@ -1,6 +1,10 @@
 // The volume pass's CPU half: which tets can show under the transfer function (a tet whose
-// value range maps to zero opacity everywhere is skipped), and their back-to-front order by
-// centroid depth (LSD radix sort on the float key). Scratch buffers are kept between frames.
+// value range maps to zero opacity everywhere is skipped), their back-to-front order by
+// centroid depth (LSD radix sort on the float key), and which of them reach the region
+// between the eye and the near plane inside the view (their front faces are clipped there, so
+// the renderer draws their back faces and starts the segments at the near plane). Tets that
+// contain a perspective eye go last: along every ray through them they are the nearest.
+// Scratch buffers are kept between frames.
 #pragma once
 
 #include <cstdint>
@@ -18,12 +22,20 @@ class VisibilityOrder {
   // Marks which of kValueSlots slices of [lo, hi] have any opacity.
   void set_transfer_function(const lod::TransferFunction& tf, double lo, double hi);
   // The tets that can show, farthest first; counts drawn and skipped tets into `timings`.
-  std::span<const uint32_t> sort(const TetSortInputs& tets, double lo, double hi, const Frame& frame, FrameTimings& timings);
+  // `near_depth`: the near plane's distance from the eye along the view direction.
+  std::span<const uint32_t> sort(const SceneMesh& mesh, const TetSortInputs& tets, double lo, double hi, const Frame& frame, double near_depth,
+                                 FrameTimings& timings);
+  // Positions in the last order whose tets reach nearer than the near plane inside the view.
+  std::span<const uint32_t> near_positions() const { return near_positions_; }
 
  private:
+  // `corner`: the distance from a perspective eye to the near rectangle's corners.
+  bool reaches_near_region(const TetSortInputs& tets, size_t t, const Frame& frame, double near_depth, double corner) const;
+
   static constexpr int kValueSlots = 1024;
   std::vector<int> visible_prefix_;  // slices with opacity among the first i
-  std::vector<uint32_t> keys_, keys2_, ids_, ids2_;
+  std::vector<uint32_t> keys_, keys2_, ids_, ids2_, near_positions_;
+  std::vector<uint8_t> near_;  // per tet, during a sort
 };
 
 }  // namespace tetrascope::renderer

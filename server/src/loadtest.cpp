@@ -9,12 +9,12 @@
 
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/server/client.h"
+#include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::server {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using Vec = std::array<double, 3>;
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
@@ -24,12 +24,10 @@ double percentile(std::vector<double> v, double p) {
   return v[lo] + (v[hi] - v[lo]) * (at - lo);
 }
 
-Vec rotate(const Vec& v, const Vec& axis, double angle) {  // Rodrigues
-  const double n = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-  const Vec k{axis[0] / n, axis[1] / n, axis[2] / n};
-  const double c = std::cos(angle), s = std::sin(angle), d = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
-  const Vec cross{k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]};
-  return {v[0] * c + cross[0] * s + k[0] * d * (1 - c), v[1] * c + cross[1] * s + k[1] * d * (1 - c), v[2] * c + cross[2] * s + k[2] * d * (1 - c)};
+Vec3 rotate(const Vec3& v, const Vec3& axis, double angle) {  // Rodrigues
+  const Vec3 k = normalise(axis);
+  const double c = std::cos(angle), s = std::sin(angle);
+  return v * c + cross(k, v) * s + k * (dot(k, v) * (1 - c));
 }
 
 struct ClientResult {
@@ -47,8 +45,8 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
     client.send("view.resize", {{"width", o.width}, {"height", o.height}});
     client.send("dataset.open", {{"name", o.dataset}});
     const nlohmann::json info = client.expect("dataset.info", std::chrono::seconds(60));
-    const Vec eye = info["camera"]["eye"], target = info["camera"]["target"], up = info["camera"]["up"];
-    const Vec offset{eye[0] - target[0], eye[1] - target[1], eye[2] - target[2]};
+    const Vec3 eye = info["camera"]["eye"], target = info["camera"]["target"], up = info["camera"]["up"];
+    const Vec3 offset = eye - target;
     const double fov = info["camera"]["fov"];
     std::mt19937 random(1234 + index);
     std::normal_distribution<double> step(0, 0.05);
@@ -66,9 +64,9 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
         } else {
           azimuth += 2 * M_PI / 6 / o.rate_hz;  // a turn in six seconds
         }
-        Vec side{offset[1] * up[2] - offset[2] * up[1], offset[2] * up[0] - offset[0] * up[2], offset[0] * up[1] - offset[1] * up[0]};
-        const Vec rotated = rotate(rotate(offset, side, elevation), up, azimuth);
-        const uint32_t id = client.send("camera.set", {{"eye", {target[0] + rotated[0], target[1] + rotated[1], target[2] + rotated[2]}},
+        const Vec3 side = cross(offset, up);
+        const Vec3 rotated = rotate(rotate(offset, side, elevation), up, azimuth);
+        const uint32_t id = client.send("camera.set", {{"eye", target + rotated},
                                                        {"target", target}, {"up", up}, {"fov", fov}, {"interacting", true}});
         sent[id] = Clock::now();
         next_send += period;

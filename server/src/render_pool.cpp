@@ -62,7 +62,7 @@ void RenderPool::run(size_t index) {
     }
     task(worker);  // tasks catch their own errors
   }
-  // The context stays up to exit (see apps/main.cpp): Mesa, unloaded by eglTerminate, leaves
+  // The context stays up to exit (see run_render in apps/cmd_view.cpp): Mesa, unloaded by eglTerminate, leaves
   // allocations that leak checkers report against us.
   static std::mutex kept_mutex;
   static std::vector<renderer::Renderer*>* kept = new std::vector<renderer::Renderer*>();

@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "view.h"
+#include "frame_maker.h"
 
 namespace tetrascope::server {
 

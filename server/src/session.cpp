@@ -17,7 +17,9 @@
 
 #include <boost/beast/websocket.hpp>
 
+#include "frame_maker.h"
 #include "server_impl.h"
+#include "session_replies.h"
 
 namespace tetrascope::server {
 namespace {
@@ -36,7 +38,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     ++server_.metrics.sessions_active;
     ++server_.metrics.sessions_total;
     const auto& o = server_.options;
-    state_.budget = o.still_budget;
+    state_.view.budget = o.still_budget;
     state_.interaction_budget = o.interaction_budget;
     state_.interaction_quality = o.interaction_quality;
     state_.still_quality = o.still_quality;
@@ -111,155 +113,128 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     return state_.dataset;
   }
 
+  // What a message asks for once applied: nothing more (a reply was sent), a still frame, or
+  // an interaction frame with a still after still_delay.
+  enum class Then { kReplied, kStill, kInteraction };
+
   void apply(const protocol::Envelope& envelope) {
-    using namespace protocol;
-    const uint32_t id = envelope.id;
-    Pending wanted = Pending::kStill;
-    bool interacting = false;
-    bool reply_only = false;  // hello, dataset.open (schedules itself), ping
-    std::visit([&](const auto& message) {
-      using T = std::decay_t<decltype(message)>;
-      [[maybe_unused]] const T* m = &message;
-      if constexpr (std::is_same_v<T, Hello>) {
-        if (!server_.options.token.empty() && !m->token.empty() && !server_.token_matches(m->token))
-          throw ProtocolError(code::kUnauthorized, "wrong token", id);
-        hello_ = true;
-        const auto& o = server_.options;
-        const auto& l = o.limits;
-        nlohmann::json colormaps = nlohmann::json::object();  // for the client's legend and editor
-        for (const char* name : {"viridis", "plasma", "cool-warm", "grayscale"}) {
-          nlohmann::json samples = nlohmann::json::array();
-          for (int i = 0; i < 32; ++i) {
-            const auto rgb = renderer::colormap(name, i / 31.0);
-            samples.push_back({std::round(rgb[0] * 1000) / 1000, std::round(rgb[1] * 1000) / 1000, std::round(rgb[2] * 1000) / 1000});
-          }
-          colormaps[name] = samples;
-        }
-        send_text(nlohmann::json({{"type", "hello.ok"},
-                                  {"id", id},
-                                  {"version", kVersion},
-                                  {"server", "tetrascope"},
-                                  {"renderer", server_.pool->description()},
-                                  {"limits",
-                                   {{"max_message_bytes", l.max_message_bytes},
-                                    {"max_messages_per_second", l.max_messages_per_second},
-                                    {"max_image_side", l.max_image_side},
-                                    {"max_isovalues", l.max_isovalues},
-                                    {"max_tf_points", l.max_tf_points}}},
-                                  {"colormaps", colormaps},
-                                  {"defaults",
-                                   {{"budget", o.still_budget},
-                                    {"interaction_budget", o.interaction_budget},
-                                    {"interaction_quality", o.interaction_quality},
-                                    {"still_quality", o.still_quality},
-                                    {"max_fps", o.max_fps},
-                                    {"still_delay_ms", o.still_delay.count()}}}})
-                      .dump());
-        reply_only = true;
-        return;
-      }
-      if constexpr (std::is_same_v<T, DatasetOpen>) {
-        std::shared_ptr<Dataset> dataset;
-        try {
-          dataset = server_.datasets->open(m->name);
-        } catch (const NotFound& e) {
-          throw ProtocolError(code::kNotFound, e.what(), id);
-        } catch (const std::exception& e) {
-          throw ProtocolError(code::kNotFound, std::string("cannot open '") + m->name + "': " + e.what(), id);
-        }
-        nlohmann::json info = dataset->info;
-        const lod::Camera camera = opening_camera(dataset->store->manifest().bounds);
-        info["type"] = "dataset.info";
-        info["id"] = id;
-        info["camera"] = {{"eye", camera.eye}, {"target", camera.target}, {"up", camera.up}, {"fov", camera.fov_degrees}};
-        {
-          std::lock_guard lock(mutex_);
-          state_.dataset = dataset;
-          state_.camera_set = false;
-          state_.tf = lod::TransferFunction{};
-          state_.isovalues.clear();
-          state_.color_by.clear();
-          state_.message_id = id;
-        }
-        send_text(info.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
-        schedule(Pending::kStill);
-        reply_only = true;
-        return;
-      }
-      if constexpr (std::is_same_v<T, CameraSet>) {
-        need_dataset(id);
-        std::lock_guard lock(mutex_);
-        state_.camera.eye = m->eye;
-        state_.camera.target = m->target;
-        state_.camera.up = m->up;
-        state_.camera.fov_degrees = m->fov;
-        state_.camera.orthographic = m->orthographic;
-        state_.camera.ortho_height = m->height;
-        state_.camera_set = true;
-        state_.message_id = id;
-        interacting = m->interacting;
-      } else if constexpr (std::is_same_v<T, TfSet>) {
-        auto dataset = need_dataset(id);
-        lod::TransferFunction tf;
-        try {
-          tf = lod::TransferFunction::from_json(m->tf);
-        } catch (const std::invalid_argument& e) {
-          throw ProtocolError(code::kBadField, e.what(), id);
-        }
-        if (!renderer::known_colormap(tf.colormap)) throw ProtocolError(code::kBadField, "colormap: unknown '" + tf.colormap + "' (viridis, plasma, cool-warm, grayscale)", id);
-        check_attribute(*dataset, tf.attribute, id);
-        std::lock_guard lock(mutex_);
-        state_.tf = tf;
-        state_.message_id = id;
-        interacting = true;  // the editor sends a stream of these while dragging
-      } else if constexpr (std::is_same_v<T, ModeSet>) {
-        std::lock_guard lock(mutex_);
-        state_.dvr = m->dvr;
-        state_.iso = m->iso;
-        state_.surface = m->surface;
-        if (m->wireframe) state_.wireframe = *m->wireframe;
-        if (m->box) state_.box = *m->box;
-        state_.message_id = id;
-      } else if constexpr (std::is_same_v<T, IsoSet>) {
-        if (m->color_by && !m->color_by->empty()) check_attribute(*need_dataset(id), *m->color_by, id);
-        std::lock_guard lock(mutex_);
-        state_.isovalues = m->values;
-        if (m->opacity) state_.iso_opacity = *m->opacity;
-        if (m->color_by) state_.color_by = *m->color_by;
-        state_.message_id = id;
-        interacting = true;  // the isovalue slider
-      } else if constexpr (std::is_same_v<T, LodSet>) {
-        std::lock_guard lock(mutex_);
-        if (m->budget) state_.budget = *m->budget;
-        if (m->interaction_budget) state_.interaction_budget = *m->interaction_budget;
-        state_.message_id = id;
-      } else if constexpr (std::is_same_v<T, ViewResize>) {
-        std::lock_guard lock(mutex_);
-        state_.width = m->width;
-        state_.height = m->height;
-        state_.message_id = id;
-      } else if constexpr (std::is_same_v<T, QualitySet>) {
-        std::lock_guard lock(mutex_);
-        if (m->interaction) state_.interaction_quality = *m->interaction;
-        if (m->still) state_.still_quality = *m->still;
-        if (m->still_codec) state_.png_stills = *m->still_codec == "png";
-        if (m->interaction_scale) state_.interaction_scale = *m->interaction_scale;
-        state_.message_id = id;
-      } else if constexpr (std::is_same_v<T, Ping>) {
-        send_text(pong_reply(id));
-        reply_only = true;
-        return;
-      }
-    }, envelope.message);
-    if (reply_only) return;
-    if (interacting) {
-      wanted = Pending::kInteraction;
+    const Then then = std::visit([&](const auto& message) { return on_message(message, envelope.id); }, envelope.message);
+    if (then == Then::kReplied) return;
+    if (then == Then::kInteraction) {
       still_timer_.expires_after(server_.options.still_delay);
       still_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
         if (!ec) self->schedule(Pending::kStill);
       });
     }
-    schedule(wanted);
+    schedule(then == Then::kInteraction ? Pending::kInteraction : Pending::kStill);
+  }
+
+  // Updates the shared view state under the lock and records the message as the newest applied.
+  template <class Change>
+  void change_state(uint32_t id, Change change) {
+    std::lock_guard lock(mutex_);
+    change(state_);
+    state_.message_id = id;
+  }
+
+  Then on_message(const protocol::Hello& m, uint32_t id) {
+    if (!server_.options.token.empty() && !m.token.empty() && !server_.token_matches(m.token))
+      throw protocol::ProtocolError(protocol::code::kUnauthorized, "wrong token", id);
+    hello_ = true;
+    send_text(hello_ok_reply(server_.options, server_.pool->description(), id));
+    return Then::kReplied;
+  }
+
+  Then on_message(const protocol::DatasetOpen& m, uint32_t id) {
+    std::shared_ptr<Dataset> dataset;
+    try {
+      dataset = server_.datasets->open(m.name);
+    } catch (const NotFound& e) {
+      throw protocol::ProtocolError(protocol::code::kNotFound, e.what(), id);
+    } catch (const std::exception& e) {
+      throw protocol::ProtocolError(protocol::code::kNotFound, std::string("cannot open '") + m.name + "': " + e.what(), id);
+    }
+    change_state(id, [&](ViewState& s) {
+      s.dataset = dataset;
+      s.view.camera.reset();
+      s.view.tf = lod::TransferFunction{};
+      s.view.isovalues.clear();
+      s.view.iso_color_attribute.clear();
+    });
+    send_text(dataset_info_reply(*dataset, lod::default_camera(dataset->store->manifest().bounds), id));
+    schedule(Pending::kStill);
+    return Then::kReplied;
+  }
+
+  Then on_message(const protocol::CameraSet& m, uint32_t id) {
+    need_dataset(id);
+    lod::Camera camera;
+    camera.eye = m.eye;
+    camera.target = m.target;
+    camera.up = m.up;
+    camera.fov_degrees = m.fov;
+    camera.orthographic = m.orthographic;
+    camera.ortho_height = m.height;
+    change_state(id, [&](ViewState& s) { s.view.camera = camera; });
+    return m.interacting ? Then::kInteraction : Then::kStill;
+  }
+
+  Then on_message(const protocol::TfSet& m, uint32_t id) {
+    check_attribute(*need_dataset(id), m.tf.attribute, id);
+    change_state(id, [&](ViewState& s) { s.view.tf = m.tf; });
+    return Then::kInteraction;  // the editor sends a stream of these while dragging
+  }
+
+  Then on_message(const protocol::ModeSet& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) {
+      s.view.dvr = m.dvr;
+      s.view.iso = m.iso;
+      s.view.surface = m.surface;
+      if (m.wireframe) s.view.wireframe = *m.wireframe;
+      if (m.box) s.view.box = *m.box;
+    });
+    return Then::kStill;
+  }
+
+  Then on_message(const protocol::IsoSet& m, uint32_t id) {
+    if (m.color_by && !m.color_by->empty()) check_attribute(*need_dataset(id), *m.color_by, id);
+    change_state(id, [&](ViewState& s) {
+      s.view.isovalues = m.values;
+      if (m.opacity) s.view.iso_opacity = *m.opacity;
+      if (m.color_by) s.view.iso_color_attribute = *m.color_by;
+    });
+    return Then::kInteraction;  // the isovalue slider
+  }
+
+  Then on_message(const protocol::LodSet& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) {
+      if (m.budget) s.view.budget = *m.budget;
+      if (m.interaction_budget) s.interaction_budget = *m.interaction_budget;
+    });
+    return Then::kStill;
+  }
+
+  Then on_message(const protocol::ViewResize& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) {
+      s.view.width = m.width;
+      s.view.height = m.height;
+    });
+    return Then::kStill;
+  }
+
+  Then on_message(const protocol::QualitySet& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) {
+      if (m.interaction) s.interaction_quality = *m.interaction;
+      if (m.still) s.still_quality = *m.still;
+      if (m.still_codec) s.png_stills = *m.still_codec == "png";
+      if (m.interaction_scale) s.interaction_scale = *m.interaction_scale;
+    });
+    return Then::kStill;
+  }
+
+  Then on_message(const protocol::Ping&, uint32_t id) {
+    send_text(protocol::pong_reply(id));
+    return Then::kReplied;
   }
 
   static void check_attribute(const Dataset& dataset, const std::string& name, uint32_t id) {
@@ -316,13 +291,13 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     const auto start = Clock::now();
     next_allowed_ = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / std::max(0.1, server_.options.max_fps)));
     try {
-      RenderedFrame frame = view_.render(snapshot, kind == Pending::kStill, worker, number);
+      RenderedFrame frame = frames_.render(snapshot, kind == Pending::kStill, worker, number);
       server_.metrics.render_ms.observe(frame.header.render_ms);
       server_.metrics.encode_ms.observe(frame.header.encode_ms);
-      server_.metrics.cut_ms.observe(frame.cut_ms);
-      server_.metrics.assemble_ms.observe(frame.assemble_ms);
-      server_.metrics.upload_ms.observe(frame.upload_ms);
-      server_.metrics.draw_ms.observe(frame.draw_ms);
+      server_.metrics.cut_ms.observe(frame.timings.cut_ms);
+      server_.metrics.assemble_ms.observe(frame.timings.assemble_ms);
+      server_.metrics.upload_ms.observe(frame.timings.upload_ms);
+      server_.metrics.draw_ms.observe(frame.timings.draw_ms);
       ++(kind == Pending::kStill ? server_.metrics.frames_still : server_.metrics.frames_interaction);
       server_.metrics.frame_bytes += frame.bytes.size();
       net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(frame.bytes)]() mutable { self->send_frame(std::move(bytes)); });
@@ -409,7 +384,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   uint32_t frame_number_ = 0;
   std::atomic<Clock::time_point> next_allowed_{Clock::time_point{}};
   // render turn only (one at a time)
-  ViewRenderer view_;
+  FrameMaker frames_;
 };
 
 }  // namespace

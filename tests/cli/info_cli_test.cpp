@@ -1,31 +1,17 @@
-// `tetrascope info` as a user runs it: exit codes, the documented JSON keys, clear errors.
+// `tetrascope info`, `preprocess`, `verify` and `cut` as a user runs them: exit codes, the
+// documented JSON keys, clear errors.
 #include <gtest/gtest.h>
 
-#include <array>
-#include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_run.h"
 #include "fixture_writers.h"
-#include "test_paths.h"
 
 namespace tetrascope::testing {
 namespace {
 
-struct Result {
-  int status;
-  std::string out;
-};
-
-Result run(const std::string& args) {
-  std::string command = tetrascope_binary().string() + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
-  int status = pclose(pipe);
-  return {WEXITSTATUS(status), out};
-}
+using Result = CliResult;
+Result run(const std::string& args) { return run_cli(args); }
 
 TEST(InfoCli, JsonHasTheDocumentedKeys) {
   Result r = run("info --json " + sample_mesh().string());
@@ -113,40 +99,6 @@ TEST(PreprocessCli, PreprocessInfoVerifyCutAndClearErrors) {
   Result ratio = run("preprocess " + sample_mesh().string() + " -o " + (dir / "r.store").string() + " --level-ratio 2");
   EXPECT_EQ(ratio.status, 2);
   EXPECT_FALSE(std::filesystem::exists(dir / "r.store"));
-}
-
-}  // namespace
-}  // namespace tetrascope::testing
-
-namespace tetrascope::testing {
-namespace {
-
-TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
-  const auto dir = scratch_dir("render-cli");
-  const std::string out = (dir / "frame.png").string();
-  Result ok = run("render " + sample_mesh().string() + " -o " + out + " --size 96x64 --attribute Temp --orbit 2 --json");
-  ASSERT_EQ(ok.status, 0) << ok.out;
-  std::string last = ok.out.substr(0, ok.out.find_last_not_of('\n') + 1);
-  last = last.substr(last.rfind('\n') == std::string::npos ? 0 : last.rfind('\n') + 1);
-  auto j = nlohmann::json::parse(last);  // --json: the last line is one JSON object
-  EXPECT_GT(j["median_ms"].get<double>(), 0);
-  EXPECT_EQ(j["frames"], 2);
-  EXPECT_EQ(j["legend"]["attribute"], "Temp");
-  EXPECT_GT(std::filesystem::file_size(out), 100u);
-  Result jpeg = run("render " + sample_mesh().string() + " -o " + (dir / "frame.jpg").string() + " --size 64x64 --mode surface+iso --iso 500 --quality 50");
-  EXPECT_EQ(jpeg.status, 0) << jpeg.out;
-  Result mode = run("render " + sample_mesh().string() + " -o " + out + " --mode hologram");
-  EXPECT_EQ(mode.status, 2);
-  EXPECT_NE(mode.out.find("unknown mode"), std::string::npos) << mode.out;
-  Result size = run("render " + sample_mesh().string() + " -o " + out + " --size 0x10");
-  EXPECT_EQ(size.status, 2);
-  Result format = run("render " + sample_mesh().string() + " -o " + (dir / "frame.bmp").string() + " --size 16x16");
-  EXPECT_EQ(format.status, 2);
-  EXPECT_NE(format.out.find(".png"), std::string::npos) << format.out;
-  EXPECT_FALSE(std::filesystem::exists(dir / "frame.bmp"));
-  Result attribute = run("render " + sample_mesh().string() + " -o " + out + " --attribute Nope");
-  EXPECT_EQ(attribute.status, 2);
-  EXPECT_NE(attribute.out.find("Temp"), std::string::npos) << "the message lists the attributes there are: " << attribute.out;
 }
 
 }  // namespace

@@ -85,9 +85,12 @@ TEST(ProtocolVectors, ParsedFieldsCarryTheValuesSent) {
   EXPECT_EQ(mode.wireframe, true);
   EXPECT_FALSE(mode.box.has_value());
   const auto tf = std::get<TfSet>(parse_message(R"({"type":"tf.set","id":5,"attribute":"p","range":[0,2],"opacity":[[0,0],[2,1]],"bogus":1})", limits).message);
-  EXPECT_EQ(tf.tf["attribute"], "p");
-  EXPECT_EQ(tf.tf["opacity"].size(), 2u);
-  EXPECT_FALSE(tf.tf.contains("bogus"));  // only checked fields pass on
+  EXPECT_EQ(tf.tf.attribute, "p");  // typed: unknown fields ("bogus") are dropped
+  ASSERT_EQ(tf.tf.opacity.size(), 2u);
+  EXPECT_EQ(tf.tf.opacity[1][1], 1);
+  EXPECT_EQ(tf.tf.range, (std::array<double, 2>{0, 2}));
+  EXPECT_EQ(tf.tf.colormap, "viridis");
+  EXPECT_DOUBLE_EQ(tf.tf.alpha(1), 0.5);
   const auto lod = std::get<LodSet>(parse_message(R"({"type":"lod.set","id":6,"interaction_budget":20000})", limits).message);
   EXPECT_FALSE(lod.budget.has_value());
   EXPECT_EQ(lod.interaction_budget, 20000u);

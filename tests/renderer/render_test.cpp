@@ -65,7 +65,7 @@ TEST(Render, VolumeMatchesTheReferenceRayCaster) {
     const renderer::Image reference = renderer::reference_render(scene, s);
     const double db = renderer::psnr(image, reference);
     std::printf("GL volume rendering vs reference ray caster, %s, 160x160: %.1f dB\n", mesh.filename().c_str(), db);
-    EXPECT_GE(db, 35.0) << mesh;
+    EXPECT_GE(db, 50.0) << mesh;  // 47.6 dB with an 8-bit target and a linear length axis; 65.1 dB now
     // and not trivially: the volume shows (differs from the bare background)
     renderer::Image empty = reference;
     for (size_t i = 0; i < empty.rgba.size(); i += 4)
@@ -212,6 +212,19 @@ TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
   EXPECT_THROW(gl().render(s), std::invalid_argument);
   EXPECT_THROW(renderer::SceneMesh::from(m, "nope"), std::invalid_argument);
   EXPECT_THROW(renderer::write_image("/tmp/x.bmp", image, 90), std::invalid_argument);
+}
+
+TEST(Render, ImageSideAtAndPastTheLimit) {
+  const auto scene = renderer::SceneMesh::from(box(2), "f");
+  gl().set_mesh(scene);
+  auto s = settings_for(scene, 1);
+  s.width = renderer::kMaxImageSide;  // at the limit (one row, to stay small)
+  EXPECT_EQ(gl().render(s).width, renderer::kMaxImageSide);
+  s.width = renderer::kMaxImageSide + 1;
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
+  s.width = 1;
+  s.height = renderer::kMaxImageSide + 1;
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// The WebSocket protocol between the browser and the server (issue 7).
+// The WebSocket protocol between the browser and the server.
 //
 // Control messages are JSON text frames {"type": "camera.set", "id": 7, ...}; every field is
 // checked here, at the edge, and a bad message becomes a ProtocolError whose code and message
@@ -21,13 +21,23 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/protocol/transfer_function.h"
+
 namespace tetrascope::protocol {
 
 constexpr uint32_t kVersion = 1;
 constexpr uint32_t kFrameMagic = 0x31465354;  // "TSF1" in file order
 constexpr size_t kFrameHeaderBytes = 48;
 
-// Every limit of a session, each configurable (`serve` options) and tested at and past it.
+// Fixed ranges of control-message fields (schema/messages.schema.json and js/codec.js say
+// the same).
+constexpr uint32_t kMinImageSide = 16;            // view.resize width and height
+constexpr uint64_t kMaxBudget = 4000000000ull;    // lod.set, tets
+constexpr int kMaxJpegQuality = 100;              // quality.set, from 1
+constexpr double kMinInteractionScale = 0.25;     // quality.set interaction_scale, to 1
+
+// Every limit of a session, each configurable (ServerOptions::limits; `serve` has options for
+// the sessions, message size and rate and the image side) and tested at and past it.
 struct Limits {
   size_t max_message_bytes = 64 * 1024;
   uint32_t max_messages_per_second = 200;
@@ -35,7 +45,7 @@ struct Limits {
   uint32_t max_sessions = 32;
   uint32_t max_bad_messages = 16;  // bad messages in a row before the session is closed (policy violation)
   uint32_t max_isovalues = 16;
-  uint32_t max_tf_points = 256;
+  uint32_t max_tf_points = kMaxTfPoints;
 };
 
 // Error codes of `error` replies (and of ProtocolError).
@@ -82,7 +92,7 @@ struct CameraSet {
   bool interacting = true;   // false: a jump (reset, saved view), rendered as a still at once
 };
 struct TfSet {
-  nlohmann::json tf;  // checked: attribute, colormap, range, opacity, colors (lod::TransferFunction's JSON)
+  TransferFunction tf;  // checked (parse_transfer_function); the attribute is the session's to find
 };
 // What to draw: "dvr", "iso" (or "isosurface") and "surface" joined by '+', as mode.set and
 // `tetrascope render --mode` take them. Throws std::invalid_argument naming an unknown part.

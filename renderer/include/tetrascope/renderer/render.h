@@ -6,7 +6,10 @@
 //    back-to-front order (radix sort of centroid depths); each fragment intersects its view
 //    ray with the tet's planes to find the exact segment through it (front value, back
 //    value, length) and looks up a pre-integrated transfer function table (Engel et al.
-//    2001) over (front, back, length);
+//    2001) over (front, back, length). The camera may be inside the mesh: tets that reach
+//    the near plane are drawn by their back faces with segments starting at the near plane,
+//    and colour is composed in 32-bit floats, so thousands of tiny tets along a ray add up as
+//    the exact integrator (reference_render) says;
 //  - iso: marching tetrahedra for one or more isovalues, lit, opaque;
 //  - surface: the mesh boundary coloured by the attribute, lit, with silhouette edges
 //    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine.
@@ -26,8 +29,9 @@
 
 namespace tetrascope::renderer {
 
-// The largest image side Renderer::render accepts, in pixels (a 8192x8192 RGBA frame is
-// 256 MiB of framebuffer and readback). Callers that take sizes from users (the CLI, the
+// The largest image side Renderer::render accepts, in pixels: at 8192x8192 the renderer's
+// targets take about 2.3 GiB (float colour 1 GiB, depth, two distance targets, the 8-bit
+// resolve and readback 256 MiB each). Callers that take sizes from users (the CLI, the
 // server) check against this or a smaller limit of their own.
 constexpr uint32_t kMaxImageSide = 8192;
 
@@ -82,11 +86,16 @@ std::array<float, 3> colormap(const std::string& name, double t);
 bool known_colormap(const std::string& name);
 
 // Pre-integrated table over (front, back, length): RGBA premultiplied, front-to-back composed,
-// front and back in [0, 1] over the transfer function's range, length in [0, max_length].
+// front and back in [0, 1] over the transfer function's range. The length axis is logarithmic
+// beyond `length_scale`, so that segments from tiny tets (edges spanning 72,000:1 in one mesh)
+// get as fine a resolution as long ones: entry m of `lengths` holds the length L with
+//   log(1 + L / length_scale) = m / (lengths - 1) * log(1 + max_length / length_scale).
 struct PreintegrationTable {
   uint32_t n = 0, lengths = 0;
-  double max_length = 0;
+  double max_length = 0, length_scale = 1;
   std::vector<float> rgba;  // [length][back][front][4]
+  double length_at(uint32_t m) const;
+  double length_coordinate(double length) const;  // 0..1 along the length axis (clamped)
 };
 PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n = 128,
                                  uint32_t lengths = 32);

@@ -1,0 +1,101 @@
+// serve, loadtest: the viewer's server and its load test.
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include "args.h"
+#include "commands.h"
+#include <cstdlib>
+
+#include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/view_frame.h"
+#include "tetrascope/server/loadtest.h"
+#include "tetrascope/server/server.h"
+
+namespace tetrascope::apps {
+namespace {
+
+constexpr uint32_t kDefaultRenderWorkers = 2;
+
+}  // namespace
+
+int run_serve(const Arguments& raw) {
+  Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-fps", "--budget", "--interaction-budget",
+                      "--interaction-scale", "--web"});
+  if (!args.has("--data") || !args.positionals().empty()) {
+    std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
+    return 2;
+  }
+  server::ServerOptions o;
+  o.data_dir = args.get("--data");
+  const std::filesystem::path source = TETRA_SOURCE_DIR;
+  o.web_root = args.has("--web") ? std::filesystem::path(args.get("--web")) : source / "web-client";
+  o.protocol_root = (o.web_root / "..").lexically_normal() / "protocol";  // a trailing '/' on --web too
+  const uint32_t port = args.number("--port", 8080);
+  if (port > 65535) throw std::invalid_argument("--port must be 0 to 65535");
+  o.port = static_cast<uint16_t>(port);
+  o.bind = args.get("--bind", "127.0.0.1");
+  o.token = token_option(args);
+  o.io_threads = std::max(1u, args.number("--threads", 1));
+  o.render_workers = std::max(1u, args.number("--workers", kDefaultRenderWorkers));
+  o.cache_bytes = uint64_t(args.number("--cache-mb", static_cast<uint32_t>(o.cache_bytes >> 20))) << 20;
+  o.limits.max_sessions = args.number("--max-sessions", o.limits.max_sessions);
+  o.limits.max_message_bytes = args.number("--max-message-bytes", static_cast<uint32_t>(o.limits.max_message_bytes));
+  o.limits.max_messages_per_second = args.number("--max-messages-per-second", o.limits.max_messages_per_second);
+  o.limits.max_image_side = std::min(renderer::kMaxImageSide, args.number("--max-image-side", o.limits.max_image_side));
+  o.max_upload_bytes = uint64_t(args.number("--max-upload-mb", static_cast<uint32_t>(o.max_upload_bytes >> 20))) << 20;
+  o.max_running_jobs = std::max(1u, args.number("--max-jobs", o.max_running_jobs));
+  o.max_fps = args.positive("--max-fps", o.max_fps);
+  o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
+  o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));
+  o.interaction_scale = args.positive("--interaction-scale", o.interaction_scale);
+  if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
+  server::Server server(o);
+  std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
+              o.data_dir.c_str(), o.render_workers, o.token.empty() ? "" : ", token required");
+  std::fflush(stdout);
+  server.run_until_signal();
+  return 0;
+}
+
+int run_loadtest(const Arguments& raw) {
+  Args args(raw, {"--json", "--allow-remote"}, {"--url", "--dataset", "--clients", "--duration", "--path", "--rate", "--size", "--token"});
+  if (!args.has("--url") || !args.has("--dataset")) {
+    std::fprintf(stderr, "usage: tetrascope loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random] [--json]\n");
+    return 2;
+  }
+  server::LoadtestOptions o;
+  o.url = args.get("--url");
+  o.dataset = args.get("--dataset");
+  o.token = token_option(args);
+  o.clients = args.number("--clients", 1);
+  o.duration_s = args.positive("--duration", 10);
+  o.path = args.get("--path", "orbit");
+  o.rate_hz = args.positive("--rate", 30);
+  o.allow_remote = args.has("--allow-remote");
+  if (args.has("--size")) {
+    const ImageSize size = parse_size("--size", args.get("--size"), protocol::kMinImageSide, protocol::Limits{}.max_image_side);
+    o.width = size.width;
+    o.height = size.height;
+  }
+  const nlohmann::json r = server::run_loadtest(o);
+  if (args.has("--json")) {
+    std::cout << r.dump() << "\n";
+  } else {
+    for (size_t c = 0; c < r["per_client"].size(); ++c) {
+      const auto& pc = r["per_client"][c];
+      std::printf("client %2zu: %6.1f fps  %5llu frames  latency p50 %6.1f p95 %6.1f p99 %6.1f ms  %llu errors%s%s\n", c, pc["fps"].get<double>(),
+                  static_cast<unsigned long long>(pc["frames"].get<uint64_t>()), pc["latency_ms"]["p50"].get<double>(), pc["latency_ms"]["p95"].get<double>(),
+                  pc["latency_ms"]["p99"].get<double>(), static_cast<unsigned long long>(pc["errors"].get<uint64_t>()), pc["failure"].is_null() ? "" : "  ",
+                  pc["failure"].is_null() ? "" : pc["failure"].get<std::string>().c_str());
+    }
+    std::printf("total: %.1f fps over %u clients, latency p50 %.1f p95 %.1f p99 %.1f ms, %.0f KB/s, %llu errors\n", r["total_fps"].get<double>(), o.clients,
+                r["latency_ms"]["p50"].get<double>(), r["latency_ms"]["p95"].get<double>(), r["latency_ms"]["p99"].get<double>(), r["bytes_per_s"].get<double>() / 1024,
+                static_cast<unsigned long long>(r["errors"].get<uint64_t>()));
+  }
+  return r["errors"].get<uint64_t>() == 0 && r["clients_without_frames"].get<int64_t>() == 0 ? 0 : 1;
+}
+
+}  // namespace tetrascope::apps

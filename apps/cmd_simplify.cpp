@@ -1,0 +1,100 @@
+// simplify, error: the quadric simplifier on a whole mesh and the error it leaves (§4.2.5).
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include "args.h"
+#include "commands.h"
+#include <cmath>
+
+#include "tetrascope/lod/error_measure.h"
+#include "tetrascope/lod/simplify.h"
+#include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/vtk_writer.h"
+
+namespace tetrascope::apps {
+
+int run_simplify(const Arguments& raw) {
+  Args args(raw, {"--independent", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed", "--boundary-weight",
+                                             "--feature-weight", "--vertex-weight", "--min-quality", "--attribute-weight", "--threads"});
+  int criteria = args.has("--ratio") + args.has("--tets") + args.has("--max-error");
+  if (args.positionals().size() != 1 || !args.has("--output") || criteria == 0) {
+    std::fprintf(stderr, "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--independent] [--json]\n");
+    return 2;
+  }
+  storage::ReadStats stats;
+  auto mesh = storage::load_mesh(args.positionals()[0], &stats);
+  lod::SimplifyOptions options;
+  if (args.has("--ratio")) {
+    double ratio = args.real("--ratio");
+    if (!(ratio > 0 && ratio <= 1)) throw std::invalid_argument("--ratio must be in (0, 1]");
+    options.target_tets = std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(ratio * mesh.tet_count())));
+  }
+  if (args.has("--tets")) {
+    options.target_tets = args.number("--tets", 0);
+    if (options.target_tets == 0) throw std::invalid_argument("--tets must be at least 1");
+  }
+  if (args.has("--max-error")) {
+    options.max_error = args.real("--max-error");
+    if (!(options.max_error > 0)) throw std::invalid_argument("--max-error must be > 0");
+  }
+  if (args.has("--attribute")) {
+    std::string list = args.get("--attribute");
+    for (size_t at = 0; at <= list.size();) {
+      size_t comma = list.find(',', at);
+      if (comma == std::string::npos) comma = list.size();
+      if (comma > at) options.attributes.push_back(list.substr(at, comma - at));
+      at = comma + 1;
+    }
+  }
+  options.independent = args.has("--independent");
+  if (args.has("--attribute-weight")) options.attribute_weight = args.real("--attribute-weight");
+  if (args.has("--boundary-weight")) options.boundary_weight = args.real("--boundary-weight");
+  if (args.has("--feature-weight")) options.feature_weight = args.real("--feature-weight");
+  if (args.has("--vertex-weight")) options.vertex_weight = args.real("--vertex-weight");
+  if (args.has("--min-quality")) options.min_quality = args.real("--min-quality");
+  options.seed = args.number("--seed", 1);
+  options.threads = static_cast<uint32_t>(args.number("--threads", std::max(1u, std::thread::hardware_concurrency())));
+  if (options.threads == 0 || options.threads > 64) throw std::invalid_argument("--threads must be in 1..64");
+  auto report = lod::simplify(mesh, options);
+  storage::write_vtk(args.get("--output"), mesh, "tetrascope simplify of " + std::filesystem::path(args.positionals()[0]).filename().string());
+  nlohmann::json j = {{"tets_before", report.tets_before}, {"tets_after", report.tets_after}, {"vertices_before", report.vertices_before},
+                      {"vertices_after", report.vertices_after}, {"collapses", report.collapses}, {"runs", report.runs},
+                      {"refused_topology", report.refused_topology}, {"refused_geometry", report.refused_geometry},
+                      {"max_queue", report.max_queue}, {"threads", report.threads}, {"seconds", report.seconds},
+                      {"collapses_per_second", report.seconds > 0 ? report.collapses / report.seconds : 0.0}};
+  if (args.has("--json")) std::cout << j.dump(2) << "\n";
+  else std::printf("%s: %llu -> %llu tets (%.1f%%), %llu collapses in %.2f s (%.0f/s), max queue %llu\n", args.get("--output").c_str(),
+                   static_cast<unsigned long long>(report.tets_before), static_cast<unsigned long long>(report.tets_after),
+                   100.0 * report.tets_after / std::max<uint64_t>(1, report.tets_before), static_cast<unsigned long long>(report.collapses),
+                   report.seconds, report.seconds > 0 ? report.collapses / report.seconds : 0.0, static_cast<unsigned long long>(report.max_queue));
+  return 0;
+}
+
+int run_error(const Arguments& raw) {
+  Args args(raw, {"--json"}, {"--samples"});
+  if (args.positionals().size() != 2) {
+    std::fprintf(stderr, "usage: tetrascope error ORIGINAL SIMPLIFIED [--samples N] [--json]\n");
+    return 2;
+  }
+  auto original = storage::load_mesh(args.positionals()[0]);
+  auto simplified = storage::load_mesh(args.positionals()[1]);
+  uint32_t samples = args.number("--samples", 20000);
+  if (samples > 10000000) throw std::invalid_argument("--samples is at most 10000000");
+  auto report = lod::measure_error(original, simplified, samples);
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+    return 0;
+  }
+  std::printf("vertices        %llu of the original (%llu outside the simplified mesh, projected to its boundary)\n",
+              static_cast<unsigned long long>(report.vertices), static_cast<unsigned long long>(report.outside));
+  std::printf("field error     mean (RMS) %.6f  over all attributes, normalised to [0, 1]\n", report.mean_all);
+  for (const auto& f : report.fields) std::printf("  %-24s mean %.6f  max %.6f\n", f.name.c_str(), f.mean, f.max);
+  std::printf("domain error    Hausdorff %.6g (%.4f%% of the diagonal), mean %.6g (%.4f%%)\n", report.hausdorff,
+              100 * report.hausdorff / report.diagonal, report.mean_distance, 100 * report.mean_distance / report.diagonal);
+  return 0;
+}
+
+}  // namespace tetrascope::apps

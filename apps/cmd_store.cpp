@@ -1,0 +1,177 @@
+// info, verify, segment, preprocess: inspecting meshes and stores, and building stores.
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include "args.h"
+#include "commands.h"
+#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/store_check.h"
+#include "tetrascope/lod/segmentation.h"
+#include "tetrascope/storage/mesh_info.h"
+#include "tetrascope/storage/store.h"
+#include "tetrascope/storage/store_verify.h"
+
+namespace tetrascope::apps {
+namespace {
+
+int print_store_info(const std::string& path, bool json) {
+  auto store = storage::Store::open(path);
+  const auto& m = store->manifest();
+  nlohmann::json j = m.json;
+  j.erase("stream");
+  j.erase("checksum");
+  std::error_code ec;
+  j["files"]["segments.bin"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "segments.bin", ec);
+  j["files"]["manifest.json"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "manifest.json", ec);
+  j["vertices"] = m.vertex_count;
+  j["tetrahedra"] = m.tet_count;
+  auto dag = lod::open_dag(*store);
+  if (dag) {
+    j["files"]["dag.bin"]["bytes"] = std::filesystem::file_size(std::filesystem::path(path) / "dag.bin", ec);
+    j["vertices"] = m.json["multiresolution"]["input"]["vertices"];
+    j["tetrahedra"] = m.json["multiresolution"]["input"]["tetrahedra"];
+    j["stored_vertices"] = m.vertex_count;
+    j["stored_tetrahedra"] = m.tet_count;
+  }
+  if (json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  if (dag) {
+    const auto& mr = m.json["multiresolution"];
+    std::printf("store       %s (format %u, multiresolution)\n", path.c_str(), m.version);
+    std::printf("source      %s (sha256 %.16s...)\n", m.source_file.c_str(), m.source_sha256.c_str());
+    std::printf("input       %llu vertices, %llu tetrahedra\n", mr["input"]["vertices"].get<unsigned long long>(), mr["input"]["tetrahedra"].get<unsigned long long>());
+    std::printf("levels      %u (0 = the input), %u segments, %u patches, histograms of %u bins\n", dag->level_count(), dag->node_count(), dag->patch_count(), dag->bins());
+    for (const auto& l : mr["levels"])
+      std::printf("  level %-3u %6u segments %10llu tets %9llu vertices %7u patches to the level above\n", l["level"].get<unsigned>(), l["segments"].get<unsigned>(),
+                  l["tets"].get<unsigned long long>(), l["vertices"].get<unsigned long long>(), l["patches"].get<unsigned>());
+    std::printf("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", m.bounds.min[0], m.bounds.max[0], m.bounds.min[1], m.bounds.max[1], m.bounds.min[2], m.bounds.max[2]);
+    for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
+    const double input_tets = mr["input"]["tetrahedra"].get<double>();
+    const double bytes = j["files"]["segments.bin"]["bytes"].get<double>() + j["files"]["dag.bin"]["bytes"].get<double>();
+    std::printf("files       segments.bin %.1f MB, dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
+                j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
+    return 0;
+  }
+  std::printf("store       %s (format %u)\n", path.c_str(), m.version);
+  std::printf("source      %s (sha256 %.16s...)\n", m.source_file.c_str(), m.source_sha256.c_str());
+  std::printf("vertices    %llu\ntetrahedra  %llu\nsegments    %u\n", static_cast<unsigned long long>(m.vertex_count),
+              static_cast<unsigned long long>(m.tet_count), m.segment_count);
+  const auto& seg = m.json.at("segmentation");
+  std::printf("per segment %s vertices, %s tets (min/avg/max)\n",
+              (seg["vertices_per_segment"]["min"].dump() + "/" + std::to_string(seg["vertices_per_segment"]["avg"].get<double>()).substr(0, 8) + "/" + seg["vertices_per_segment"]["max"].dump()).c_str(),
+              (seg["tets_per_segment"]["min"].dump() + "/" + std::to_string(seg["tets_per_segment"]["avg"].get<double>()).substr(0, 8) + "/" + seg["tets_per_segment"]["max"].dump()).c_str());
+  std::printf("streaming   at most %u segments active (%.1f%%)\n", m.max_workload_segments, 100.0 * m.max_workload_segments / m.segment_count);
+  std::printf("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", m.bounds.min[0], m.bounds.max[0], m.bounds.min[1], m.bounds.max[1], m.bounds.min[2], m.bounds.max[2]);
+  for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
+  std::printf("files       segments.bin %.1f MB\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6);
+  return 0;
+}
+
+}  // namespace
+
+int run_info(const Arguments& raw) {
+  Args args(raw, {"--json"}, {});
+  if (args.positionals().size() != 1) {
+    std::fprintf(stderr, "usage: tetrascope info MESH|STORE [--json]\n");
+    return 2;
+  }
+  const std::string& path = args.positionals()[0];
+  if (std::filesystem::is_directory(path)) return print_store_info(path, args.has("--json"));
+  auto summary = storage::summarize_mesh(path);
+  if (args.has("--json")) std::cout << storage::summary_json(summary).dump(2) << "\n";
+  else std::cout << storage::summary_text(summary);
+  return 0;
+}
+
+int run_verify(const Arguments& raw) {
+  Args args(raw, {"--json"}, {"--progress"});
+  if (args.positionals().size() != 1) {
+    std::fprintf(stderr, "usage: tetrascope verify STORE [--progress bar|json|none] [--json]\n");
+    return 2;
+  }
+  storage::Progress progress(progress_mode(args), {{"check segments", 1.0}});
+  auto report = storage::verify_store(args.positionals()[0], &progress);
+  if (report.ok) {  // a multiresolution store: the DAG too
+    try {
+      auto store = storage::Store::open(args.positionals()[0]);
+      if (auto dag = lod::open_dag(*store)) {
+        for (auto& p : lod::verify_dag(*store, *dag)) report.problems.push_back(p);
+      }
+    } catch (const std::exception& e) {
+      report.problems.push_back(e.what());
+    }
+    report.ok = report.problems.empty();
+  }
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+  } else if (report.ok) {
+    std::printf("%s: ok (%llu segments, %llu tets, %llu shared vertex copies, %llu border faces)\n", args.positionals()[0].c_str(),
+                static_cast<unsigned long long>(report.segments), static_cast<unsigned long long>(report.tets),
+                static_cast<unsigned long long>(report.shared_vertex_copies), static_cast<unsigned long long>(report.border_faces));
+  } else {
+    std::fprintf(stderr, "%s: DAMAGED\n", args.positionals()[0].c_str());
+    for (const auto& p : report.problems) std::fprintf(stderr, "  %s\n", p.c_str());
+  }
+  return report.ok ? 0 : 1;
+}
+
+int run_segment(const Arguments& raw) {
+  Args args(raw, {"--force", "--json"}, {"--output", "--leaf-vertices", "--segment-tets", "--segments", "--seed", "--progress"});
+  if (args.positionals().size() != 1 || !args.has("--output")) {
+    std::fprintf(stderr, "usage: tetrascope segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
+    return 2;
+  }
+  lod::SegmentationOptions options;
+  options.leaf_vertices = args.number("--leaf-vertices", options.leaf_vertices);
+  options.segment_tets = args.number("--segment-tets", options.segment_tets);
+  options.segments = args.number("--segments", 0);
+  options.seed = static_cast<int>(args.number("--seed", 1));
+  options.replace = args.has("--force");
+  storage::Progress progress(progress_mode(args), {{"read vertices", 0.15}, {"partition", 0.05}, {"assign tets", 0.3}, {"match faces", 0.2}, {"write segments", 0.3}});
+  auto report = lod::segment_mesh(args.positionals()[0], args.get("--output"), options, &progress);
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+  } else {
+    std::printf("%s: %llu tets in %u segments (%.0f avg, %u max tets; %u..%u vertices), at most %u segments active; %.2f s, %.2f M tets/s\n",
+                args.get("--output").c_str(), static_cast<unsigned long long>(report.tets), report.segments, report.avg_tets, report.max_tets,
+                report.min_vertices, report.max_vertices, report.max_workload, report.seconds, report.tets / 1e6 / report.seconds);
+  }
+  return 0;
+}
+
+int run_preprocess(const Arguments& raw) {
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
+  if (args.positionals().size() != 1 || !args.has("--output")) {
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
+    return 2;
+  }
+  lod::PreprocessOptions options;
+  options.base_tets = args.number("--base-tets", static_cast<uint32_t>(options.base_tets));
+  options.segment_tets = args.number("--segment-tets", options.segment_tets);
+  if (args.has("--level-ratio")) options.level_ratio = args.real("--level-ratio");
+  options.histogram_bins = args.number("--bins", options.histogram_bins);
+  options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
+  options.seed = static_cast<int>(args.number("--seed", 1));
+  options.replace = args.has("--force");
+  if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
+  if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
+  storage::Progress progress(progress_mode(args), {{"read", 0.1}, {"partition", 0.05}, {"simplify", 0.75}, {"write", 0.1}});
+  auto report = lod::preprocess(args.positionals()[0], args.get("--output"), options, &progress);
+  lod::require_sound_store(args.get("--output"));  // a store that fails verify's checks is removed, never reported as written
+  if (args.has("--json")) {
+    std::cout << report.to_json().dump(2) << "\n";
+  } else {
+    std::printf("%s: %llu tets -> %zu levels, %u segments, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
+                args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.segments, report.patches,
+                static_cast<unsigned long long>(report.levels.back().tets), report.store_bytes / 1e6, double(report.store_bytes) / report.input_tets, report.seconds,
+                report.input_tets / report.seconds);
+  }
+  return 0;
+}
+
+}  // namespace tetrascope::apps

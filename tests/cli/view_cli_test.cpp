@@ -1,0 +1,81 @@
+// `tetrascope render` as a user runs it: images of meshes and stores, timings, the limits of
+// its options and the errors it gives.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_run.h"
+#include "fixture_writers.h"
+
+namespace tetrascope::testing {
+namespace {
+
+using Result = CliResult;
+Result run(const std::string& args) { return run_cli(args); }
+
+nlohmann::json last_json_line(const std::string& out) {
+  std::string last = out.substr(0, out.find_last_not_of('\n') + 1);
+  last = last.substr(last.rfind('\n') == std::string::npos ? 0 : last.rfind('\n') + 1);
+  return nlohmann::json::parse(last);
+}
+
+
+TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
+  const auto dir = scratch_dir("render-cli");
+  const std::string out = (dir / "frame.png").string();
+  Result ok = run("render " + sample_mesh().string() + " -o " + out + " --size 96x64 --attribute Temp --orbit 2 --json");
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  auto j = last_json_line(ok.out);  // --json: the last line is one JSON object
+  EXPECT_GT(j["median_ms"].get<double>(), 0);
+  EXPECT_EQ(j["frames"], 2);
+  EXPECT_EQ(j["legend"]["attribute"], "Temp");
+  EXPECT_GT(std::filesystem::file_size(out), 100u);
+  Result jpeg = run("render " + sample_mesh().string() + " -o " + (dir / "frame.jpg").string() + " --size 64x64 --mode surface+iso --iso 500 --quality 50");
+  EXPECT_EQ(jpeg.status, 0) << jpeg.out;
+  Result mode = run("render " + sample_mesh().string() + " -o " + out + " --mode hologram");
+  EXPECT_EQ(mode.status, 2);
+  EXPECT_NE(mode.out.find("unknown mode"), std::string::npos) << mode.out;
+  Result size = run("render " + sample_mesh().string() + " -o " + out + " --size 0x10");
+  EXPECT_EQ(size.status, 2);
+  Result format = run("render " + sample_mesh().string() + " -o " + (dir / "frame.bmp").string() + " --size 16x16");
+  EXPECT_EQ(format.status, 2);
+  EXPECT_NE(format.out.find(".png"), std::string::npos) << format.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "frame.bmp"));
+  Result attribute = run("render " + sample_mesh().string() + " -o " + out + " --attribute Nope");
+  EXPECT_EQ(attribute.status, 2);
+  EXPECT_NE(attribute.out.find("Temp"), std::string::npos) << "the message lists the attributes there are: " << attribute.out;
+}
+
+TEST(RenderCli, ImageSidesAreLimited) {
+  const auto dir = scratch_dir("render-cli-limits");
+  const std::string out = (dir / "frame.png").string();
+  Result at = run("render " + sample_mesh().string() + " -o " + out + " --size 8192x2 --mode surface");  // at the limit (kMaxFrameSide)
+  EXPECT_EQ(at.status, 0) << at.out;
+  Result past = run("render " + sample_mesh().string() + " -o " + out + " --size 8193x2");
+  EXPECT_EQ(past.status, 2);
+  EXPECT_NE(past.out.find("8192"), std::string::npos) << past.out;
+  Result junk = run("render " + sample_mesh().string() + " -o " + out + " --size 16x16x");
+  EXPECT_EQ(junk.status, 2);
+}
+
+TEST(RenderCli, RendersTheCutOfAStoreFromTheDefaultView) {
+  const auto dir = scratch_dir("render-cli-store");
+  const std::string store = (dir / "sample.store").string();
+  ASSERT_EQ(run("preprocess " + sample_mesh().string() + " -o " + store + " --segment-tets 2000 --base-tets 3000 --progress none").status, 0);
+  Result r = run("render " + store + " -o " + (dir / "store.png").string() + " --size 64x48 --budget 9000 --attribute Temp --mode dvr+iso --iso 500 --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = last_json_line(r.out);
+  EXPECT_LE(j["tets"].get<uint64_t>(), 9000u);
+  EXPECT_GT(j["iso_triangles"].get<uint64_t>(), 0u);
+  const auto& range = j["legend"]["range"];
+  EXPECT_LT(range[0].get<double>(), range[1].get<double>()) << "the colour range is the attribute's over the whole dataset";
+  Result mesh_budget = run("render " + sample_mesh().string() + " -o " + (dir / "x.png").string() + " --budget 9000");
+  EXPECT_EQ(mesh_budget.status, 2);
+  EXPECT_NE(mesh_budget.out.find("multiresolution"), std::string::npos) << mesh_budget.out;
+  Result attribute = run("render " + store + " -o " + (dir / "x.png").string() + " --size 16x16 --attribute Nope");
+  EXPECT_EQ(attribute.status, 2);
+  EXPECT_NE(attribute.out.find("Nope"), std::string::npos) << attribute.out;
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
