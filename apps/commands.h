@@ -24,5 +24,7 @@ int run_render(const Arguments& raw);
 // cmd_serve.cpp: the server and its load test
 int run_serve(const Arguments& raw);
 int run_loadtest(const Arguments& raw);
+// cmd_streamlines.cpp: stream lines of a vector field (§7.3)
+int run_streamlines(const Arguments& raw);
 
 }  // namespace tetrascope::apps

@@ -46,7 +46,9 @@ constexpr const char* kUsage =
     "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"
     "  loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random]\n"
     "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--json]\n"
-    "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors"
+    "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors\n"
+    "  streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both] [--max-steps S]\n"
+    "                                [--max-length L] [--tolerance T] [--max-points P] [--json]   stream lines as VTK polylines (docs/streamlines.md)"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off\n";
 
@@ -70,6 +72,7 @@ int main(int argc, char** argv) {
     if (command == "error") return tetrascope::apps::run_error(args);
     if (command == "serve") return tetrascope::apps::run_serve(args);
     if (command == "loadtest") return tetrascope::apps::run_loadtest(args);
+    if (command == "streamlines") return tetrascope::apps::run_streamlines(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
     return 2;
   } catch (const std::invalid_argument& e) {
