@@ -22,7 +22,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 
 int run_serve(const Arguments& raw) {
   Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
-                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
@@ -52,6 +52,7 @@ int run_serve(const Arguments& raw) {
   o.min_upload_bytes_per_second = args.number("--min-upload-rate", static_cast<uint32_t>(o.min_upload_bytes_per_second));
   o.hello_timeout = std::chrono::seconds(std::max(1u, args.number("--hello-timeout", static_cast<uint32_t>(o.hello_timeout.count() / 1000))));
   o.job_memory_bytes = uint64_t(args.number("--job-memory-mb", static_cast<uint32_t>(o.job_memory_bytes >> 20))) << 20;
+  o.job_cpu_seconds = args.number("--job-cpu-seconds", o.job_cpu_seconds);
   o.max_fps = args.positive("--max-fps", o.max_fps);
   o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));

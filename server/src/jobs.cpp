@@ -242,6 +242,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
   std::string failure;
   pid_t pid = -1;
   const rlimit memory_limit{limits_.memory_bytes, limits_.memory_bytes};  // prepared before fork: the child only calls setrlimit
+  const rlimit cpu_limit{limits_.cpu_seconds, limits_.cpu_seconds + 1};   // SIGXCPU at the soft limit, SIGKILL a second later
   if (::pipe2(pipe_fds, O_CLOEXEC) != 0) {
     failure = std::string("cannot start the job: ") + std::strerror(errno);
   } else {
@@ -255,6 +256,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
         ::close(adj);
       }
       if (memory_limit.rlim_cur > 0) ::setrlimit(RLIMIT_AS, &memory_limit);
+      if (cpu_limit.rlim_cur > 0) ::setrlimit(RLIMIT_CPU, &cpu_limit);
       ::dup2(pipe_fds[1], STDOUT_FILENO);
       ::dup2(pipe_fds[1], STDERR_FILENO);
       ::execv(argv[0], argv.data());
@@ -303,9 +305,13 @@ void JobRunner::run(std::shared_ptr<Job> job) {
       }
     }
     int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    rusage usage{};
+    while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
     }
-    if (WIFSIGNALED(status)) {
+    const auto child_cpu_seconds = [&usage] { return uint64_t(usage.ru_utime.tv_sec) + uint64_t(usage.ru_stime.tv_sec) + 1; };
+    if (WIFSIGNALED(status) && limits_.cpu_seconds > 0 && (WTERMSIG(status) == SIGXCPU || WTERMSIG(status) == SIGKILL) && child_cpu_seconds() >= limits_.cpu_seconds) {
+      failure = "out of CPU time: the job needed more than its limit of " + std::to_string(limits_.cpu_seconds) + " s (serve --job-cpu-seconds)";
+    } else if (WIFSIGNALED(status)) {
       failure = "preprocess was killed by signal " + std::to_string(WTERMSIG(status)) + (WTERMSIG(status) == SIGKILL ? " (out of memory, or killed)" : "");
     } else if (WEXITSTATUS(status) != 0) {
       std::lock_guard lock(mutex_);

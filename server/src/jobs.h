@@ -45,6 +45,7 @@ class BadRequest : public std::runtime_error {
 struct JobLimits {
   static constexpr unsigned kDefaultMaxQueued = 16;
   uint64_t memory_bytes = 0;                // address space of each child (RLIMIT_AS); 0: no limit
+  uint32_t cpu_seconds = 0;                 // CPU time of each child (RLIMIT_CPU, SIGXCPU then SIGKILL); 0: no limit
   unsigned max_queued = kDefaultMaxQueued;  // jobs waiting for a slot; submit answers 429 past it
 };
 

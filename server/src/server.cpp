@@ -25,6 +25,7 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   s.datasets = std::make_unique<DatasetRegistry>(s.options.data_dir, s.options.cache_bytes);
   JobLimits job_limits;
   job_limits.memory_bytes = s.options.job_memory_bytes > 0 ? s.options.job_memory_bytes : physical_memory_bytes();
+  job_limits.cpu_seconds = s.options.job_cpu_seconds;
   job_limits.max_queued = s.options.max_queued_jobs;
   s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs, job_limits);
   sweep_stale_uploads(s.options.data_dir);  // no upload runs yet: every .part is a leftover

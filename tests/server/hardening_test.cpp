@@ -171,6 +171,24 @@ TEST_F(HardeningTest, AJobPastItsMemoryLimitFailsAsOutOfMemoryAndLeavesNothing) 
   EXPECT_EQ(get_json("/api/v1/health")["status"], "ok");
 }
 
+TEST_F(HardeningTest, AJobPastItsCpuTimeLimitFailsAsOutOfCpuTimeAndLeavesNothing) {
+  if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to the checkout";
+  ServerOptions o = options();
+  o.job_cpu_seconds = 1;  // the oxygen mesh (513K tets) takes several CPU seconds to preprocess
+  start(o);
+  const std::string source = upload(shared_data() / "nasa_oxygen_post.vtk", "oxygen.vtk");
+  HttpResult r = submit(source, "oxygen");
+  ASSERT_EQ(r.status, 202) << r.body;
+  const std::string id = nlohmann::json::parse(r.body)["id"];
+  const auto job = wait_job(id, [](const nlohmann::json& j) { return j["state"] != "running" && j["state"] != "queued"; });
+  EXPECT_EQ(job["state"], "failed");
+  EXPECT_NE(job["error"].get<std::string>().find("out of CPU time"), std::string::npos) << job.dump();
+  EXPECT_NE(job["error"].get<std::string>().find("--job-cpu-seconds"), std::string::npos) << job.dump();
+  EXPECT_FALSE(fs::exists(data_dir() / "oxygen"));
+  expect_no_job_output(id);
+  EXPECT_EQ(get_json("/api/v1/health")["status"], "ok");
+}
+
 TEST_F(HardeningTest, ABurstOfJobsPastTheQueueBoundIsRefusedWith429) {
   ServerOptions o = options();
   o.max_running_jobs = 1;

@@ -38,6 +38,7 @@ struct ServerOptions {
   unsigned max_connections = 256;      // HTTP connections at once (WebSocket sessions count in max_sessions); more are answered 503
   unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
   uint64_t job_memory_bytes = 0;       // address space (RLIMIT_AS) of each job; 0: the machine's physical memory
+  uint32_t job_cpu_seconds = 0;        // CPU time (RLIMIT_CPU) of each job; 0: no limit
   uint64_t cache_bytes = 2ull << 30;   // segment cache of each open dataset (each has its own of this size)
   double max_fps = 30;
   uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
