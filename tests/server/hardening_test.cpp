@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "tetrascope/protocol/protocol.h"
+#include "rest_helpers.h"
 #include "tetrascope/server/client.h"
 #include "tetrascope/server/server.h"
 #include "test_paths.h"
@@ -115,29 +116,11 @@ class HardeningTest : public ::testing::Test {
     if (data_.empty()) data_ = scratch_dir(std::string("hardening-") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
     return data_;
   }
-  nlohmann::json get_json(const std::string& path) {
-    const HttpResult r = http_request(base_ + path, "GET");
-    EXPECT_EQ(r.status, 200) << path << ": " << r.body;
-    return nlohmann::json::parse(r.body);
-  }
+  nlohmann::json get_json(const std::string& path) { return testing::get_json(base_, path); }
   nlohmann::json wait_job(const std::string& id, const std::function<bool(const nlohmann::json&)>& until, std::chrono::seconds timeout = 300s) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    nlohmann::json job;
-    while (std::chrono::steady_clock::now() < deadline) {
-      job = get_json("/api/v1/jobs/" + id);
-      if (until(job)) return job;
-      std::this_thread::sleep_for(50ms);
-    }
-    ADD_FAILURE() << "job " << id << " never reached the state wanted: " << job.dump();
-    return job;
+    return testing::wait_job(base_, id, until, timeout);
   }
-  std::string upload(const fs::path& file, const std::string& name) {
-    std::ifstream in(file, std::ios::binary);
-    const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const HttpResult r = http_request(base_ + "/api/v1/uploads?name=" + name, "POST", body, "", "application/octet-stream");
-    EXPECT_EQ(r.status, 201) << r.body;
-    return nlohmann::json::parse(r.body).value("path", "");
-  }
+  std::string upload(const fs::path& file, const std::string& name) { return testing::upload(base_, file, name); }
   HttpResult submit(const std::string& source, const std::string& name) {
     return http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", name}}).dump());
   }

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "rest_helpers.h"
 #include "tetrascope/server/client.h"
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/server.h"
@@ -106,29 +107,11 @@ class ServerTest : public ::testing::Test {
   static nlohmann::json camera(double azimuth, bool interacting = true) {
     return {{"eye", {30 * std::cos(azimuth), 30 * std::sin(azimuth), 5.0}}, {"target", {0, 0, 0}}, {"up", {0, 0, 1}}, {"fov", 30}, {"interacting", interacting}};
   }
-  nlohmann::json get_json(const std::string& path, const std::string& token = "") {
-    const HttpResult r = http_request(base_ + path, "GET", "", token);
-    EXPECT_EQ(r.status, 200) << path << ": " << r.body;
-    return nlohmann::json::parse(r.body);
-  }
+  nlohmann::json get_json(const std::string& path, const std::string& token = "") { return testing::get_json(base_, path, token); }
   nlohmann::json wait_job(const std::string& id, const std::function<bool(const nlohmann::json&)>& until, std::chrono::seconds timeout = 300s) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    nlohmann::json job;
-    while (std::chrono::steady_clock::now() < deadline) {
-      job = get_json("/api/v1/jobs/" + id);
-      if (until(job)) return job;
-      std::this_thread::sleep_for(50ms);
-    }
-    ADD_FAILURE() << "job " << id << " never reached the state wanted: " << job.dump();
-    return job;
+    return testing::wait_job(base_, id, until, timeout);
   }
-  std::string upload(const fs::path& file, const std::string& name) {
-    std::ifstream in(file, std::ios::binary);
-    const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const HttpResult r = http_request(base_ + "/api/v1/uploads?name=" + name, "POST", body, "", "application/octet-stream");
-    EXPECT_EQ(r.status, 201) << r.body;
-    return nlohmann::json::parse(r.body).value("path", "");
-  }
+  std::string upload(const fs::path& file, const std::string& name) { return testing::upload(base_, file, name); }
 
   fs::path data_;
   std::unique_ptr<Server> server_;

@@ -1,0 +1,51 @@
+// REST calls the server tests make against a running server at `base` (http://127.0.0.1:PORT):
+// one copy for every server test file.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "tetrascope/server/client.h"
+
+namespace tetrascope::testing {
+
+// GET `path`, expecting 200 and a JSON body.
+inline nlohmann::json get_json(const std::string& base, const std::string& path, const std::string& token = "") {
+  const server::HttpResult r = server::http_request(base + path, "GET", "", token);
+  EXPECT_EQ(r.status, 200) << path << ": " << r.body;
+  return nlohmann::json::parse(r.body);
+}
+
+// Polls job `id` until `until` holds (or the timeout passes: a test failure).
+inline nlohmann::json wait_job(const std::string& base, const std::string& id, const std::function<bool(const nlohmann::json&)>& until,
+                               std::chrono::seconds timeout = std::chrono::seconds(300)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  nlohmann::json job;
+  while (std::chrono::steady_clock::now() < deadline) {
+    job = get_json(base, "/api/v1/jobs/" + id);
+    if (until(job)) return job;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ADD_FAILURE() << "job " << id << " never reached the state wanted: " << job.dump();
+  return job;
+}
+
+// Uploads `file` as `name`, expecting 201; returns the stored path the server reports.
+inline std::string upload(const std::string& base, const std::filesystem::path& file, const std::string& name) {
+  std::ifstream in(file, std::ios::binary);
+  const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const server::HttpResult r = server::http_request(base + "/api/v1/uploads?name=" + name, "POST", body, "", "application/octet-stream");
+  EXPECT_EQ(r.status, 201) << r.body;
+  return nlohmann::json::parse(r.body).value("path", "");
+}
+
+}  // namespace tetrascope::testing
