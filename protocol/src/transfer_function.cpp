@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "json_fields.h"
 #include "tetrascope/protocol/protocol.h"
 
 namespace tetrascope::protocol {
@@ -13,29 +14,9 @@ using nlohmann::json;
 
 constexpr double kMaxValue = 1e30;  // values and ranges, in attribute units
 
-class TfFields {
+class TfFields : public detail::Fields {
  public:
-  TfFields(const json& object, std::optional<uint32_t> id) : object_(object), id_(id) {}
-  [[noreturn]] void fail(const std::string& field, const std::string& what) const { throw ProtocolError(code::kBadField, field + ": " + what, id_); }
-  const json* find(const char* field) const {
-    auto it = object_.find(field);
-    return it == object_.end() || it->is_null() ? nullptr : &*it;
-  }
-  double number(const std::string& field, const json& v, double lo, double hi) const {
-    if (!v.is_number()) fail(field, "expected a number");
-    const double d = v.get<double>();
-    if (!std::isfinite(d) || d < lo || d > hi) fail(field, "out of range [" + text(lo) + ", " + text(hi) + "]");
-    return d;
-  }
-  std::optional<std::string> string(const char* field, size_t max_length) const {
-    const json* v = find(field);
-    if (!v) return std::nullopt;
-    if (!v->is_string()) fail(field, "expected a string");
-    std::string s = v->get<std::string>();
-    if (s.size() > max_length) fail(field, "longer than " + std::to_string(max_length) + " characters");
-    return s;
-  }
-  // [[value, a...], ...]: `N` numbers per point (named by `parts`), values ascending, the rest in [0, 1]
+  using Fields::Fields;
   template <size_t N>
   std::vector<std::array<double, N>> points(const char* field, const std::array<const char*, N>& parts, uint32_t max_points) const {
     std::vector<std::array<double, N>> out;
@@ -56,20 +37,12 @@ class TfFields {
     return out;
   }
 
- private:
   template <size_t N>
   static std::string join(const std::array<const char*, N>& parts) {
     std::string out;
     for (const char* part : parts) out += (out.empty() ? "" : ", ") + std::string(part);
     return out;
   }
-  static std::string text(double v) {
-    char buffer[32];
-    std::snprintf(buffer, sizeof buffer, "%g", v);
-    return buffer;
-  }
-  const json& object_;
-  std::optional<uint32_t> id_;
 };
 
 }  // namespace
