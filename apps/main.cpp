@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -395,7 +396,7 @@ int run_cut(const std::vector<std::string>& raw) {
     }
     const auto& b = store->manifest().bounds;
     const double diagonal = std::sqrt(std::pow(b.max[0] - b.min[0], 2) + std::pow(b.max[1] - b.min[1], 2) + std::pow(b.max[2] - b.min[2], 2));
-    criteria.frustum = tetrascope::lod::view_frustum(camera, 0, 1e3 * diagonal + 1e3);
+    tetrascope::lod::set_view(criteria, camera, 1e3 * diagonal + 1e3);
   }
   tetrascope::lod::Cut cut(*dag);
   const auto start = std::chrono::steady_clock::now();
@@ -406,7 +407,7 @@ int run_cut(const std::vector<std::string>& raw) {
   tetrascope::storage::write_vtk(args.get("--output"), mesh.mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
                       {"refinements", changes.refinements}, {"forced_refinements", changes.forced_refinements}, {"coarsenings", changes.coarsenings},
-                      {"budget_limited", changes.budget_limited}, {"update_ms", update_ms}};
+                      {"budget_limited", changes.budget_limited}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms}};
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %zu tets, %zu vertices from %zu patches (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.mesh.tet_count(),
                    mesh.mesh.vertex_count(), mesh.patches.size(), static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
@@ -453,19 +454,22 @@ int run_render(const std::vector<std::string>& raw) {
   // the mesh: a file, or the cut of a multiresolution store for this view
   const std::string input = args.positionals()[0];
   tetrascope::storage::TetMesh mesh;
+  std::optional<double> cut_estimated_error;
   std::string source = input;
   if (std::filesystem::is_directory(input)) {
     auto store = tetrascope::storage::Store::open(input);
     auto dag = tetrascope::lod::open_dag(*store);
     if (!dag) throw std::invalid_argument(input + " is a single-level store; render the mesh file or preprocess it");
     const uint64_t budget = args.number("--budget", 1000000);
-    auto criteria = tetrascope::lod::criteria_for(*store, *dag, settings.tf);
+    // an isosurface view is steered by the spatial error at its isovalues
+    const std::vector<double> isovalues = settings.iso && args.has("--iso") ? number_list("--iso", args.get("--iso")) : std::vector<double>{};
+    auto criteria = tetrascope::lod::criteria_for(*store, *dag, settings.tf, isovalues);
     tetrascope::lod::Camera camera = args.has("--camera") ? tetrascope::lod::parse_camera(args.get("--camera"), store->manifest().bounds)
                                                           : tetrascope::lod::default_camera(store->manifest().bounds);
     camera.aspect = double(settings.width) / settings.height;
-    criteria.frustum = tetrascope::lod::view_frustum(camera, 0, 1e30);
+    tetrascope::lod::set_view(criteria, camera, 1e30);
     tetrascope::lod::Cut cut(*dag);
-    cut.update(criteria, budget);
+    cut_estimated_error = cut.update(criteria, budget).estimated_error;
     tetrascope::storage::SegmentCache cache(*store, 1ull << 30);
     mesh = std::move(tetrascope::lod::assemble_cut(*store, cache, cut, false).mesh);
   } else {
@@ -539,6 +543,7 @@ int run_render(const std::vector<std::string>& raw) {
                       {"reference_psnr_db", reference_db},
                       {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
+  if (cut_estimated_error) j["cut_estimated_error"] = *cut_estimated_error;
   if (settings.use_iso_color_attribute) j["legend"]["isosurfaces"] = {{"attribute", scene.iso_color_attribute}, {"colormap", settings.tf.colormap}, {"range", {scene.iso_color_min, scene.iso_color_max}}};
   if (args.has("--json")) std::cout << j.dump() << "\n";
   else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", output.c_str(), settings.width, settings.height, mode.c_str(), mesh.tet_count(),

@@ -54,7 +54,7 @@ RenderedFrame ViewRenderer::render(const ViewState& state, bool still, Worker& w
   if (settings.iso && settings.isovalues.empty()) settings.isovalues = {0.5 * ((*tf.range)[0] + (*tf.range)[1])};
 
   lod::CutCriteria criteria = lod::criteria_for(*d.store, *d.dag, tf, settings.iso ? std::span<const double>(settings.isovalues) : std::span<const double>());
-  criteria.frustum = lod::view_frustum(settings.camera, 0, 1e30);
+  lod::set_view(criteria, settings.camera);
   RenderedFrame frame;
   auto step = std::chrono::steady_clock::now();
   const auto changes = cut_->update(criteria, still ? state.budget : state.interaction_budget);

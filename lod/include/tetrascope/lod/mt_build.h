@@ -16,7 +16,9 @@ namespace tetrascope::lod {
 
 struct PreprocessOptions {
   uint32_t segment_tets = 16384;  // target tets a segment, at every level
-  uint64_t base_tets = 100000;    // stop when a level has at most this many tets (or one segment)
+  // stop when a level has at most this many tets (or simplification stalls): small enough for
+  // an interaction budget on every store (issue 15)
+  uint64_t base_tets = 10000;
   double level_ratio = 0.25;      // each segment is simplified to this share of its tets
   uint32_t histogram_bins = 256;  // N
   uint32_t threads = 2;           // segments simplified at once
