@@ -43,7 +43,7 @@ constexpr const char* kUsage =
     "  segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S]\n"
     "                                [--force] [--progress bar|json|none] [--json]\n"
     "                                out-of-core segmentation (stage 1 of preprocess)\n"
-    "  preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N]\n"
+    "  preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--bins N]\n"
     "                                [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n"
     "                                [--max-inflate-ratio R]  compressed input may inflate to R x its size + 64 MiB (100)\n"
     "                                multiresolution store: segments, levels, DAG, error histograms (§6.3);\n"
@@ -342,15 +342,16 @@ tetrascope::lod::TransferFunction read_tf(const std::string& path) {
 }
 
 int run_preprocess(const std::vector<std::string>& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   tetrascope::lod::PreprocessOptions options;
   options.base_tets = args.number("--base-tets", static_cast<uint32_t>(options.base_tets));
   options.segment_tets = args.number("--segment-tets", options.segment_tets);
   if (args.has("--level-ratio")) options.level_ratio = real_number(args, "--level-ratio");
+  options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
   options.histogram_bins = args.number("--bins", options.histogram_bins);
   options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
   options.seed = static_cast<int>(args.number("--seed", 1));

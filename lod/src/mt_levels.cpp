@@ -184,7 +184,9 @@ class LevelBuilder {
     for (uint32_t n = first; n < last; ++n) lists.push_back(&out_.nodes[n].tets);
     if (local_of_.size() < mesh_.table.size()) local_of_.resize(mesh_.table.size(), kNone);
     // ceilings of about segment_tets once simplified; the mesh turned on odd levels (§6.3.2)
-    const uint64_t parts = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(double(tets) * options_.level_ratio / options_.segment_tets)));
+    const double simplified = double(tets) * options_.level_ratio;
+    const uint64_t parts = std::max<uint64_t>({1, static_cast<uint64_t>(std::llround(simplified / options_.segment_tets)),
+                                               std::min<uint64_t>(options_.min_segments, static_cast<uint64_t>(simplified / std::max(1u, options_.min_segment_tets)))});
     uint32_t regions = 0;
     auto region = partition_level(lists, mesh_.table, static_cast<uint32_t>(parts), level % 2 == 1, options_.seed + static_cast<int>(level) + 1, local_of_,
                                   &regions);

@@ -153,6 +153,7 @@ TEST(MtBuild, EverySharedDatasetPreprocessesAndVerifies) {
 TEST(MtBuild, OneSegmentLevelsKeepSimplifyingToTheBase) {
   lod::PreprocessOptions options;
   options.segment_tets = 1000000;
+  options.min_segments = 1;
   options.base_tets = 3000;
   options.replace = true;
   const auto store = scratch_dir("mt-one-segment") / "store";
