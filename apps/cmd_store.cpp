@@ -145,14 +145,15 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
   options.base_tets = args.number("--base-tets", static_cast<uint32_t>(options.base_tets));
   options.segment_tets = args.number("--segment-tets", options.segment_tets);
+  options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
   if (args.has("--level-ratio")) options.level_ratio = args.real("--level-ratio");
   options.histogram_bins = args.number("--bins", options.histogram_bins);
   options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));

@@ -161,7 +161,7 @@ int run_cut(const Arguments& raw) {
       const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxImageSide);
       camera.aspect = double(size.width) / size.height;
     }
-    criteria.frustum = lod::view_frustum(camera, 0, 1e30);
+    lod::set_view(criteria, camera);
   }
   lod::Cut cut(*opened.dag);
   const auto start = Clock::now();
@@ -172,7 +172,7 @@ int run_cut(const Arguments& raw) {
   storage::write_vtk(args.get("--output"), mesh.mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
                       {"refinements", changes.refinements}, {"forced_refinements", changes.forced_refinements}, {"coarsenings", changes.coarsenings},
-                      {"budget_limited", changes.budget_limited}, {"update_ms", update_ms}};
+                      {"budget_limited", changes.budget_limited}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms}};
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %zu tets, %zu vertices from %zu patches (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.mesh.tet_count(),
                    mesh.mesh.vertex_count(), mesh.patches.size(), static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
@@ -228,7 +228,8 @@ int run_render(const Arguments& raw) {
   }
   r::write_image(o.output, image, o.quality);
   const double reference_db = o.reference ? write_reference(o, pipeline->scene(), frame, image) : -1;
-  const nlohmann::json j = render_report(o, settings, pipeline->scene(), renderer->description(), frames, reference_db);
+  nlohmann::json j = render_report(o, settings, pipeline->scene(), renderer->description(), frames, reference_db);
+  if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
   if (o.json) std::cout << j.dump() << "\n";
   else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", o.output.c_str(), settings.width, settings.height, o.mode.c_str(),
                    pipeline->scene().tets.size() / 4, pipeline->scene().attribute.c_str(), j["median_ms"].get<double>());

@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
     uint64_t limited = 0;
     for (int s = 0; s <= steps; ++s) {
       lod::Camera camera = lod::parse_camera("azimuth=" + std::to_string(360.0 * s / steps) + ",elevation=20,distance=0.5,fov=30", store->manifest().bounds);
-      criteria.frustum = lod::view_frustum(camera, 0, 1e30);
+      lod::set_view(criteria, camera);
       const auto t0 = clock_type::now();
       auto changes = cut.update(criteria, budget);
       const double elapsed = std::chrono::duration<double, std::milli>(clock_type::now() - t0).count();

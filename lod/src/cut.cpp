@@ -1,5 +1,6 @@
 // The runtime cut of dissertation §6.3.4: refine and coarsen queues ordered by the
-// histogram error weighted with the transfer function, under a tet budget.
+// histogram error weighted with the transfer function and the segment's share of the view,
+// per tet the step adds or frees, under a tet budget.
 #include "tetrascope/lod/cut.h"
 
 #include <algorithm>
@@ -85,6 +86,23 @@ void Cut::apply_coarsen(uint32_t node, CutChanges* changes) {
 
 // The unrefined ancestors a refinement of `node` needs, coarsest first, node last.
 namespace {
+// The share of the view a box covers: its bounding sphere's projected area over the view's
+// (height²), clamped to 1; 1 with the eye inside the sphere. A segment's error counts for the
+// pixels it covers.
+double view_share(const Camera& camera, const float box[6]) {
+  double centre[3], radius2 = 0, distance2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    centre[k] = 0.5 * (double(box[k]) + box[k + 3]);
+    radius2 += 0.25 * (double(box[k + 3]) - box[k]) * (double(box[k + 3]) - box[k]);
+    distance2 += (camera.eye[k] - centre[k]) * (camera.eye[k] - centre[k]);
+  }
+  if (camera.orthographic) return std::min(1.0, 4 * radius2 / std::max(1e-300, camera.ortho_height * camera.ortho_height));
+  if (distance2 <= radius2) return 1.0;
+  const double tan_half = std::tan(camera.fov_degrees * M_PI / 360);
+  const double apparent = radius2 / (distance2 - radius2);  // tan² of the sphere's angular radius
+  return std::min(1.0, apparent / std::max(1e-300, tan_half * tan_half));
+}
+
 template <class Refined>
 std::vector<uint32_t> needed_refinements(const Dag& dag, uint32_t node, Refined&& refined) {
   std::vector<uint32_t> need{node}, stack{node};
@@ -194,15 +212,18 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   }
   auto error = [&](uint32_t v) {
     if (criteria.frustum && !criteria.frustum->intersects(dag_.node(v).bounds)) return 0.0;
-    return weight_[v];
+    return weight_[v] * (criteria.camera ? view_share(*criteria.camera, dag_.node(v).bounds) : 1.0);
   };
   std::vector<double> e(n);
   for (uint32_t v = 0; v < n; ++v) e[v] = error(v);
+  // error removed per tet added (forced refinements included), and error added per tet freed
+  auto refine_priority = [&](uint32_t v) { return e[v] / double(std::max<int64_t>(1, refinement_cost(v))); };
+  auto coarsen_priority = [&](uint32_t v) { return e[v] / double(std::max<int64_t>(1, gain_[v])); };
   using Item = std::pair<double, uint32_t>;
   // 1. coarsen: everything invisible, then the cheapest until the budget holds
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> coarse;
   for (uint32_t v = 0; v < n; ++v)
-    if (can_coarsen(v)) coarse.push({e[v], v});
+    if (can_coarsen(v)) coarse.push({coarsen_priority(v), v});
   while (!coarse.empty()) {
     auto [err, v] = coarse.top();
     if (!(err <= 0 || tets_ > budget)) break;
@@ -211,33 +232,47 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     apply_coarsen(v, &changes);
     for (uint32_t p : dag_.parent_patches(v)) {
       const uint32_t c = dag_.patch(p).ceiling;
-      if (c != kRoot && can_coarsen(c)) coarse.push({e[c], c});
+      if (c != kRoot && can_coarsen(c)) coarse.push({coarsen_priority(c), c});
     }
   }
   // 2. refine the largest errors while they fit
+  // A segment is queued once shown whole or once next to a refined one (its forced parents
+  // make it dearer, not impossible); a refinement only lowers the cost of others, so a
+  // popped priority that grew is pushed back with its new value.
   std::priority_queue<Item> fine;
+  std::vector<uint8_t> queued(n, 0);
+  auto offer = [&](uint32_t v) {
+    if (!refined_[v] && dag_.node(v).child_count > 0 && e[v] > 0) {
+      fine.push({refine_priority(v), v});
+      queued[v] = 1;
+    }
+  };
   for (uint32_t v = 0; v < n; ++v)
-    if (displayed(v) && dag_.node(v).child_count > 0 && e[v] > 0) fine.push({e[v], v});
+    if (displayed(v)) offer(v);
   uint32_t misses = 0;
   while (!fine.empty() && misses < 16) {
-    auto [err, v] = fine.top();
+    auto [priority, v] = fine.top();
     fine.pop();
     if (refined_[v]) continue;
+    const double now = refine_priority(v);
+    if (now > priority * (1 + 1e-12) && !fine.empty() && now < fine.top().first) {
+      fine.push({now, v});
+      continue;
+    }
     if (!refine(v, budget, &changes)) {
       changes.budget_limited = true;
       ++misses;
       continue;
     }
-    for (const auto& c : dag_.child_patches(v))
-      if (displayed(c.floor) && dag_.node(c.floor).child_count > 0 && e[c.floor] > 0) fine.push({e[c.floor], c.floor});
+    for (const auto& c : dag_.child_patches(v)) offer(c.floor);
   }
   // 3. trade: coarsen the cheapest refined segment when that lets a dearer one refine
   for (int round = 0; round < 32; ++round) {
     double best = 0;
     uint32_t want = dag::kRoot;
     for (uint32_t v = 0; v < n; ++v)
-      if (displayed(v) && dag_.node(v).child_count > 0 && e[v] > best) {
-        best = e[v];
+      if (displayed(v) && dag_.node(v).child_count > 0 && e[v] > 0 && refine_priority(v) > best) {
+        best = refine_priority(v);
         want = v;
       }
     if (want == dag::kRoot) break;
@@ -249,11 +284,11 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     double cheapest = best;
     uint32_t give = dag::kRoot;
     for (uint32_t v = 0; v < n; ++v) {
-      if (!can_coarsen(v) || !(e[v] < cheapest) || gain_[v] <= 0) continue;
+      if (!can_coarsen(v) || gain_[v] <= 0 || !(coarsen_priority(v) < cheapest)) continue;
       bool parent = false;  // giving up a parent of the wanted segment gains nothing
       for (uint32_t p : dag_.parent_patches(want)) parent |= dag_.patch(p).ceiling == v;
       if (parent) continue;
-      cheapest = e[v];
+      cheapest = coarsen_priority(v);
       give = v;
     }
     if (give == dag::kRoot || static_cast<int64_t>(tets_) - gain_[give] + cost > static_cast<int64_t>(budget)) break;
@@ -274,6 +309,12 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   std::sort(changes.removed.begin(), changes.removed.end());
   changes.tets = tets_;
   changes.over_budget = tets_ > budget;
+  std::vector<uint8_t> shown(n, 0);
+  for (uint32_t p = 0; p < dag_.patch_count(); ++p)
+    if (active(p) && !shown[dag_.patch(p).floor]) {
+      shown[dag_.patch(p).floor] = 1;
+      changes.estimated_error += e[dag_.patch(p).floor];
+    }
   return changes;
 }
 
@@ -292,6 +333,11 @@ size_t ResidentSegments::update(const Cut& cut, storage::SegmentCache& cache) {
   }
   pinned_.swap(next);
   return added;
+}
+
+void set_view(CutCriteria& criteria, const Camera& camera, double far_plane) {
+  criteria.frustum = view_frustum(camera, 0, far_plane);
+  criteria.camera = camera;
 }
 
 CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const TransferFunction& tf, std::span<const double> isovalues) {

@@ -2,7 +2,8 @@
 // §6.3.1-6.3.2). Level 0 is the input, partitioned by the same step as `tetrascope segment`
 // (partition_segments, §6.1.1). Each coarser level partitions the mesh of the level below
 // (turned 45° on odd levels), cuts its segments into patches by the new segments (ceilings)
-// and simplifies every ceiling with its border vertices locked.
+// and simplifies every ceiling with its border vertices locked. Once a level is one segment
+// the next ones are too, each the whole mesh simplified again, until the base is met.
 //
 // Every original vertex is followed down the levels (the tet of the current level that holds
 // it), so that each ceiling's error histograms (mt_histograms.cpp) are measured at the
@@ -121,7 +122,9 @@ class LevelBuilder {
     for (uint32_t level = 0;; ++level) {
       const uint64_t tets = out_.level_tets(level);
       stage_("simplify", std::min(0.99, 1.0 - double(tets) / double(mesh_.input_tets) + 0.01));
-      if (tets <= options_.base_tets || out_.level_first[level + 1] - out_.level_first[level] <= 1 || level + 1 >= options_.max_levels) break;
+      // A level of one segment goes on: its ceiling is the whole mesh, with nothing locked
+      // but what the simplifier keeps on the mesh boundary, until the base is met or it stalls.
+      if (tets <= options_.base_tets || level + 1 >= options_.max_levels) break;
       if (level > 0 && double(tets) > 0.9 * double(out_.level_tets(level - 1))) break;  // locked borders stop the simplification
       build_level(level, tets);
       out_.level_first.push_back(static_cast<uint32_t>(out_.nodes.size()));
@@ -181,7 +184,9 @@ class LevelBuilder {
     for (uint32_t n = first; n < last; ++n) lists.push_back(&out_.nodes[n].tets);
     if (local_of_.size() < mesh_.table.size()) local_of_.resize(mesh_.table.size(), kNone);
     // ceilings of about segment_tets once simplified; the mesh turned on odd levels (§6.3.2)
-    const uint64_t parts = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(double(tets) * options_.level_ratio / options_.segment_tets)));
+    const double simplified = double(tets) * options_.level_ratio;
+    const uint64_t parts = std::max<uint64_t>({1, static_cast<uint64_t>(std::llround(simplified / options_.segment_tets)),
+                                               std::min<uint64_t>(options_.min_segments, static_cast<uint64_t>(simplified / std::max(1u, options_.min_segment_tets)))});
     uint32_t regions = 0;
     auto region = partition_level(lists, mesh_.table, static_cast<uint32_t>(parts), level % 2 == 1, options_.seed + static_cast<int>(level) + 1, local_of_,
                                   &regions);

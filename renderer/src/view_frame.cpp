@@ -76,9 +76,10 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   if (store_) {
     if (s.iso && s.isovalues.empty() && s.tf.range) s.isovalues = {0.5 * ((*s.tf.range)[0] + (*s.tf.range)[1])};
     lod::CutCriteria criteria = lod::criteria_for(*store_, *dag_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
-    criteria.frustum = lod::view_frustum(s.camera, 0, 1e30);
+    lod::set_view(criteria, s.camera);
     auto start = Clock::now();
     const auto changes = cut_->update(criteria, request.budget);
+    cut_estimated_error_ = changes.estimated_error;
     t.cut_ms = ms_since(start);
     start = Clock::now();
     if (!scene_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute)

@@ -17,6 +17,7 @@
 #include "test_paths.h"
 #include "tetrascope/lod/cut.h"
 #include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/error_measure.h"
 #include "tetrascope/lod/mt_build.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store_verify.h"
@@ -114,6 +115,42 @@ TEST(Cut, UpdateHonoursTheBudgetAndReportsWhatChanged) {
   away.frustum = lod::view_frustum(camera, 0, 1e9);
   cut.update(away, 45000);
   EXPECT_EQ(cut.tet_count(), coarsest);
+}
+
+// The refinement order spends each budget where it removes the most error per tet: a larger
+// budget never leaves more field error against the input (measured at the original
+// vertices, opacity 1 everywhere, the whole mesh in view), and the cut's own estimate falls
+// with it.
+TEST(Cut, ALargerBudgetNeverRaisesTheFieldError) {
+  const Built& b = built("sample");
+  auto store = storage::Store::open(b.store);
+  auto dag = lod::open_dag(*store);
+  storage::SegmentCache cache(*store, 1ull << 28);
+  const storage::TetMesh input = storage::load_mesh(sample_mesh());
+  lod::TransferFunction tf;
+  tf.attribute = "Temp";
+  auto criteria = lod::criteria_for(*store, *dag, tf);
+  criteria.opacity.clear();  // every value counts
+  lod::set_view(criteria, lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
+  const uint64_t coarsest = lod::Cut(*dag).tet_count(), finest = b.report.levels.front().tets;
+  double last_error = 1e300, last_estimate = 1e300;
+  for (int step = 0; step <= 6; ++step) {
+    const uint64_t budget = coarsest + (finest - coarsest) * step / 6;
+    lod::Cut cut(*dag);
+    const auto changes = cut.update(criteria, budget);
+    auto m = lod::assemble_cut(*store, cache, cut, false);
+    const lod::MeshErrorReport error = lod::measure_error(input, m.mesh, 2000);
+    ASSERT_FALSE(error.fields.empty());
+    const double field = error.fields[0].mean;
+    EXPECT_LE(field, last_error * 1.02 + 1e-6) << "budget " << budget << " (" << cut.tet_count() << " tets)";
+    EXPECT_LE(changes.estimated_error, last_estimate * (1 + 1e-9)) << "budget " << budget;
+    last_error = field;
+    last_estimate = changes.estimated_error;
+    if (step == 6) {
+      EXPECT_EQ(cut.tet_count(), finest);
+      EXPECT_LT(field, 1e-6) << "the finest cut is the input";
+    }
+  }
 }
 
 TEST(Cut, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {

@@ -131,12 +131,12 @@ TEST(MtBuild, EverySharedDatasetPreprocessesAndVerifies) {
   const auto dir = scratch_dir("multires-shared");
   for (const auto& mesh : meshes) {
     lod::PreprocessOptions options;
-    options.segment_tets = 8000;
-    options.base_tets = 20000;
+    options.segment_tets = 8000;  // the default base: the coarsest level must meet it (issue 15)
     auto report = lod::preprocess(mesh, dir / mesh.filename(), options);
     if (report.input_tets > 2 * options.base_tets) {
       EXPECT_GE(report.levels.size(), 2u) << mesh;
     }
+    EXPECT_LE(report.levels.back().tets, options.base_tets) << mesh << ": the coarsest level is above the default base";
     auto verified = storage::verify_store(dir / mesh.filename());
     EXPECT_TRUE(verified.ok) << mesh << ": " << (verified.problems.empty() ? "" : verified.problems[0]);
     auto store = storage::Store::open(dir / mesh.filename());
@@ -146,6 +146,29 @@ TEST(MtBuild, EverySharedDatasetPreprocessesAndVerifies) {
     EXPECT_TRUE(problems.empty()) << mesh << ": " << (problems.empty() ? "" : problems[0]);
     std::filesystem::remove_all(dir / mesh.filename());
   }
+}
+
+// A level of one segment is no reason to stop: with segments as large as the whole mesh
+// every level is one segment, and the build still simplifies down to the base.
+TEST(MtBuild, OneSegmentLevelsKeepSimplifyingToTheBase) {
+  lod::PreprocessOptions options;
+  options.segment_tets = 1000000;
+  options.min_segments = 1;
+  options.base_tets = 3000;
+  options.replace = true;
+  const auto store = scratch_dir("mt-one-segment") / "store";
+  auto report = lod::preprocess(sample_mesh(), store, options);
+  ASSERT_GT(report.input_tets, 4 * options.base_tets);
+  ASSERT_GE(report.levels.size(), 2u);
+  for (const auto& level : report.levels) EXPECT_EQ(level.segments, 1u);
+  EXPECT_LE(report.levels.back().tets, options.base_tets);
+  auto verified = storage::verify_store(store);
+  EXPECT_TRUE(verified.ok) << (verified.problems.empty() ? "" : verified.problems[0]);
+  auto opened = storage::Store::open(store);
+  auto dag = lod::open_dag(*opened);
+  ASSERT_TRUE(dag);
+  auto problems = lod::verify_dag(*opened, *dag);
+  EXPECT_TRUE(problems.empty()) << (problems.empty() ? "" : problems[0]);
 }
 
 // The level-0 segments are those `tetrascope segment` makes with the same segment size: one

@@ -22,16 +22,22 @@
 
 namespace tetrascope::lod {
 
-// What the cut optimises for. The error of a segment is E = V · Σ_n H(n) C(n) (§6.3.4): H its
-// field-error histogram of `channel`, C the opacity of the transfer function per value slot
-// (empty: 1 everywhere), V = 0 outside the frustum. With isovalues (normalised, [0, 1]) the
-// spatial-error histogram around each isovalue is used instead.
+// What the cut optimises for. The error of a segment is E = V · A · Σ_n H(n) C(n) (§6.3.4): H
+// its field-error histogram of `channel`, C the opacity of the transfer function per value
+// slot (empty: 1 everywhere), V = 0 outside the frustum, A the share of the view the
+// segment's box covers (clamped to 1; 1 without a camera or with the eye inside the box). With
+// isovalues (normalised, [0, 1]) the spatial-error histogram around each isovalue is used
+// instead. Segments are refined in the order of E per tet the refinement adds (forced
+// refinements included), so a budget buys the most image error removed.
 struct CutCriteria {
   uint32_t channel = 0;
   std::vector<float> opacity;    // per histogram bin
   std::vector<double> isovalues;
   std::optional<Frustum> frustum;
+  std::optional<Camera> camera;  // the eye and the field of view, for A
 };
+// Both view parts of the criteria from one camera (the frustum reaches `far_plane`).
+void set_view(CutCriteria& criteria, const Camera& camera, double far_plane = 1e30);
 
 struct CutChanges {
   std::vector<uint32_t> added, removed;  // patches
@@ -39,6 +45,9 @@ struct CutChanges {
   uint32_t refinements = 0, forced_refinements = 0, coarsenings = 0;
   bool budget_limited = false;  // a wanted refinement did not fit the budget
   bool over_budget = false;     // even the coarsest cut has more tets than the budget
+  // Σ E over the segments the cut shows unrefined (those with an active patch): the image
+  // error the cut is estimated to leave, in the units of E (field error × opacity × view share)
+  double estimated_error = 0;
 };
 
 class Cut {

@@ -16,8 +16,15 @@ namespace tetrascope::lod {
 
 struct PreprocessOptions {
   uint32_t segment_tets = 16384;  // target tets a segment, at every level
-  uint64_t base_tets = 100000;    // stop when a level has at most this many tets (or one segment)
+  // stop when a level has at most this many tets (or simplification stalls): small enough for
+  // an interaction budget on every store (issue 15)
+  uint64_t base_tets = 10000;
   double level_ratio = 0.25;      // each segment is simplified to this share of its tets
+  // A coarse level keeps at least this many segments (of at least min_segment_tets each once
+  // simplified), so that the cut can refine the top of the DAG a little at a time rather than
+  // a whole level at once.
+  uint32_t min_segments = 8;
+  uint32_t min_segment_tets = 1024;
   uint32_t histogram_bins = 256;  // N
   uint32_t threads = 2;           // segments simplified at once
   uint32_t max_levels = 24;

@@ -73,6 +73,8 @@ class ViewPipeline {
   // update, then draw.
   ViewFrame render(const ViewRequest& request, Renderer& renderer, uint64_t& held_generation);
 
+  // The cut's estimated error after the last update (stores only; see lod::CutChanges).
+  std::optional<double> cut_estimated_error() const { return cut_estimated_error_; }
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)
   const SceneMesh& scene() const { return *scene_; }  // after update
   const lod::Cut* cut() const { return cut_.get(); }   // null for a whole mesh
@@ -87,6 +89,7 @@ class ViewPipeline {
   std::unique_ptr<lod::Cut> cut_;
   std::optional<storage::TetMesh> mesh_;  // the whole mesh, without a store
   storage::Bounds bounds_;
+  std::optional<double> cut_estimated_error_;
   std::unique_ptr<const SceneMesh> scene_;
   std::string attribute_, iso_color_attribute_;      // the scene's
   uint64_t scene_generation_ = 0;         // unique over all pipelines of the process
