@@ -132,6 +132,9 @@ class GlRenderer final : public Renderer {
     glFinish();
     tm.draw_ms = ms_since(start) - tm.sort_ms;
     Image image = read_back(s.width, s.height, tm);
+    // the framebuffers take ~36 bytes a pixel (float colour, depth, distances, readback): a
+    // large still's (600 MB at 4096^2) is given back at once instead of held by the worker
+    if (uint64_t{s.width} * s.height > kKeepFramebufferPixels) release_framebuffer();
     tm.total_ms = ms_since(start);
     return image;
   }
@@ -162,18 +165,25 @@ class GlRenderer final : public Renderer {
     glNamedBufferData(buffer, static_cast<GLsizeiptr>(std::max<size_t>(bytes, 4)), data, GL_STATIC_DRAW);
   }
 
+  static constexpr uint64_t kKeepFramebufferPixels = uint64_t{2048} * 2048;
+
+  void release_framebuffer() {
+    if (!framebuffer_) return;
+    glDeleteFramebuffers(1, &framebuffer_);
+    glDeleteRenderbuffers(1, &color_);
+    glDeleteFramebuffers(1, &resolve_framebuffer_);
+    glDeleteRenderbuffers(1, &resolve_color_);
+    glDeleteTextures(1, &depth_);
+    glDeleteTextures(1, &distance_texture_);
+    glDeleteTextures(1, &distance_copy_);
+    glDeleteBuffers(1, &pack_buffer_);
+    framebuffer_ = 0;
+    fb_width_ = fb_height_ = 0;
+  }
+
   void ensure_framebuffer(uint32_t w, uint32_t h) {
-    if (w == fb_width_ && h == fb_height_) return;
-    if (framebuffer_) {
-      glDeleteFramebuffers(1, &framebuffer_);
-      glDeleteRenderbuffers(1, &color_);
-      glDeleteFramebuffers(1, &resolve_framebuffer_);
-      glDeleteRenderbuffers(1, &resolve_color_);
-      glDeleteTextures(1, &depth_);
-      glDeleteTextures(1, &distance_texture_);
-      glDeleteTextures(1, &distance_copy_);
-      glDeleteBuffers(1, &pack_buffer_);
-    }
+    if (framebuffer_ && w == fb_width_ && h == fb_height_) return;
+    release_framebuffer();
     glCreateFramebuffers(1, &framebuffer_);
     glCreateRenderbuffers(1, &color_);
     // float colour: a ray through thousands of tiny tets composes thousands of tiny

@@ -24,7 +24,7 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   s.options = std::move(options);
   s.datasets = std::make_unique<DatasetRegistry>(s.options.data_dir, s.options.cache_bytes);
   JobLimits job_limits;
-  job_limits.memory_bytes = s.options.job_memory_bytes > 0 ? s.options.job_memory_bytes : physical_memory_bytes();
+  job_limits.memory_bytes = s.options.job_memory_bytes > 0 ? s.options.job_memory_bytes : (kAddressSpaceLimitWorks ? physical_memory_bytes() : 0);
   job_limits.cpu_seconds = s.options.job_cpu_seconds;
   job_limits.max_queued = s.options.max_queued_jobs;
   s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs, job_limits);
