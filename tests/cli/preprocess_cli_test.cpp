@@ -12,29 +12,15 @@
 #include <nlohmann/json.hpp>
 
 #include "fixture_writers.h"
+#include "cli_run.h"
 #include "test_paths.h"
 #include "tetrascope/lod/store_check.h"
 
 namespace tetrascope::testing {
 namespace {
 
-struct Result {
-  int status;
-  std::string out;
-  double seconds;
-};
-
-Result run(const std::string& args) {
-  const auto start = std::chrono::steady_clock::now();
-  std::string command = "timeout 60 " + tetrascope_binary().string() + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
-  int status = pclose(pipe);
-  return {WEXITSTATUS(status), out, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
-}
+using Result = CliResult;
+Result run(const std::string& args) { return run_cli(args, 60); }
 
 // An OFF grid of k^3 cubes, 5 tets each, with a scalar; `extra` lines appended to the tets.
 std::string grid_off(int k, const std::string& extra_points = "", int extra_point_count = 0,
@@ -135,13 +121,8 @@ TEST(PreprocessCli, InfoOnAFifoDoesNotBlock) {
 }
 
 TEST(PreprocessCli, DecompressionBombIsRefusedWithTheOptionToRaiseIt) {
-  CellMesh m;
   const size_t points = 8'000'000;
-  m.x.assign(points, 0.f);
-  m.y.assign(points, 0.f);
-  m.z.assign(points, 0.f);
-  m.x[1] = m.y[2] = m.z[3] = 1.f;
-  m.add_cell(10, {0, 1, 2, 3});
+  const CellMesh m = one_tet_and_unused_points(points);
   auto dir = scratch_dir("pre_bomb");
   write_vtu(dir / "bomb.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 1 << 20});
   Result r = run("preprocess " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --progress none");

@@ -13,6 +13,7 @@
 
 #include "mesh_checks.h"
 #include "tetrascope/storage/tet_topology.h"
+#include "cli_run.h"
 #include "test_paths.h"
 
 namespace tetrascope::testing {
@@ -260,22 +261,6 @@ TEST(Streamlines, VtkOutputParsesBack) {
   EXPECT_NE(rest.str().find("POINT_DATA " + std::to_string(points)), std::string::npos);
   EXPECT_NE(rest.str().find("VECTORS v float"), std::string::npos);
   EXPECT_NE(rest.str().find("SCALARS v_magnitude float 1"), std::string::npos);
-}
-
-struct CliResult {
-  int status;
-  std::string out;
-};
-
-CliResult run_cli(const std::string& args) {
-  std::string command = tetrascope_binary().string() + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
-  int status = pclose(pipe);
-  return {WEXITSTATUS(status), out};
 }
 
 TEST(StreamlinesCli, SampleMeshVelocity) {

@@ -390,13 +390,8 @@ TEST(HostileVtk, ChunkOfOnlyRepeatedVertexTetsDoesNotEndTheStream) {
 
 TEST(HostileVtu, DecompressionBombIsRefusedBeforeAllocating) {
   // one tet and 8 million unused points at the origin: ~100 KB compressed, 96 MB inflated
-  CellMesh m;
   const size_t points = 8'000'000;
-  m.x.assign(points, 0.f);
-  m.y.assign(points, 0.f);
-  m.z.assign(points, 0.f);
-  m.x[1] = m.y[2] = m.z[3] = 1.f;
-  m.add_cell(10, {0, 1, 2, 3});
+  const CellMesh m = one_tet_and_unused_points(points);
   auto dir = scratch_dir("vtu_bomb");
   write_vtu(dir / "bomb.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 1 << 20});
   ASSERT_LT(std::filesystem::file_size(dir / "bomb.vtu"), 1'000'000u);

@@ -401,4 +401,14 @@ void write_off(const std::filesystem::path& path, const CellMesh& m) {
   write_file(path, out);
 }
 
+CellMesh one_tet_and_unused_points(size_t points) {
+  CellMesh m;
+  m.x.assign(points, 0.f);
+  m.y.assign(points, 0.f);
+  m.z.assign(points, 0.f);
+  m.x[1] = m.y[2] = m.z[3] = 1.f;
+  m.add_cell(10, {0, 1, 2, 3});
+  return m;
+}
+
 }  // namespace tetrascope::testing

@@ -23,6 +23,9 @@ struct CellMesh {
 };
 
 CellMesh from_tets(const storage::TetMesh& mesh);
+// One tet and `points` - 4 unused points at the origin: tiny when zlib-compressed, large inflated
+// (the decompression bomb of the hostile-input tests).
+CellMesh one_tet_and_unused_points(size_t points);
 
 struct VtkOptions {
   bool binary = true;
