@@ -203,8 +203,10 @@ async function datasetDeleted(text) {
   const datasets = await loadDatasets();
   const next = datasets.find((d) => d.state === 'ready' && d.name !== gone)?.name;
   openDataset(next);
-  $('dataset-summary').textContent = text + (next ? `\nNow showing ${next}.` : '');
+  if (next) datasetNotice = `${text}\nNow showing ${next}.`;  // shown with its dataset.info
+  else $('dataset-summary').textContent = text;
 }
+let datasetNotice = '';
 
 async function deleteDataset() {
   const name = $('dataset').value;
@@ -245,6 +247,8 @@ function onDataset(info) {
   $('parallel').checked = camera.orthographic;
   $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
+  if (datasetNotice) $('dataset-summary').textContent += `\n${datasetNotice}`;
+  datasetNotice = '';
   showView();
   sendAll();
 }

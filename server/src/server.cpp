@@ -1,5 +1,7 @@
 #include "tetrascope/server/server.h"
 
+#include <malloc.h>
+
 #include <csignal>
 
 #include "rest.h"
@@ -40,6 +42,8 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   if (net_ec) throw std::runtime_error("cannot listen on " + s.options.bind + ":" + std::to_string(s.options.port) + ": " + net_ec.message());
   s.acceptor->listen(net::socket_base::max_listen_connections);
   s.accept();
+  s.idle_trim = std::make_unique<net::steady_timer>(s.io);
+  s.trim_when_idle();
   for (unsigned i = 0; i < std::max(1u, s.options.io_threads); ++i) s.threads.emplace_back([&s] { s.io.run(); });
 }
 
@@ -51,6 +55,19 @@ Server::~Server() {
   impl_->io.restart();
   impl_->io.poll();  // lets pending handlers release their sessions
   impl_->pool.reset();
+}
+
+void Server::Impl::trim_when_idle() {
+  idle_trim->expires_after(kIdleTrimPeriod);
+  idle_trim->async_wait([this](const boost::system::error_code& ec) {
+    if (ec || stopped) return;
+    const uint64_t frames = metrics.frames_still + metrics.frames_interaction;
+    if (metrics.sessions_active == 0 && frames != frames_at_last_trim) {
+      frames_at_last_trim = frames;
+      ::malloc_trim(0);
+    }
+    trim_when_idle();
+  });
 }
 
 uint16_t Server::port() const { return impl_->acceptor->local_endpoint().port(); }

@@ -39,6 +39,13 @@ struct Server::Impl {
   // accept() waits this long when the process is out of file descriptors, instead of spinning
   static constexpr std::chrono::milliseconds kAcceptPause{100};
   std::unique_ptr<net::steady_timer> accept_pause;
+  // Every kIdleTrimPeriod with no session open, after frames were rendered since the last
+  // time: malloc_trim, so the heap freed by sessions and renders goes back to the system
+  // (glibc keeps it in per-thread arenas otherwise; bench/idle_memory.py).
+  static constexpr std::chrono::seconds kIdleTrimPeriod{5};
+  std::unique_ptr<net::steady_timer> idle_trim;
+  uint64_t frames_at_last_trim = 0;
+  void trim_when_idle();
   // names under uploads/ whose upload is streaming in: a second one is refused (409)
   std::mutex uploads_mutex;
   std::set<std::string> uploads_in_progress;
