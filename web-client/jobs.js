@@ -71,7 +71,8 @@ export class Jobs {
       headers: { 'Content-Type': 'application/json' },
       body: JSON.stringify({ source: upload.body.path, name, options: {} }),
     });
-    if (!submit.ok) {
+    if (!submit.ok) {  // e.g. the name was taken meanwhile: the upload would be an orphan
+      await this.api(`/api/v1/uploads/${encodeURIComponent(safeFile)}`, { method: 'DELETE' });
       status.textContent = `Job refused: ${submit.body.error?.message ?? submit.status}`;
       return;
     }
