@@ -279,16 +279,15 @@ class LevelBuilder {
     parallel_for(traces.size(), options_.threads, [&](size_t k, unsigned) {
       CeilingMesh c = gather_ceiling(ceiling_patches[k]);
       traces[k].tets = c.mesh.tet_count();
-      SimplifyOptions so = ceiling_options(std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(kTraceDepth * options_.level_ratio * double(traces[k].tets)))));
+      // traced down to level_ratio² of its tets: a smooth ceiling may give up a whole level more
+      SimplifyOptions so = ceiling_options(std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * options_.level_ratio * double(traces[k].tets)))));
       so.trace_costs = true;
       traces[k].steps = simplify(c.mesh, so, c.locked).cost_trace;
     });
-    return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), std::min(1.0, kLeastShare * options_.level_ratio));
+    // every ceiling simplified at least to √level_ratio of its tets (halfway to the ratio, in
+    // steps of the ladder), so that every node of the level is coarser than its children
+    return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), std::sqrt(options_.level_ratio));
   }
-
-  // How far the trace pass simplifies (share of level_ratio), and the least simplification
-  // of every ceiling (a multiple of level_ratio, at most 1).
-  static constexpr double kTraceDepth = 0.25, kLeastShare = 2.0;
 
   // A ceiling's patches gathered into a mesh of local ids, its border vertices marked locked.
   struct CeilingMesh {
