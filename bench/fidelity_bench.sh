@@ -95,7 +95,8 @@ old = json.load(open(path)) if os.path.exists(path) else {"runs": []}
 rows = [json.loads(r) for r in sys.argv[2:]]
 keys = {(r["case"], r["tag"], r["budget"]) for r in rows}
 kept = [r for r in old.get("runs", []) if (r["case"], r["tag"], r["budget"]) not in keys]
-json.dump({"date": datetime.date.today().isoformat(), "size": sys.argv[1],
-           "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; decimation by tetrascope simplify --tets (the cut's tet count)",
-           "runs": kept + rows}, open(path, "w"), indent=1)
+old.update({"date": datetime.date.today().isoformat(), "size": sys.argv[1],
+            "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; decimation by tetrascope simplify --tets (the cut's tet count)",
+            "runs": kept + rows})  # other keys (tags, notes) are kept
+json.dump(old, open(path, "w"), indent=1)
 PY
