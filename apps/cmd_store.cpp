@@ -148,9 +148,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -158,6 +158,11 @@ int run_preprocess(const Arguments& raw) {
   options.segment_tets = args.number("--segment-tets", options.segment_tets);
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
   if (args.has("--level-ratio")) options.level_ratio = args.real("--level-ratio");
+  if (args.has("--level-targets")) {
+    const std::string t = args.get("--level-targets");
+    if (t != "error" && t != "ratio") throw std::invalid_argument("--level-targets must be 'error' (one error threshold a level) or 'ratio' (every segment to --level-ratio)");
+    options.common_error = t == "error";
+  }
   options.histogram_bins = args.number("--bins", options.histogram_bins);
   options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
   options.seed = static_cast<int>(args.number("--seed", 1));

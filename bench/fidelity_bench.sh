@@ -9,11 +9,17 @@
 #   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
 # Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50"),
 #      PREPROCESS_ARGS (extra options for `tetrascope preprocess`, to compare builds),
-#      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after").
+#      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after"; the store is built
+#      once per tag and options), TETRASCOPE (a tetrascope binary to use instead of building one),
+#      BLADE_1M (the 1M blade, default /work/bigdata/blade-1m.vtk).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null
-bin=build/release/apps/tetrascope
+if [[ -n "${TETRASCOPE:-}" ]]; then
+  bin=$TETRASCOPE
+else
+  cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null
+  bin=build/release/apps/tetrascope
+fi
 out=bench/out/fidelity
 mkdir -p "$out" bench/results
 size=${FIDELITY_SIZE:-256x192}
@@ -21,6 +27,7 @@ budgets=${FIDELITY_BUDGETS:-"5 10 25 50"}
 tag=${FIDELITY_TAG:-current}
 py=/usr/bin/python3
 data=../shared/data
+blade1m=${BLADE_1M:-/work/bigdata/blade-1m.vtk}
 
 # name | mesh | camera | mode | unit distance | transfer function (JSON) or isovalue
 cases=(
@@ -30,8 +37,9 @@ cases=(
   "oxygen-post-outside|$data/nasa_oxygen_post.vtk|azimuth=30,elevation=20|dvr|0|{\"attribute\":\"VelocityMagnitude\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[1.39,0.4]]}"
   "oxygen-post-inside|$data/nasa_oxygen_post.vtk|eye=0,-6,2.4,target=0,6,2.4,up=0,0,1,fov=60|dvr|0|{\"attribute\":\"VelocityMagnitude\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[0.5,0],[1.39,0.6]]}"
   "bracket-outside|$data/fea_bracket.vtk|azimuth=30,elevation=20|dvr|0|{\"attribute\":\"von_mises_stress_psi\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[21,0.5]]}"
-  "blade1m-outside|bench/out/blade1m.vtk|azimuth=30,elevation=20|dvr|0|"
-  "blade1m-inside|bench/out/blade1m.vtk|azimuth=30,elevation=20,distance=0.25|dvr|0|"
+  "bracket-inside|$data/fea_bracket.vtk|eye=0,-1.2,1.6,target=0,2,1.6,up=0,0,1,fov=70|dvr|0|{\"attribute\":\"von_mises_stress_psi\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[4,0],[21,0.6]]}"
+  "blade1m-outside|$blade1m|azimuth=30,elevation=20|dvr|0|"
+  "blade1m-inside|$blade1m|azimuth=30,elevation=20,distance=0.25|dvr|0|"
 )
 
 psnr() { "$py" bench/psnr.py "$1" "$2"; }
@@ -43,7 +51,8 @@ for spec in "${cases[@]}"; do
   if (($# > 0)) && [[ " $* " != *" $name "* ]]; then continue; fi
   [[ -s "$mesh" ]] || { echo "skip $name: no $mesh"; continue; }
   base=$(basename "${mesh%.vtk}")
-  store="$out/$base${PREPROCESS_ARGS:+-custom}.store"
+  opts=$(echo "${PREPROCESS_ARGS:-}" | tr -c 'A-Za-z0-9.\n' '_')
+  store="$out/$base-$tag${opts:+-$opts}.store"
   [[ -d "$store" ]] || "$bin" preprocess "$mesh" -o "$store" --progress none ${PREPROCESS_ARGS:-} > /dev/null
   input_tets=$("$bin" info --json "$mesh" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
   if [[ -z "$tf" ]]; then  # the first attribute, opacity 0 to 0.3 over its range
@@ -86,7 +95,8 @@ old = json.load(open(path)) if os.path.exists(path) else {"runs": []}
 rows = [json.loads(r) for r in sys.argv[2:]]
 keys = {(r["case"], r["tag"], r["budget"]) for r in rows}
 kept = [r for r in old.get("runs", []) if (r["case"], r["tag"], r["budget"]) not in keys]
-json.dump({"date": datetime.date.today().isoformat(), "size": sys.argv[1],
-           "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; decimation by tetrascope simplify --tets (the cut's tet count)",
-           "runs": kept + rows}, open(path, "w"), indent=1)
+old.update({"date": datetime.date.today().isoformat(), "size": sys.argv[1],
+            "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; decimation by tetrascope simplify --tets (the cut's tet count)",
+            "runs": kept + rows})  # other keys (tags, notes) are kept
+json.dump(old, open(path, "w"), indent=1)
 PY

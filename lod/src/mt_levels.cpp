@@ -17,6 +17,7 @@
 #include <numeric>
 
 #include "mt_stages.h"
+#include "tetrascope/lod/level_targets.h"
 #include "tetrascope/lod/octree_partition.h"
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/parallel_for.h"
@@ -200,12 +201,13 @@ class LevelBuilder {
     const std::vector<std::vector<CeilingPatch>> ceiling_patches = cut_into_patches(first, last, regions, region);
     const std::vector<std::vector<uint32_t>> ceiling_vertices = follow_vertices(first, regions, region);
     lock_ceiling_borders(ceiling_patches);
+    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets);
     std::vector<CeilingResult> results(regions);
     const double work_before = work_done_, work = level_work(double(tets));
     std::atomic<uint32_t> simplified_ceilings{0};
     std::mutex reporting;
     parallel_for(regions, options_.threads, [&](size_t k, unsigned) {
-      results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k]);
+      results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k], targets[k]);
       const uint32_t done = ++simplified_ceilings;
       std::unique_lock report(reporting, std::try_to_lock);  // a ceiling's end is reported by one worker at a time
       if (report) stage_("simplify", simplify_fraction(work_before + work * done / regions));
@@ -282,25 +284,49 @@ class LevelBuilder {
         }
   }
 
-  // One ceiling: its patches gathered into a mesh of local ids, simplified with its border
-  // locked, its error measured at the original vertices it covers. Runs on worker threads:
-  // reads shared state only.
-  CeilingResult simplify_ceiling(const std::vector<CeilingPatch>& patches, const std::vector<uint32_t>& original_vertices) const {
+  // The tets each ceiling is simplified to (0: the level ratio of its own tets). With
+  // common_error, every ceiling is first simplified far with its collapse costs traced, and
+  // the level's tets (level_ratio of `tets`) go where the costs are highest (level_targets.h).
+  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets) const {
+    std::vector<uint64_t> targets(ceiling_patches.size(), 0);
+    if (!options_.common_error || ceiling_patches.size() < 2) return targets;
+    std::vector<CeilingTrace> traces(ceiling_patches.size());
+    parallel_for(traces.size(), options_.threads, [&](size_t k, unsigned) {
+      CeilingMesh c = gather_ceiling(ceiling_patches[k]);
+      traces[k].tets = c.mesh.tet_count();
+      // traced down to level_ratio² of its tets: a smooth ceiling may give up a whole level more
+      SimplifyOptions so = ceiling_options(std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * options_.level_ratio * double(traces[k].tets)))));
+      so.trace_costs = true;
+      traces[k].steps = simplify(c.mesh, so, c.locked).cost_trace;
+    });
+    // every ceiling simplified at least to √level_ratio of its tets (halfway to the ratio, in
+    // steps of the ladder), so that every node of the level is coarser than its children
+    return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), std::sqrt(options_.level_ratio));
+  }
+
+  // A ceiling's patches gathered into a mesh of local ids, its border vertices marked locked.
+  struct CeilingMesh {
+    storage::TetMesh mesh;
+    std::vector<uint8_t> locked;
+    std::vector<uint32_t> global;  // per local vertex: global id
+  };
+  CeilingMesh gather_ceiling(const std::vector<CeilingPatch>& patches) const {
     const VertexTable& table = mesh_.table;
     const auto& attribute_info = mesh_.attributes;
-    CeilingResult out;
-    std::vector<uint32_t> global;
+    CeilingMesh out;
+    std::vector<uint32_t>& global = out.global;
     for (const auto& [n, begin, count] : patches)
       global.insert(global.end(), out_.nodes[n].tets.begin() + 4 * size_t{begin}, out_.nodes[n].tets.begin() + 4 * (size_t{begin} + count));
     std::vector<uint32_t> tets_global = global;
     std::sort(global.begin(), global.end());
     global.erase(std::unique(global.begin(), global.end()), global.end());
-    storage::TetMesh m;
+    storage::TetMesh& m = out.mesh;
     const size_t nv = global.size();
     m.x.resize(nv);
     m.y.resize(nv);
     m.z.resize(nv);
-    std::vector<uint8_t> locked(nv, 0);
+    std::vector<uint8_t>& locked = out.locked;
+    locked.assign(nv, 0);
     for (size_t l = 0; l < nv; ++l) {
       m.x[l] = table.xyz[3 * size_t{global[l]}];
       m.y[l] = table.xyz[3 * size_t{global[l]} + 1];
@@ -317,12 +343,29 @@ class LevelBuilder {
     m.tets.resize(tets_global.size());
     for (size_t i = 0; i < tets_global.size(); ++i)
       m.tets[i] = static_cast<uint32_t>(std::lower_bound(global.begin(), global.end(), tets_global[i]) - global.begin());
+    return out;
+  }
+
+  SimplifyOptions ceiling_options(uint64_t target) const {
     SimplifyOptions so;
-    so.target_tets = std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * double(m.tet_count()))));
+    so.target_tets = target;
     so.frame = mesh_.bounds;
     so.attribute_ranges = mesh_.ranges;
     so.threads = 1;
     so.seed = static_cast<uint32_t>(options_.seed);
+    return so;
+  }
+
+  // One ceiling simplified with its border locked to `target` tets (0: level_ratio of its
+  // tets), its error measured at the original vertices it covers. Runs on worker threads:
+  // reads shared state only.
+  CeilingResult simplify_ceiling(const std::vector<CeilingPatch>& patches, const std::vector<uint32_t>& original_vertices, uint64_t target) const {
+    CeilingResult out;
+    CeilingMesh gathered = gather_ceiling(patches);
+    storage::TetMesh& m = gathered.mesh;
+    const std::vector<uint8_t>& locked = gathered.locked;
+    const std::vector<uint32_t>& global = gathered.global;
+    const SimplifyOptions so = ceiling_options(target ? target : std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * double(m.tet_count())))));
     const storage::TetMesh before = m;
     SimplifyReport sr = simplify(m, so, locked);
     // a vertex keeps its global id while its position and values are unchanged

@@ -304,7 +304,7 @@ SimplifyReport Simplifier::run() {
   region_.assign(vertex_alive_.size(), 0);
   // regions pay off only when each holds many tets; small meshes (and the MT's segments,
   // which it simplifies in parallel itself) take one thread
-  const int threads = options_.independent ? 1 : static_cast<int>(std::min<uint64_t>(std::max(options_.threads, 1u), alive_tets_.load() / std::max<uint64_t>(options_.min_tets_per_thread, 1)));
+  const int threads = options_.independent || options_.trace_costs ? 1 : static_cast<int>(std::min<uint64_t>(std::max(options_.threads, 1u), alive_tets_.load() / std::max<uint64_t>(options_.min_tets_per_thread, 1)));
   if (options_.independent) {
     Worker w;
     run_independent(w);

@@ -156,6 +156,21 @@ TEST(SegmentCli, DecompressionBombIsRefusedWithTheOptionToRaiseIt) {
   EXPECT_NE(bad.out.find("--max-inflate-ratio must be at least 1"), std::string::npos) << bad.out;
 }
 
+TEST(PreprocessCli, UnknownLevelTargetsIsRefusedNamingTheChoices) {
+  auto dir = scratch_dir("pre_level_targets");
+  write_file(dir / "grid.off", grid_off(12));  // 8,640 tets
+  Result bad = run("preprocess " + (dir / "grid.off").string() + " -o " + (dir / "s").string() + " --progress none --level-targets median");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("--level-targets must be 'error'"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s"));
+  for (const char* mode : {"error", "ratio"}) {  // both choices build a store that verifies
+    Result ok = run("preprocess " + (dir / "grid.off").string() + " -o " + (dir / mode).string() + " --progress none --segment-tets 1000 --base-tets 500 --level-targets " + mode);
+    EXPECT_EQ(ok.status, 0) << mode << ": " << ok.out;
+    Result verify = run("verify " + (dir / mode).string());
+    EXPECT_EQ(verify.status, 0) << mode << ": " << verify.out;
+  }
+}
+
 TEST(PreprocessCli, StoreThatFailsVerifyIsRemovedNotReported) {
   auto dir = scratch_dir("pre_check");
   write_file(dir / "g.off", grid_off(4));

@@ -19,7 +19,10 @@ struct PreprocessOptions {
   // stop when a level has at most this many tets (or simplification stalls): small enough for
   // an interaction budget on every store (issue 15)
   uint64_t base_tets = 10000;
-  double level_ratio = 0.25;      // each segment is simplified to this share of its tets
+  double level_ratio = 0.25;      // each level holds about this share of the tets of the one below
+  // true: the segments of a level are simplified to one error threshold (the level's tets go
+  // where the field varies, level_targets.h); false: each segment to level_ratio of its tets
+  bool common_error = true;
   // A coarse level keeps at least this many segments (of at least min_segment_tets each once
   // simplified), so that the cut can refine the top of the DAG a little at a time rather than
   // a whole level at once.

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tetrascope/storage/mesh.h"
@@ -30,6 +31,7 @@ struct SimplifyOptions {
   uint32_t threads = 1;                    // global queue only: up to this many regions simplified at once
   uint64_t min_tets_per_thread = 100000;   // ... each holding at least this many tets (fewer: fewer threads)
   uint32_t seed = 1;
+  bool trace_costs = false;                // fill SimplifyReport::cost_trace (one global queue on one thread only)
   // Normalisation frame. By default positions are normalised by the mesh's own box and
   // attributes by their own ranges; the multi-triangulation passes the whole mesh's, so that
   // every segment weighs errors alike. attribute_ranges: per mesh attribute, [lo, hi] of the
@@ -47,6 +49,9 @@ struct SimplifyReport {
   int threads = 1;  // threads used
   std::vector<uint32_t> source_vertex;  // per output vertex: the input vertex it continues (it may have moved)
   double seconds = 0;
+  // With trace_costs: per collapse, in order, the tets alive after it and its quadric cost.
+  // Re-running with target_tets = one of these counts stops at the same mesh (deterministic).
+  std::vector<std::pair<uint64_t, double>> cost_trace;
 };
 
 // Simplifies `mesh` in place (vertices compacted, tets positively oriented). Vertices with

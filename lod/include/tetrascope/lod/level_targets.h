@@ -1,0 +1,30 @@
+// Per-segment tet targets for one level of the multi-triangulation simplified to a common
+// error (issue 14) rather than to a common ratio: every ceiling of a level is first simplified
+// far (a cost trace), then each keeps the tets it has where the costs of its collapses, in
+// one order across all ceilings (the global queue a whole-mesh decimation would run), pass
+// the level's total target. Smooth ceilings end up coarser, varied ones finer.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <utility>
+#include <vector>
+
+namespace tetrascope::lod {
+
+struct CeilingTrace {
+  uint64_t tets = 0;  // before simplification
+  // per collapse, in order: tets alive after it, its quadric cost (SimplifyReport::cost_trace)
+  std::vector<std::pair<uint64_t, double>> steps;
+};
+
+// The tets each ceiling keeps so that the level holds at most `total_target` tets (as near as
+// the steps allow) with one error threshold across the ceilings: a ceiling's collapses are
+// taken in order of the running maximum of their costs, cheapest first across all ceilings.
+// Every ceiling takes at least the collapses that bring it to `max_ratio` of its tets (so it
+// is simplified at all) and no more than its trace holds. Each target is a count from its
+// trace (or its own tets when it has no steps), so a re-run with that target stops at the
+// same mesh. Throws std::invalid_argument for max_ratio outside (0, 1].
+std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio);
+
+}  // namespace tetrascope::lod

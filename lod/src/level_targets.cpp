@@ -1,0 +1,42 @@
+// Per-ceiling targets for a level simplified to a common error (level_targets.h).
+#include "tetrascope/lod/level_targets.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <tuple>
+
+namespace tetrascope::lod {
+
+std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio) {
+  if (!(max_ratio > 0 && max_ratio <= 1)) throw std::invalid_argument("common_error_targets: max_ratio must be in (0, 1]");
+  std::vector<uint64_t> target(traces.size());
+  uint64_t total = 0;
+  // (running maximum of the cost, ceiling, step) of every optional collapse
+  std::vector<std::tuple<double, uint32_t, uint32_t>> optional;
+  for (uint32_t k = 0; k < traces.size(); ++k) {
+    const CeilingTrace& t = traces[k];
+    target[k] = t.tets;
+    double running = 0;
+    bool mandatory = max_ratio < 1;
+    for (uint32_t i = 0; i < t.steps.size(); ++i) {
+      running = std::max(running, t.steps[i].second);
+      if (mandatory) {
+        target[k] = t.steps[i].first;
+        mandatory = double(t.steps[i].first) > max_ratio * double(t.tets);
+      } else {
+        optional.emplace_back(running, k, i);
+      }
+    }
+    total += target[k];
+  }
+  std::sort(optional.begin(), optional.end());
+  for (const auto& [cost, k, i] : optional) {
+    if (total <= total_target) break;
+    const uint64_t now = traces[k].steps[i].first;
+    total -= target[k] - std::min(target[k], now);
+    target[k] = std::min(target[k], now);
+  }
+  return target;
+}
+
+}  // namespace tetrascope::lod
