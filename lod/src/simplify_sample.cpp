@@ -39,6 +39,9 @@ constexpr double kTargetSlack = 0.15;
 // Without a threshold, leaves are split by D (|a_max - a_min| + kSizeWeight): the space error
 // with a floor, so that regions of constant values are still sampled evenly.
 constexpr double kSizeWeight = 0.05;
+// A border collapse that drops values differing by the whole normalised range costs as much
+// as one moving the border by this share of the diagonal: flat regions of even values go first.
+constexpr double kBorderFieldWeight = 0.05;
 
 // Normalised attribute channels (§4.2.2): scalars to [0, 1] by their range, vectors by the
 // longest vector to 0.5 v + 0.5. Returns per vertex `channels` values.
@@ -380,7 +383,8 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
   report.border_before = border.size();
   const double ratio = options.target_tets ? std::min(1.0, double(options.target_tets) / std::max<double>(1, double(mesh.tet_count()))) : 0.0;
   const uint64_t border_target = static_cast<uint64_t>(double(border.size()) * std::pow(ratio, 2.0 / 3.0));
-  detail::BorderSimplifyResult simplified = detail::simplify_border(positions, border, locked, border_target, options.border_error * diagonal);
+  const detail::BorderField field{values.data(), channels, kBorderFieldWeight * diagonal};
+  detail::BorderSimplifyResult simplified = detail::simplify_border(positions, border, locked, border_target, options.border_error * diagonal, field);
   report.border_after = simplified.triangles.size();
   report.refused_intersection = simplified.refused_intersection;
   report.refused_topology = simplified.refused_topology;

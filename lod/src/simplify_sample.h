@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -18,6 +19,14 @@ struct BorderSimplifyResult {
   uint64_t collapses = 0, refused_topology = 0, refused_geometry = 0, refused_intersection = 0;
 };
 
+// The attributes the border's collapses weigh: per vertex `channels` normalised values; a
+// collapse q -> p costs its quadric distance plus (weight |a_q - a_p|)^2.
+struct BorderField {
+  const float* values = nullptr;
+  size_t channels = 0;
+  double weight = 0;
+};
+
 // Half-edge collapses q -> p over `triangles` (a closed, intersection-free surface over
 // `positions`), cheapest quadric first, until `target_triangles` or until the next collapse
 // would move the border farther than `max_distance`. A vertex with locked[v] is never
@@ -25,7 +34,8 @@ struct BorderSimplifyResult {
 // A collapse is refused when it would fold a triangle, break the link condition, or make the
 // surface intersect itself (regions of influence in an octree, then exact tests).
 BorderSimplifyResult simplify_border(const std::vector<Point3>& positions, const std::vector<std::array<uint32_t, 3>>& triangles,
-                                     const std::vector<uint8_t>& locked, uint64_t target_triangles, double max_distance);
+                                     const std::vector<uint8_t>& locked, uint64_t target_triangles, double max_distance,
+                                     const BorderField& field = {});
 
 // Do the triangles a and b (vertex ids into positions) meet other than along shared vertices
 // and edges? Sharing an edge: a coplanar fold. Sharing three vertices: always.

@@ -77,15 +77,16 @@ Point3 normal_of(const Point3& a, const Point3& b, const Point3& c) {
 double dot(const Point3& a, const Point3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 struct Entry {
-  double cost;
+  double cost, distance;  // cost: distance plus field term, both squared; distance: the quadric's
   uint32_t q, p, version_q, version_p;
   bool operator>(const Entry& o) const { return cost != o.cost ? cost > o.cost : (q != o.q ? q > o.q : p > o.p); }
 };
 
 class BorderSimplifier {
  public:
-  BorderSimplifier(const std::vector<Point3>& positions, const std::vector<std::array<uint32_t, 3>>& triangles, const std::vector<uint8_t>& locked)
-      : positions_(positions), triangles_(triangles), locked_(locked) {
+  BorderSimplifier(const std::vector<Point3>& positions, const std::vector<std::array<uint32_t, 3>>& triangles, const std::vector<uint8_t>& locked,
+                   const BorderField& field)
+      : positions_(positions), triangles_(triangles), locked_(locked), field_(field) {
     const size_t nv = positions.size();
     star_.resize(nv);
     alive_.assign(triangles.size(), 1);
@@ -139,7 +140,7 @@ class BorderSimplifier {
     while (!queue_.empty() && alive_count_ > target) {
       const Entry e = queue_.top();
       queue_.pop();
-      if (e.cost > max_cost) break;
+      if (e.distance > max_cost) continue;
       if (version_[e.q] != e.version_q || version_[e.p] != e.version_p || !used_[e.q] || !used_[e.p]) continue;
       if (collapse(e.q, e.p)) {
         ++result_.collapses;
@@ -179,7 +180,13 @@ class BorderSimplifier {
         if (fixed_[q]) continue;
         Quadric sum = quadric_[q];
         for (int i = 0; i < 10; ++i) sum[i] += quadric_[p][i];
-        queue_.push({std::max(0.0, evaluate(sum, positions_[p])), q, p, version_[q], version_[p]});
+        const double distance = std::max(0.0, evaluate(sum, positions_[p]));
+        double change = 0;  // q's values are dropped for p's
+        for (size_t c = 0; c < field_.channels; ++c) {
+          const double d = double(field_.values[size_t{q} * field_.channels + c]) - field_.values[size_t{p} * field_.channels + c];
+          change += d * d;
+        }
+        queue_.push({distance + field_.weight * field_.weight * change, distance, q, p, version_[q], version_[p]});
       }
   }
 
@@ -281,6 +288,7 @@ class BorderSimplifier {
   const std::vector<Point3>& positions_;
   std::vector<std::array<uint32_t, 3>> triangles_;
   const std::vector<uint8_t>& locked_;
+  const BorderField& field_;
   std::vector<std::vector<uint32_t>> star_;
   std::vector<uint8_t> alive_, used_, fixed_;
   std::vector<uint32_t> version_, mark_;
@@ -300,8 +308,8 @@ class BorderSimplifier {
 }  // namespace
 
 BorderSimplifyResult simplify_border(const std::vector<Point3>& positions, const std::vector<std::array<uint32_t, 3>>& triangles,
-                                     const std::vector<uint8_t>& locked, uint64_t target_triangles, double max_distance) {
-  BorderSimplifier simplifier(positions, triangles, locked);
+                                     const std::vector<uint8_t>& locked, uint64_t target_triangles, double max_distance, const BorderField& field) {
+  BorderSimplifier simplifier(positions, triangles, locked, field);
   return simplifier.run(target_triangles, max_distance);
 }
 
