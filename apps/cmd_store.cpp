@@ -148,9 +148,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -167,6 +167,7 @@ int run_preprocess(const Arguments& raw) {
   options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
   options.seed = static_cast<int>(args.number("--seed", 1));
   options.replace = args.has("--force");
+  options.simplifier = simplify_method(args.has("--simplifier") ? args.get("--simplifier") : "qem", "--simplifier");
   if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
   if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "tetrascope/lod/simplify.h"
+
 namespace tetrascope::apps {
 
 using Arguments = std::vector<std::string>;
@@ -18,6 +20,8 @@ int run_preprocess(const Arguments& raw);
 // cmd_simplify.cpp: whole-mesh simplification and its error
 int run_simplify(const Arguments& raw);
 int run_error(const Arguments& raw);
+// "qem" or "sample" given to `option`; anything else is a usage error naming both
+lod::SimplifyMethod simplify_method(const std::string& value, const std::string& option);
 // cmd_view.cpp: a view of a mesh or store, as a mesh (cut) or an image (render)
 int run_cut(const Arguments& raw);
 int run_render(const Arguments& raw);

@@ -4,8 +4,19 @@
 # each (VTK's filter takes a single scalar). Both outputs are judged by `tetrascope error`:
 # mean field error (RMS, normalised), max field error, boundary Hausdorff and mean distance.
 # Writes bench/results/simplify.json.   usage: bench/simplify_bench.sh [--quick]
+#
+# bench/simplify_bench.sh --sample [REPEATS] (issue 20): simplify --method sample against
+# --method qem (one thread and the default) at the same target tets (10%) on
+# onera_m6_potential and the 1M and 5M blades (/work/bigdata, SAMPLE_DATASETS overrides),
+# VTK's decimation alongside; wall and user CPU seconds (median of REPEATS runs), the field
+# error, boundary Hausdorff, whether the border self-intersects (tetrascope error), and three
+# isosurfaces against the original's (bench/iso_compare.py, Table 4.2). Writes
+# bench/results/simplify_sample.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+if [[ "${1:-}" == "--sample" ]]; then
+  exec bash bench/simplify_sample_compare.sh "${2:-3}"
+fi
 scripts/install-deps --bench > /dev/null
 cmake --preset release > /dev/null
 cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null

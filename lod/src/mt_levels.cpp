@@ -353,6 +353,7 @@ class LevelBuilder {
     so.attribute_ranges = mesh_.ranges;
     so.threads = 1;
     so.seed = static_cast<uint32_t>(options_.seed);
+    so.method = options_.simplifier;
     return so;
   }
 
@@ -372,6 +373,10 @@ class LevelBuilder {
     out.global.resize(m.vertex_count());
     for (size_t l = 0; l < m.vertex_count(); ++l) {
       const uint32_t src = sr.source_vertex[l];
+      if (src == kNone) {  // a point the sampling simplifier added
+        out.global[l] = kNone;
+        continue;
+      }
       bool same = m.x[l] == before.x[src] && m.y[l] == before.y[src] && m.z[l] == before.z[src];
       for (size_t a = 0; a < m.attributes.size() && same; ++a) {
         const uint32_t c = m.attributes[a].info.components;

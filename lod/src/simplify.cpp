@@ -365,6 +365,7 @@ void Simplifier::compact() {
 }  // namespace detail
 
 SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
+  if (options.method == SimplifyMethod::kSample) return simplify_sampled(mesh, options, locked);
   detail::Simplifier simplifier(mesh, options, locked);
   return simplifier.run();
 }

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/progress.h"
 
@@ -32,6 +33,9 @@ struct PreprocessOptions {
   uint32_t threads = 2;           // segments simplified at once
   uint32_t max_levels = 24;
   int seed = 1;
+  // how each segment is simplified: quadric collapses, or the sampling simplifier of §4.2 (the
+  // segment's locked border faces kept exactly, only its free interior and border resampled)
+  SimplifyMethod simplifier = SimplifyMethod::kQem;
   bool replace = false;
   storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
 };

@@ -14,7 +14,12 @@
 
 namespace tetrascope::lod {
 
+// kQem: full-edge collapses with quadrics (§3.1.4, §4.1). kSample: the global simplifier of
+// §4.2 (intersection-free border collapses, octree point sampling, TetGen), simplify_sample.cpp.
+enum class SimplifyMethod { kQem, kSample };
+
 struct SimplifyOptions {
+  SimplifyMethod method = SimplifyMethod::kQem;
   // Stop criteria: the first one reached ends the run. 0 disables a criterion; at least one
   // of target_tets / max_error must be set.
   uint64_t target_tets = 0;
@@ -38,6 +43,15 @@ struct SimplifyOptions {
   // value (scalars) or [0, longest] (vectors); empty = the mesh's own.
   std::optional<storage::Bounds> frame;
   std::vector<std::array<double, 2>> attribute_ranges;
+  // kSample only (§4.2.2). An octree leaf of interior points is split while its field error
+  // e_f = |a_max - a_min| (normalised attributes) passes field_error or its space error
+  // e_s = D |a_max - a_min| (D: the leaf's extent over the mesh's) passes space_error; 0 = not
+  // used. With target_tets the leaves are split worst first until the sample count the target
+  // needs. border_error: the farthest (relative to the mesh's diagonal) a border collapse may
+  // move the border (its quadric distance); the border keeps its share of the target too.
+  double field_error = 0;
+  double space_error = 0;
+  double border_error = 0.002;
 };
 
 constexpr uint32_t kMaxSimplifyAttributeChannels = 16;
@@ -47,7 +61,12 @@ struct SimplifyReport {
   uint64_t collapses = 0, refused_topology = 0, refused_geometry = 0, runs = 0;
   uint64_t max_queue = 0;
   int threads = 1;  // threads used
-  std::vector<uint32_t> source_vertex;  // per output vertex: the input vertex it continues (it may have moved)
+  std::vector<uint32_t> source_vertex;  // per output vertex: the input vertex it continues (it may have moved); kSample: 0xFFFFFFFF for a Steiner point
+  // kSample: border triangles before/after, interior samples, Steiner points TetGen added,
+  // border collapses refused because they would make the border intersect itself
+  uint64_t border_before = 0, border_after = 0, samples = 0, steiner_points = 0, refused_intersection = 0;
+  uint64_t tetrahedralizations = 0;
+  double border_seconds = 0, sample_seconds = 0, tetrahedralize_seconds = 0, output_seconds = 0;  // kSample: the phases  // TetGen runs (a second one when the first missed the target by far)
   double seconds = 0;
   // With trace_costs: per collapse, in order, the tets alive after it and its quadric cost.
   // Re-running with target_tets = one of these counts stops at the same mesh (deterministic).
@@ -59,6 +78,18 @@ struct SimplifyReport {
 // from a locked vertex p to a free vertex q may collapse only onto p; an edge between two
 // locked vertices never collapses. `locked` may be empty. Throws std::invalid_argument for
 // bad options (unknown attribute, negative weights, no stop criterion).
+// With options.method == kSample the work is simplify_sampled's.
 SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
+
+// The global simplifier of §4.2 on one mesh in memory: the border (faces of one tet) is
+// simplified by half-edge collapses on quadrics that never make it intersect itself (border
+// faces whose three vertices are locked are never touched, nor is any locked vertex), the
+// interior vertices are sampled by an octree (one representative a leaf), and TetGen builds a
+// constrained Delaunay tetrahedralization of the samples inside the simplified border,
+// adding no point on it; Steiner points get values by barycentric location in the input.
+// Every kept vertex keeps its position and values bit-identical. The input must be
+// conforming with an intersection-free border; throws std::invalid_argument for bad options,
+// std::runtime_error when TetGen fails.
+SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
 
 }  // namespace tetrascope::lod

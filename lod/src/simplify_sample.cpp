@@ -1,0 +1,523 @@
+// The global tetrahedral simplifier of dissertation §4.2 [SS06a]: the border is simplified
+// without self-intersections (§4.2.1, simplify_sample_border.cpp), the interior point-sampled
+// by an octree split by field and space error, one representative point a leaf (§4.2.2), and
+// TetGen [Si05] builds a constrained Delaunay tetrahedralization of the samples inside the
+// simplified border (§4.2.3); Steiner points get values by barycentric location in the input,
+// walking from tet to tet across faces.
+#define TETLIBRARY
+#include <tetgen.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <queue>
+#include <stdexcept>
+#include <string>
+
+#include "simplify_sample.h"
+#include "tetrascope/lod/border_intersection.h"
+#include "tetrascope/lod/simplify.h"
+
+namespace tetrascope::lod {
+namespace {
+
+using detail::Box3;
+using detail::Point3;
+
+constexpr uint32_t kSteiner = 0xFFFFFFFFu;
+constexpr int kMaxOctreeDepth = 30;
+constexpr uint32_t kMaxWalkSteps = 4096;
+// A constrained Delaunay tetrahedralization has about this many tets per interior point and
+// per border point (measured on the shared data; the estimate sets the sample count of a
+// target, corrected once when it misses by more than kTargetSlack).
+constexpr double kTetsPerInteriorPoint = 6.0;
+constexpr double kTetsPerBorderPoint = 1.5;
+constexpr double kTargetSlack = 0.15;
+// Without a threshold, leaves are split by D (|a_max - a_min| + kSizeWeight): the space error
+// with a floor, so that regions of constant values are still sampled evenly.
+constexpr double kSizeWeight = 0.05;
+// A border collapse that drops values differing by the whole normalised range costs as much
+// as one moving the border by this share of the diagonal: flat regions of even values go first.
+constexpr double kBorderFieldWeight = 0.05;
+
+// Normalised attribute channels (§4.2.2): scalars to [0, 1] by their range, vectors by the
+// longest vector to 0.5 v + 0.5. Returns per vertex `channels` values.
+std::vector<float> normalised_channels(const storage::TetMesh& mesh, const SimplifyOptions& options, size_t* channel_count) {
+  struct Channel {
+    const std::vector<float>* values;
+    uint32_t components, component;
+    double offset, scale;
+  };
+  std::vector<Channel> channels;
+  for (const std::string& name : options.attributes)
+    if (!mesh.find_attribute(name)) throw std::invalid_argument("no attribute '" + name + "' in the mesh");
+  if (!options.attribute_ranges.empty() && options.attribute_ranges.size() != mesh.attributes.size())
+    throw std::invalid_argument("attribute_ranges must give one range per attribute");
+  for (size_t a = 0; a < mesh.attributes.size(); ++a) {
+    const auto& attribute = mesh.attributes[a];
+    if (!options.attributes.empty() && std::find(options.attributes.begin(), options.attributes.end(), attribute.info.name) == options.attributes.end()) continue;
+    const uint32_t c = attribute.info.components;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    if (!options.attribute_ranges.empty()) {
+      lo = options.attribute_ranges[a][0];
+      hi = options.attribute_ranges[a][1];
+    } else if (c == 1) {
+      for (float v : attribute.values)
+        if (std::isfinite(v)) lo = std::min<double>(lo, v), hi = std::max<double>(hi, v);
+    } else {
+      lo = 0;
+      hi = 0;
+      for (size_t v = 0; v < attribute.values.size() / c; ++v) {
+        double s = 0;
+        for (uint32_t k = 0; k < c; ++k) s += double(attribute.values[v * c + k]) * attribute.values[v * c + k];
+        if (std::isfinite(s)) hi = std::max(hi, std::sqrt(s));
+      }
+    }
+    for (uint32_t k = 0; k < c; ++k) {
+      if (c == 1) channels.push_back({&attribute.values, c, k, std::isfinite(lo) ? lo : 0, hi > lo ? 1.0 / (hi - lo) : 0});
+      else channels.push_back({&attribute.values, c, k, 0, hi > 0 ? 0.5 / hi : 0});
+    }
+  }
+  *channel_count = channels.size();
+  const size_t nv = mesh.vertex_count();
+  std::vector<float> out(nv * channels.size());
+  for (size_t i = 0; i < channels.size(); ++i) {
+    const Channel& ch = channels[i];
+    for (size_t v = 0; v < nv; ++v) {
+      const double raw = (*ch.values)[v * ch.components + ch.component];
+      double value = ch.components == 1 ? (raw - ch.offset) * ch.scale : raw * ch.scale + 0.5;
+      if (!std::isfinite(value)) value = 0;
+      out[v * channels.size() + i] = static_cast<float>(value);
+    }
+  }
+  return out;
+}
+
+// Octree point sampling (§4.2.2): returns one representative vertex per leaf.
+class PointSampler {
+ public:
+  PointSampler(const std::vector<Point3>& positions, const std::vector<float>& values, size_t channels, double extent)
+      : positions_(positions), values_(values), channels_(channels), extent_(extent > 0 ? extent : 1) {}
+
+  std::vector<uint32_t> sample(std::vector<uint32_t> points, const SimplifyOptions& options, uint64_t wanted) {
+    std::vector<uint32_t> out;
+    if (points.empty()) return out;
+    points_ = std::move(points);
+    scratch_.resize(points_.size());
+    Box3 cell;
+    for (uint32_t v : points_) cell.add(positions_[v]);
+    double side = 0;
+    for (int k = 0; k < 3; ++k) side = std::max(side, cell.hi[k] - cell.lo[k]);
+    for (int k = 0; k < 3; ++k) cell.hi[k] = cell.lo[k] + side * (1 + 1e-9) + 1e-30;
+    const bool thresholds = options.field_error > 0 || options.space_error > 0;
+    std::priority_queue<Leaf> open;
+    std::vector<Leaf> done;
+    open.push(make_leaf(0, static_cast<uint32_t>(points_.size()), cell, 0, options, thresholds));
+    uint64_t leaves = 1;
+    while (!open.empty()) {
+      Leaf leaf = open.top();
+      if ((wanted && leaves >= wanted) || (thresholds && leaf.priority <= 1)) break;
+      open.pop();
+      if (leaf.end - leaf.begin <= 1 || leaf.depth >= kMaxOctreeDepth || leaf.priority <= 0) {
+        done.push_back(leaf);
+        continue;
+      }
+      // split at the mid-point, points spread over the children in place
+      uint32_t count[8] = {0}, first[9] = {0};
+      auto octant = [&](uint32_t v) {
+        uint32_t o = 0;
+        for (int k = 0; k < 3; ++k)
+          if (positions_[v][k] >= 0.5 * (leaf.cell.lo[k] + leaf.cell.hi[k])) o |= 1u << k;
+        return o;
+      };
+      for (uint32_t i = leaf.begin; i < leaf.end; ++i) ++count[octant(points_[i])];
+      first[0] = leaf.begin;
+      for (int c = 0; c < 8; ++c) first[c + 1] = first[c] + count[c];
+      uint32_t fill[8];
+      std::copy(first, first + 8, fill);
+      for (uint32_t i = leaf.begin; i < leaf.end; ++i) scratch_[fill[octant(points_[i])]++] = points_[i];
+      std::copy(scratch_.begin() + leaf.begin, scratch_.begin() + leaf.end, points_.begin() + leaf.begin);
+      int children = 0;
+      for (uint32_t c = 0; c < 8; ++c) {
+        if (count[c] == 0) continue;
+        Box3 child;
+        for (int k = 0; k < 3; ++k) {
+          const double mid = 0.5 * (leaf.cell.lo[k] + leaf.cell.hi[k]);
+          child.lo[k] = (c >> k) & 1 ? mid : leaf.cell.lo[k];
+          child.hi[k] = (c >> k) & 1 ? leaf.cell.hi[k] : mid;
+        }
+        open.push(make_leaf(first[c], first[c + 1], child, leaf.depth + 1, options, thresholds));
+        ++children;
+      }
+      leaves += children - 1;
+    }
+    while (!open.empty()) {
+      done.push_back(open.top());
+      open.pop();
+    }
+    for (const Leaf& leaf : done) out.push_back(representative(leaf));
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+
+ private:
+  struct Leaf {
+    uint32_t begin, end;
+    Box3 cell;
+    int depth;
+    double priority;
+    bool operator<(const Leaf& o) const { return priority != o.priority ? priority < o.priority : begin > o.begin; }
+  };
+
+  Leaf make_leaf(uint32_t begin, uint32_t end, const Box3& cell, int depth, const SimplifyOptions& options, bool thresholds) const {
+    double spread = 0;
+    for (size_t c = 0; c < channels_; ++c) {
+      float lo = values_[size_t{points_[begin]} * channels_ + c], hi = lo;
+      for (uint32_t i = begin + 1; i < end; ++i) {
+        const float v = values_[size_t{points_[i]} * channels_ + c];
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+      spread += double(hi - lo) * (hi - lo);
+    }
+    const double field = std::sqrt(spread), relative_extent = (cell.hi[0] - cell.lo[0]) / extent_;
+    double priority = 0;
+    if (thresholds) {
+      if (options.field_error > 0) priority = std::max(priority, field / options.field_error);
+      if (options.space_error > 0) priority = std::max(priority, relative_extent * field / options.space_error);
+      // past the thresholds a target still asks for more points: the largest leaves next
+      if (priority <= 1 && options.target_tets) priority = 1e-9 * relative_extent * (field + kSizeWeight);
+    } else {
+      priority = relative_extent * (field + kSizeWeight);
+    }
+    if (end - begin <= 1) priority = 0;
+    return {begin, end, cell, depth, priority};
+  }
+
+  // the point whose values are closest to the leaf's mean (without attributes: to its centroid)
+  uint32_t representative(const Leaf& leaf) const {
+    const size_t dims = channels_ ? channels_ : 3;
+    std::vector<double> mean(dims, 0.0);
+    auto coordinate = [&](uint32_t v, size_t c) { return channels_ ? double(values_[size_t{v} * channels_ + c]) : positions_[v][c]; };
+    for (uint32_t i = leaf.begin; i < leaf.end; ++i)
+      for (size_t c = 0; c < dims; ++c) mean[c] += coordinate(points_[i], c);
+    for (double& m : mean) m /= double(leaf.end - leaf.begin);
+    uint32_t best = points_[leaf.begin];
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (uint32_t i = leaf.begin; i < leaf.end; ++i) {
+      double d = 0;
+      for (size_t c = 0; c < dims; ++c) d += (coordinate(points_[i], c) - mean[c]) * (coordinate(points_[i], c) - mean[c]);
+      if (d < best_distance) best_distance = d, best = points_[i];
+    }
+    return best;
+  }
+
+  const std::vector<Point3>& positions_;
+  const std::vector<float>& values_;
+  size_t channels_;
+  double extent_;
+  std::vector<uint32_t> points_, scratch_;
+};
+
+// The tets of a mesh around each vertex, and the walk to the tet that holds a point.
+class PointLocator {
+ public:
+  explicit PointLocator(const storage::TetMesh& mesh) : mesh_(mesh) {
+    const size_t nv = mesh.vertex_count();
+    start_.assign(nv + 1, 0);
+    star_.resize(mesh.tets.size());
+    for (uint32_t v : mesh.tets) ++start_[v + 1];
+    for (size_t v = 0; v < nv; ++v) start_[v + 1] += start_[v];
+    std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+    for (uint32_t t = 0; t < mesh.tet_count(); ++t)
+      for (int k = 0; k < 4; ++k) star_[fill[mesh.tets[4 * size_t{t} + k]]++] = t;
+  }
+
+  // Barycentric coordinates of p in the tet holding it, walking from a tet around `near`
+  // across the face of the most negative coordinate; outside the mesh (or after too many
+  // steps) the last tet's coordinates clamped to it. Returns the tet.
+  uint32_t locate(const Point3& p, uint32_t near, std::array<double, 4>& weights) const {
+    uint32_t t = start_[near] < start_[near + 1] ? star_[start_[near]] : 0;
+    for (uint32_t step = 0;; ++step) {
+      barycentric(t, p, weights);
+      int worst = 0;
+      for (int k = 1; k < 4; ++k)
+        if (weights[k] < weights[worst]) worst = k;
+      if (weights[worst] >= -1e-12) return t;
+      const uint32_t next = step < kMaxWalkSteps ? neighbour(t, worst) : kSteiner;
+      if (next == kSteiner) {
+        double sum = 0;
+        for (double& w : weights) sum += (w = std::max(0.0, w));
+        for (double& w : weights) w = sum > 0 ? w / sum : 0.25;
+        return t;
+      }
+      t = next;
+    }
+  }
+
+ private:
+  void barycentric(uint32_t t, const Point3& p, std::array<double, 4>& w) const {
+    const uint32_t* v = &mesh_.tets[4 * size_t{t}];
+    Point3 c[4];
+    for (int k = 0; k < 4; ++k) c[k] = {mesh_.x[v[k]], mesh_.y[v[k]], mesh_.z[v[k]]};
+    auto volume = [](const Point3& a, const Point3& b, const Point3& cc, const Point3& d) {
+      const double bx = b[0] - a[0], by = b[1] - a[1], bz = b[2] - a[2];
+      const double cx = cc[0] - a[0], cy = cc[1] - a[1], cz = cc[2] - a[2];
+      const double dx = d[0] - a[0], dy = d[1] - a[1], dz = d[2] - a[2];
+      return bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx);
+    };
+    const double total = volume(c[0], c[1], c[2], c[3]);
+    if (!(std::abs(total) > 0)) {
+      w = {0.25, 0.25, 0.25, 0.25};
+      return;
+    }
+    w[0] = volume(p, c[1], c[2], c[3]) / total;
+    w[1] = volume(c[0], p, c[2], c[3]) / total;
+    w[2] = volume(c[0], c[1], p, c[3]) / total;
+    w[3] = 1 - w[0] - w[1] - w[2];
+  }
+
+  // the tet across the face of t opposite corner k, or kSteiner on the border
+  uint32_t neighbour(uint32_t t, int k) const {
+    const uint32_t* v = &mesh_.tets[4 * size_t{t}];
+    uint32_t face[3], n = 0;
+    for (int i = 0; i < 4; ++i)
+      if (i != k) face[n++] = v[i];
+    for (uint32_t s = start_[face[0]]; s < start_[face[0] + 1]; ++s) {
+      const uint32_t u = star_[s];
+      if (u == t) continue;
+      const uint32_t* w = &mesh_.tets[4 * size_t{u}];
+      int hits = 0;
+      for (int i = 0; i < 4; ++i) hits += w[i] == face[1] || w[i] == face[2];
+      if (hits == 2) return u;
+    }
+    return kSteiner;
+  }
+
+  const storage::TetMesh& mesh_;
+  std::vector<uint32_t> start_, star_;
+};
+
+struct Tetrahedralization {
+  std::vector<Point3> steiner;    // points TetGen added
+  std::vector<uint32_t> tets;     // 4 per tet: < inputs: input point; else inputs + Steiner index
+};
+
+// Constrained Delaunay tetrahedralization of `points` (the border's vertices first) bounded by
+// `triangles` (indices into points), with no point added on the border (-Y).
+Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, const std::vector<std::array<uint32_t, 3>>& triangles) {
+  tetgenio in, out;
+  in.firstnumber = 0;
+  in.numberofpoints = static_cast<int>(points.size());
+  in.pointlist = new REAL[3 * points.size()];
+  for (size_t i = 0; i < points.size(); ++i)
+    for (int k = 0; k < 3; ++k) in.pointlist[3 * i + k] = points[i][k];
+  in.numberoffacets = static_cast<int>(triangles.size());
+  in.facetlist = new tetgenio::facet[triangles.size()];
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    tetgenio::facet& f = in.facetlist[i];
+    tetgenio::init(&f);
+    f.numberofpolygons = 1;
+    f.polygonlist = new tetgenio::polygon[1];
+    tetgenio::init(&f.polygonlist[0]);
+    f.polygonlist[0].numberofvertices = 3;
+    f.polygonlist[0].vertexlist = new int[3];
+    for (int k = 0; k < 3; ++k) f.polygonlist[0].vertexlist[k] = static_cast<int>(triangles[i][k]);
+  }
+  tetgenbehavior behaviour;
+  char switches[] = "pYQzJ";
+  if (!behaviour.parse_commandline(switches)) throw std::runtime_error("tetgen: bad switches");
+  behaviour.nostaticfilter = 1;  // the static filter is global state in TetGen: not shared between threads
+  try {
+    tetrahedralize(&behaviour, &in, &out);
+  } catch (int code) {
+    throw std::runtime_error("tetgen could not tetrahedralize the sampled mesh (code " + std::to_string(code) +
+                             (code == 3 ? ": the border intersects itself)" : ")"));
+  }
+  Tetrahedralization result;
+  const int inputs = static_cast<int>(points.size());
+  for (int i = inputs; i < out.numberofpoints; ++i) result.steiner.push_back({out.pointlist[3 * i], out.pointlist[3 * i + 1], out.pointlist[3 * i + 2]});
+  result.tets.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * size_t(out.numberoftetrahedra));
+  return result;
+}
+
+}  // namespace
+
+SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
+  const auto started = std::chrono::steady_clock::now();
+  const size_t nv = mesh.vertex_count();
+  if (!locked.empty() && locked.size() != nv) throw std::invalid_argument("locked flags must cover every vertex");
+  if (!(options.field_error >= 0 && std::isfinite(options.field_error))) throw std::invalid_argument("the field error threshold must be a finite number >= 0");
+  if (!(options.space_error >= 0 && std::isfinite(options.space_error))) throw std::invalid_argument("the space error threshold must be a finite number >= 0");
+  if (!(options.border_error >= 0 && options.border_error <= 1)) throw std::invalid_argument("the border error must be in [0, 1] (a share of the diagonal)");
+  if (options.target_tets == 0 && options.field_error == 0 && options.space_error == 0)
+    throw std::invalid_argument("the sampling simplifier needs a target tet count, a field error or a space error threshold");
+  SimplifyReport report;
+  report.tets_before = mesh.tet_count();
+  report.vertices_before = nv;
+  size_t channels = 0;
+  const std::vector<float> values = normalised_channels(mesh, options, &channels);
+
+  std::vector<Point3> positions(nv);
+  for (size_t v = 0; v < nv; ++v) positions[v] = {mesh.x[v], mesh.y[v], mesh.z[v]};
+  const storage::Bounds bounds = options.frame ? *options.frame : storage::compute_bounds(mesh);
+  double diagonal = 0, extent = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double side = bounds.max[k] - bounds.min[k];
+    diagonal += side * side;
+    extent = std::max(extent, side);
+  }
+  diagonal = std::sqrt(diagonal);
+
+  using clock = std::chrono::steady_clock;
+  auto lap = [last = clock::now()](double& into) mutable {
+    const auto now = clock::now();
+    into += std::chrono::duration<double>(now - last).count();
+    last = now;
+  };
+  // 1. the border, simplified without self-intersections (§4.2.1)
+  const std::vector<std::array<uint32_t, 3>> border = border_triangles(mesh);
+  report.border_before = border.size();
+  const double ratio = options.target_tets ? std::min(1.0, double(options.target_tets) / std::max<double>(1, double(mesh.tet_count()))) : 0.0;
+  const uint64_t border_target = static_cast<uint64_t>(double(border.size()) * std::pow(ratio, 2.0 / 3.0));
+  const detail::BorderField field{values.data(), channels, kBorderFieldWeight * diagonal};
+  detail::BorderSimplifyResult simplified = detail::simplify_border(positions, border, locked, border_target, options.border_error * diagonal, field);
+  report.border_after = simplified.triangles.size();
+  report.refused_intersection = simplified.refused_intersection;
+  report.refused_topology = simplified.refused_topology;
+  report.refused_geometry = simplified.refused_geometry;
+  report.collapses = simplified.collapses;
+  lap(report.border_seconds);
+
+  // 2. the interior points: used, not on the original border, not locked
+  std::vector<uint8_t> kind(nv, 0);  // 1 used, 2 on the original border or locked
+  for (uint32_t v : mesh.tets) kind[v] = std::max<uint8_t>(kind[v], 1);
+  for (const auto& f : border)
+    for (uint32_t v : f) kind[v] = 2;
+  for (size_t v = 0; v < locked.size(); ++v)
+    if (locked[v]) kind[v] = 2;
+  std::vector<uint32_t> interior;
+  for (uint32_t v = 0; v < nv; ++v)
+    if (kind[v] == 1) interior.push_back(v);
+  // the tetrahedralization's points: the simplified border's vertices, then the samples
+  std::vector<uint32_t> input_vertex;
+  {
+    std::vector<uint8_t> on_border(nv, 0);
+    for (const auto& f : simplified.triangles)
+      for (uint32_t v : f) on_border[v] = 1;
+    for (uint32_t v = 0; v < nv; ++v)
+      if (on_border[v]) input_vertex.push_back(v);
+  }
+  const size_t border_points = input_vertex.size();
+  std::vector<uint32_t> border_index(nv, kSteiner);
+  for (uint32_t i = 0; i < border_points; ++i) border_index[input_vertex[i]] = i;
+  std::vector<std::array<uint32_t, 3>> facets(simplified.triangles.size());
+  for (size_t i = 0; i < facets.size(); ++i)
+    for (int k = 0; k < 3; ++k) facets[i][k] = border_index[simplified.triangles[i][k]];
+
+  PointSampler sampler(positions, values, channels, extent);
+  auto wanted_samples = [&](double tets_per_interior, double tets_per_border) -> uint64_t {
+    if (!options.target_tets) return 0;
+    const double rest = double(options.target_tets) - tets_per_border * double(border_points);
+    return static_cast<uint64_t>(std::max(1.0, rest / tets_per_interior));
+  };
+  // 3. sample and tetrahedralize (§4.2.2-4.2.3); once more when the target was missed by far
+  uint64_t wanted = wanted_samples(kTetsPerInteriorPoint, kTetsPerBorderPoint);
+  std::vector<uint32_t> samples;
+  Tetrahedralization tetrahedra;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    samples = sampler.sample(interior, options, wanted);
+    lap(report.sample_seconds);
+    std::vector<Point3> points(border_points + samples.size());
+    for (size_t i = 0; i < border_points; ++i) points[i] = positions[input_vertex[i]];
+    for (size_t i = 0; i < samples.size(); ++i) points[border_points + i] = positions[samples[i]];
+    tetrahedra = tetrahedralize_samples(points, facets);
+    lap(report.tetrahedralize_seconds);
+    ++report.tetrahedralizations;
+    const double tets = double(tetrahedra.tets.size() / 4);
+    if (!options.target_tets || !locked.empty() || samples.empty() || std::abs(tets - double(options.target_tets)) <= kTargetSlack * double(options.target_tets))
+      break;
+    // tets per sample seen in this run, the border's share as estimated
+    const double border_tets = std::min(tets * 0.9, kTetsPerBorderPoint * double(border_points));
+    const double per_sample = std::max(1.0, (tets - border_tets) / double(samples.size()));
+    const double rest = double(options.target_tets) - border_tets;
+    const uint64_t next = static_cast<uint64_t>(std::max(1.0, rest / per_sample));
+    if (next == wanted) break;
+    wanted = next;
+  }
+  report.samples = samples.size();
+
+  // 4. the output mesh: the points the tets use (input order), then the Steiner points
+  const size_t inputs = border_points + samples.size();
+  for (uint32_t s : samples) input_vertex.push_back(s);
+  std::vector<uint32_t> new_index(inputs + tetrahedra.steiner.size(), kSteiner);
+  std::vector<uint32_t> steiner_near(tetrahedra.steiner.size(), kSteiner);  // an input vertex sharing a tet
+  for (size_t t = 0; t < tetrahedra.tets.size() / 4; ++t) {
+    uint32_t known = kSteiner;
+    for (int k = 0; k < 4; ++k) {
+      const uint32_t i = tetrahedra.tets[4 * t + k];
+      new_index[i] = 0;
+      if (i < inputs) known = input_vertex[i];
+    }
+    for (int k = 0; k < 4; ++k) {
+      const uint32_t i = tetrahedra.tets[4 * t + k];
+      if (i >= inputs && steiner_near[i - inputs] == kSteiner) steiner_near[i - inputs] = known;
+    }
+  }
+  storage::TetMesh out;
+  for (const auto& a : mesh.attributes) out.attributes.push_back({a.info, {}});
+  std::unique_ptr<PointLocator> locator;
+  for (uint32_t i = 0; i < new_index.size(); ++i) {
+    if (new_index[i] == kSteiner) continue;
+    new_index[i] = static_cast<uint32_t>(out.x.size());
+    if (i < inputs) {
+      const uint32_t v = input_vertex[i];
+      out.x.push_back(mesh.x[v]);
+      out.y.push_back(mesh.y[v]);
+      out.z.push_back(mesh.z[v]);
+      for (size_t a = 0; a < mesh.attributes.size(); ++a) {
+        const uint32_t c = mesh.attributes[a].info.components;
+        out.attributes[a].values.insert(out.attributes[a].values.end(), mesh.attributes[a].values.begin() + size_t{v} * c,
+                                        mesh.attributes[a].values.begin() + size_t{v + 1} * c);
+      }
+      report.source_vertex.push_back(v);
+      continue;
+    }
+    const Point3& p = tetrahedra.steiner[i - inputs];
+    out.x.push_back(static_cast<float>(p[0]));
+    out.y.push_back(static_cast<float>(p[1]));
+    out.z.push_back(static_cast<float>(p[2]));
+    if (!locator) locator = std::make_unique<PointLocator>(mesh);
+    std::array<double, 4> w{};
+    const uint32_t near = steiner_near[i - inputs] == kSteiner ? mesh.tets.empty() ? 0 : mesh.tets[0] : steiner_near[i - inputs];
+    const uint32_t t = locator->locate(p, near, w);
+    for (size_t a = 0; a < mesh.attributes.size(); ++a) {
+      const uint32_t c = mesh.attributes[a].info.components;
+      for (uint32_t k = 0; k < c; ++k) {
+        double value = 0;
+        for (int j = 0; j < 4; ++j) value += w[j] * mesh.attributes[a].values[size_t{mesh.tets[4 * size_t{t} + j]} * c + k];
+        out.attributes[a].values.push_back(static_cast<float>(value));
+      }
+    }
+    report.source_vertex.push_back(kSteiner);
+    ++report.steiner_points;
+  }
+  out.tets.resize(tetrahedra.tets.size());
+  for (size_t i = 0; i < tetrahedra.tets.size(); ++i) out.tets[i] = new_index[tetrahedra.tets[i]];
+  for (size_t t = 0; t < out.tet_count(); ++t) {
+    uint32_t* v = &out.tets[4 * t];
+    if (storage::signed_volume(out, v[0], v[1], v[2], v[3]) < 0) std::swap(v[2], v[3]);
+  }
+  mesh = std::move(out);
+  lap(report.output_seconds);
+  report.tets_after = mesh.tet_count();
+  report.vertices_after = mesh.vertex_count();
+  report.runs = report.tetrahedralizations;
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return report;
+}
+
+}  // namespace tetrascope::lod
