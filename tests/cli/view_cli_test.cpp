@@ -46,6 +46,45 @@ TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
   EXPECT_NE(attribute.out.find("Temp"), std::string::npos) << "the message lists the attributes there are: " << attribute.out;
 }
 
+TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
+  const auto dir = scratch_dir("render-cli-lines");
+  const std::string out = (dir / "lines.png").string();
+  const std::string mesh = sample_mesh().string();
+  Result ok = run("render " + mesh + " -o " + out + " --size 96x96 --mode dvr+lines --field Velocity --seeds line:0,-5,2,0,5,2,20 --select-lines 3,4 --json");
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  auto j = last_json_line(ok.out);
+  EXPECT_EQ(j["lines"]["count"], 20);
+  EXPECT_EQ(j["lines"]["selected"], 2);
+  EXPECT_GT(j["lines"]["segments_ghosted"].get<int>(), j["lines"]["segments_opaque"].get<int>());
+  const std::string plain = (dir / "plain.png").string();
+  ASSERT_EQ(run("render " + mesh + " -o " + plain + " --size 96x96").status, 0);
+  Result compared = run("render " + mesh + " -o " + out + " --size 96x96 --mode dvr+lines --seeds dense:4 --compare " + plain + " --json");
+  ASSERT_EQ(compared.status, 0) << compared.out;
+  EXPECT_LT(last_json_line(compared.out)["compare_psnr_db"].get<double>(), 40.0) << "the lines change the image";
+  Result points = run("render " + mesh + " -o " + out + " --size 96x96 --mode points --attribute Temp --iso 400,600 --json");
+  ASSERT_EQ(points.status, 0) << points.out;
+  EXPECT_GT(last_json_line(points.out)["points"].get<int>(), 1000);
+  // the threats: a scalar field, a field the mesh lacks, a malformed seed spec, line options
+  // without lines, a PNG to compare that is not one
+  Result scalar = run("render " + mesh + " -o " + out + " --mode lines --field Temp");
+  EXPECT_EQ(scalar.status, 2);
+  EXPECT_NE(scalar.out.find("Temp"), std::string::npos) << scalar.out;
+  Result missing = run("render " + mesh + " -o " + out + " --mode lines --field Nope");
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.out.find("Nope"), std::string::npos) << missing.out;
+  Result seeds = run("render " + mesh + " -o " + out + " --mode lines --seeds line:0,0,0");
+  EXPECT_EQ(seeds.status, 2);
+  EXPECT_NE(seeds.out.find("line"), std::string::npos) << seeds.out;
+  Result too_many = run("render " + mesh + " -o " + out + " --mode lines --seeds dense:100000");
+  EXPECT_EQ(too_many.status, 2) << too_many.out;
+  Result no_lines = run("render " + mesh + " -o " + out + " --seeds dense:4");
+  EXPECT_EQ(no_lines.status, 2);
+  EXPECT_NE(no_lines.out.find("needs a mode with lines"), std::string::npos) << no_lines.out;
+  Result bad_compare = run("render " + mesh + " -o " + out + " --size 16x16 --compare " + mesh);
+  EXPECT_EQ(bad_compare.status, 2);
+  EXPECT_NE(bad_compare.out.find("not a PNG"), std::string::npos) << bad_compare.out;
+}
+
 TEST(RenderCli, ImageSidesAreLimited) {
   const auto dir = scratch_dir("render-cli-limits");
   const std::string out = (dir / "frame.png").string();

@@ -21,14 +21,14 @@ renderer::Renderer& gl() {
   return *r;
 }
 
-// The unit box, f = x, and a swirl v = (-(y - 0.5), x - 0.5, 0.25): helices about the box's axis.
+// The unit box, f = x, and a swirl v = (-(y - 0.5), x - 0.5, 0.12): helices about the box's axis.
 storage::TetMesh swirl_box(int n) {
   storage::TetMesh m = kuhn_box(n, 0, [](float x, float, float) { return x; });
   storage::Attribute v{{"v", 3}, {}};
   for (size_t i = 0; i < m.vertex_count(); ++i) {
     v.values.push_back(-(m.y[i] - 0.5f));
     v.values.push_back(m.x[i] - 0.5f);
-    v.values.push_back(0.25f);
+    v.values.push_back(0.12f);
   }
   m.attributes.push_back(v);
   return m;
@@ -77,7 +77,7 @@ TEST(Lines, GhostedLinesWithHalosMatchTheirGoldenImage) {
   renderer::FrameTimings t;
   const renderer::Image image = gl().render(s, &t);
   EXPECT_GT(t.line_segments_opaque, 20u);
-  EXPECT_GT(t.line_segments_ghosted, 3 * t.line_segments_opaque);
+  EXPECT_GT(t.line_segments_ghosted, 40u);
   const auto path = source_dir() / "tests" / "renderer" / "golden" / "lines_ghosted_halos.png";
   if (std::getenv("TETRA_UPDATE_GOLDEN")) renderer::write_image(path.string(), image, 90);
   const renderer::Image expected = renderer::read_png(path.string());
@@ -218,9 +218,9 @@ TEST(PointIsosurfaces, MatchMarchingTetsImage) {
   EXPECT_GT(t.points, 40000u);
   const double db = renderer::psnr(points, triangles);
   std::printf("point isosurface vs marching tets, sphere r=0.3, 160x160: %.1f dB\n", db);
-  EXPECT_GE(db, 24.0);
+  EXPECT_GE(db, 35.0);  // 43.2 dB measured
   s.points = false;
-  EXPECT_LT(renderer::psnr(gl().render(s), triangles), 20.0) << "the comparison is not trivially high";
+  EXPECT_LT(renderer::psnr(gl().render(s), triangles), 30.0) << "the comparison is not trivially high (22 dB without the surface)";
   // sparse splats let the inner sphere through: fewer pixels equal to the opaque image
   s.points = true;
   s.point_isovalues = {0.2, 0.3};
