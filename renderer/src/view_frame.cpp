@@ -94,7 +94,8 @@ void ViewPipeline::apply_lines(const LineRequest& request, RenderSettings& s) {
       selection_.insert(selection_.end(), in_box.begin(), in_box.end());
     }
     if (request.select_pixel) {
-      const auto picked = line_at_pixel(*lines_, s.camera, s.width, s.height, (*request.select_pixel)[0], (*request.select_pixel)[1]);
+      const auto& fraction = *request.select_pixel;  // of the image: the same line at any frame size
+      const auto picked = line_at_pixel(*lines_, s.camera, s.width, s.height, fraction[0] * s.width, fraction[1] * s.height);
       selection_.insert(selection_.end(), picked.begin(), picked.end());
     }
     std::sort(selection_.begin(), selection_.end());

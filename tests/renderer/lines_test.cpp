@@ -271,6 +271,25 @@ TEST(Lines, ThePipelineTracesSelectsAndRefusesBadFieldsAndSeeds) {
   s = pipeline.update(request);
   EXPECT_EQ(s.lines, traced) << "a selection does not trace again";
   EXPECT_EQ(s.selected_lines, (std::vector<uint32_t>{5}));
+  // a click on the selected line's image picks it (fractions of the image)
+  request.line.select_box.reset();
+  double px = 0, py = 0;
+  {
+    const uint32_t last = s.lines->line_first[6] - 1;  // the line's end point, projected
+    const lod::Camera& cam = s.camera;
+    const Vec3 p{s.lines->xyz[3 * last], s.lines->xyz[3 * last + 1], s.lines->xyz[3 * last + 2]};
+    const Vec3 f = normalise(cam.target - cam.eye), r = normalise(cross(f, cam.up)), u = cross(r, f);
+    const Vec3 q = p - cam.eye;
+    const double t = std::tan(cam.fov_degrees * M_PI / 360);
+    px = (dot(q, r) / (dot(q, f) * t) + 1) / 2;
+    py = (1 - dot(q, u) / (dot(q, f) * t)) / 2;
+  }
+  request.line.select_pixel = std::array<double, 2>{px, py};
+  s = pipeline.update(request);
+  EXPECT_EQ(s.selected_lines, (std::vector<uint32_t>{5})) << "picked at " << px << ", " << py;
+  request.line.select_pixel = std::array<double, 2>{0.01, 0.01};
+  s = pipeline.update(request);
+  EXPECT_TRUE(s.selected_lines.empty()) << "a click far from every line picks none";
   request.line.field = "f";
   EXPECT_THROW(pipeline.update(request), std::invalid_argument) << "a scalar field";
   request.line.field = "nope";

@@ -36,7 +36,7 @@ struct LineRequest {
   // the opaque lines; none of the three: every line opaque, else the rest ghosted
   std::vector<uint32_t> selected;                  // line ids
   std::optional<std::array<double, 6>> select_box;  // lo x, y, z, hi x, y, z: the lines passing it (§7.3.2)
-  std::optional<std::array<double, 2>> select_pixel;  // a click (pixels of the view, top left 0, 0): the nearest line
+  std::optional<std::array<double, 2>> select_pixel;  // a click, fractions 0..1 of the image from the top left: the nearest line within 8 pixels
   double line_width = 2.5, ghost_opacity = 0.15;
   bool halos = true;
   FlowStyle flow = FlowStyle::arrows;
