@@ -147,7 +147,11 @@ RenderOptions render_options(const Args& args) {
     v.point_size = args.real("--point-size");
     if (!(v.point_size >= 0 && v.point_size <= r::kMaxPointSize)) throw std::invalid_argument("--point-size must be 0 (covering) to 64 pixels");
   }
-  if (!v.points && args.has("--point-size")) throw std::invalid_argument("--point-size needs a mode with points");
+  if (!v.points && (args.has("--point-size") || args.has("--point-target"))) throw std::invalid_argument("--point-size and --point-target need a mode with points");
+  if (args.has("--point-target")) {
+    v.point_target = args.number("--point-target", 0);
+    if (v.point_target == 0) throw std::invalid_argument("--point-target must be at least 1");
+  }
   o.compare = args.get("--compare");
   v.iso_color_attribute = args.get("--iso-color");
   if (o.select_pixel) {
@@ -249,11 +253,11 @@ int run_render(const Arguments& raw) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--point-size",
-             "--compare"});
+             "--point-target", "--compare"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos]\n"
-                 "       points: [--iso v1,v2,...] [--point-size PX]; [--compare OTHER.png] reports the PSNR against another image\n");
+                 "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
     return 2;
   }
   RenderOptions o = render_options(args);

@@ -129,6 +129,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   s.points = request.points;
   s.point_isovalues = request.point_isovalues;
   s.point_size = request.point_size;
+  s.point_target = request.point_target;
   resolve_attribute(s.tf);
   const bool trace = request.lines && (!traced_ || !same_trace(*traced_, request.line));
 

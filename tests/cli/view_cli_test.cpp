@@ -59,9 +59,9 @@ TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
   Result compared = run("render " + mesh + " -o " + (dir / "plain.png").string() + " --size 96x96 --compare " + out + " --json");
   ASSERT_EQ(compared.status, 0) << compared.out;
   EXPECT_LT(last_json_line(compared.out)["compare_psnr_db"].get<double>(), 40.0) << "the lines change the image";
-  Result points = run("render " + mesh + " -o " + out + " --size 96x96 --mode points --attribute Temp --iso 400,600 --json");
+  Result points = run("render " + mesh + " -o " + out + " --size 96x96 --mode points --attribute Temp --iso 400,600 --point-target 20000 --json");
   ASSERT_EQ(points.status, 0) << points.out;
-  EXPECT_GT(last_json_line(points.out)["points"].get<int>(), 1000);
+  EXPECT_NEAR(last_json_line(points.out)["points"].get<double>(), 20000, 3000);
   // the threats: a scalar field, a field the mesh lacks, a malformed seed spec, line options
   // without lines, a PNG to compare that is not one
   Result scalar = run("render " + mesh + " -o " + out + " --mode lines --field Temp");

@@ -248,10 +248,13 @@ TEST(Lines, BadLineAndPointSettingsAreRefused) {
   EXPECT_THROW(gl().render(s), std::invalid_argument);
   s.ghost_opacity = 0.2;
   s.points = true;
+  s.point_target = 1000;
   s.point_size = 1000;
   EXPECT_THROW(gl().render(s), std::invalid_argument);
   s.point_size = 0;
   EXPECT_NO_THROW(gl().render(s));
+  s.point_area = -1;
+  EXPECT_THROW(gl().render(s), std::invalid_argument);
 }
 
 TEST(Lines, ThePipelineTracesSelectsAndRefusesBadFieldsAndSeeds) {

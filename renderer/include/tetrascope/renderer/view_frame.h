@@ -51,6 +51,7 @@ struct ViewRequest {
   LineRequest line;
   std::vector<double> point_isovalues;  // points mode; none: 8 regularly spaced over the colour range
   double point_size = 0;                // pixels; 0: covering splats
+  uint64_t point_target = 400000;       // points wanted (RenderSettings::point_target)
   std::vector<double> isovalues;      // attribute units; none (with iso): mid-range
   double iso_opacity = 1;
   std::string iso_color_attribute;               // a second attribute colouring the isosurfaces; empty: by value
