@@ -8,11 +8,13 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "args.h"
 #include "commands.h"
 #include "tetrascope/lod/cut.h"
 #include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/streamlines.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/renderer/view_frame.h"
@@ -49,11 +51,61 @@ OpenedStore open_multires(const std::string& path, const std::string& single_lev
 // What `render` was asked for, beyond the view itself.
 struct RenderOptions {
   r::ViewRequest view;
-  std::string mode, output, camera_text;
+  std::string mode, output, camera_text, compare;
+  std::optional<std::array<double, 2>> select_pixel;  // pixels, made fractions once the size is known
   int quality = kDefaultQuality;
   uint32_t orbit = 0;
   bool reference = false, json = false;
 };
+
+// The stream-line options of `render` (modes with lines): --field, --seeds, the selection and
+// the style. Seeds and numbers are checked here; the field by the dataset when traced.
+void line_options(const Args& args, RenderOptions& o) {
+  r::LineRequest& line = o.view.line;
+  const char* kLineOptions[] = {"--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--no-halos"};
+  if (!o.view.lines) {
+    for (const char* name : kLineOptions)
+      if (args.has(name)) throw std::invalid_argument(std::string(name) + " needs a mode with lines (e.g. --mode dvr+lines)");
+    return;
+  }
+  line.field = args.get("--field");
+  line.seeds = args.get("--seeds");
+  if (!line.seeds.empty()) lod::parse_seeds(line.seeds);  // a bad spec fails here, before the mesh is read
+  line.max_steps = args.number("--max-steps", line.max_steps);
+  if (line.max_steps == 0) throw std::invalid_argument("--max-steps must be at least 1");
+  if (args.has("--select-box")) {
+    const std::vector<double> b = number_list("--select-box", args.get("--select-box"));
+    if (b.size() != 6 || b[0] > b[3] || b[1] > b[4] || b[2] > b[5]) throw std::invalid_argument("--select-box expects x0,y0,z0,x1,y1,z1 with the low corner first");
+    line.select_box = std::array<double, 6>{b[0], b[1], b[2], b[3], b[4], b[5]};
+  }
+  if (args.has("--select-lines")) {
+    for (double id : number_list("--select-lines", args.get("--select-lines"))) {
+      if (id < 0 || id != std::floor(id) || id > 4294967295.0) throw std::invalid_argument("--select-lines expects line ids (whole numbers)");
+      line.selected.push_back(static_cast<uint32_t>(id));
+    }
+  }
+  if (args.has("--select-pixel")) {
+    const std::vector<double> p = number_list("--select-pixel", args.get("--select-pixel"));
+    if (p.size() != 2 || p[0] < 0 || p[1] < 0) throw std::invalid_argument("--select-pixel expects x,y (pixels from the top left)");
+    o.select_pixel = std::array<double, 2>{p[0], p[1]};
+  }
+  if (args.has("--ghost-opacity")) {
+    line.ghost_opacity = args.real("--ghost-opacity");
+    if (!(line.ghost_opacity > 0 && line.ghost_opacity <= 1)) throw std::invalid_argument("--ghost-opacity must be in (0, 1]");
+  }
+  if (args.has("--line-width")) {
+    line.line_width = args.real("--line-width");
+    if (!(line.line_width >= 1 && line.line_width <= r::kMaxLineWidth)) throw std::invalid_argument("--line-width must be 1 to 32 pixels");
+  }
+  if (args.has("--flow")) {
+    const std::string flow = args.get("--flow");
+    if (flow == "arrows") line.flow = r::FlowStyle::arrows;
+    else if (flow == "dashes") line.flow = r::FlowStyle::dashes;
+    else if (flow == "none") line.flow = r::FlowStyle::none;
+    else throw std::invalid_argument("--flow expects arrows, dashes or none, got '" + flow + "'");
+  }
+  line.halos = !args.has("--no-halos");
+}
 
 RenderOptions render_options(const Args& args) {
   RenderOptions o;
@@ -64,9 +116,12 @@ RenderOptions render_options(const Args& args) {
     v.dvr = modes.dvr;
     v.iso = modes.iso;
     v.surface = modes.surface;
+    v.lines = modes.lines;
+    v.points = modes.points;
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("--mode: ") + e.what());
   }
+  line_options(args, o);
   v.wireframe = args.has("--wireframe");
   v.box = args.has("--box");
   if (args.has("--tf")) v.tf = read_tf(args.get("--tf"));
@@ -87,7 +142,22 @@ RenderOptions render_options(const Args& args) {
   if (args.has("--unit-distance")) v.unit_distance = args.real("--unit-distance");
   if (args.has("--iso-opacity")) v.iso_opacity = args.real("--iso-opacity");
   if (args.has("--iso")) v.isovalues = number_list("--iso", args.get("--iso"));
+  if (v.points) v.point_isovalues = v.isovalues;
+  if (v.points && args.has("--point-size")) {
+    v.point_size = args.real("--point-size");
+    if (!(v.point_size >= 0 && v.point_size <= r::kMaxPointSize)) throw std::invalid_argument("--point-size must be 0 (covering) to 64 pixels");
+  }
+  if (!v.points && (args.has("--point-size") || args.has("--point-target"))) throw std::invalid_argument("--point-size and --point-target need a mode with points");
+  if (args.has("--point-target")) {
+    v.point_target = args.number("--point-target", 0);
+    if (v.point_target == 0) throw std::invalid_argument("--point-target must be at least 1");
+  }
+  o.compare = args.get("--compare");
   v.iso_color_attribute = args.get("--iso-color");
+  if (o.select_pixel) {
+    if ((*o.select_pixel)[0] > v.width || (*o.select_pixel)[1] > v.height) throw std::invalid_argument("--select-pixel lies outside the image");
+    v.line.select_pixel = std::array<double, 2>{(*o.select_pixel)[0] / v.width, (*o.select_pixel)[1] / v.height};
+  }
   o.camera_text = args.get("--camera");
   o.orbit = args.number("--orbit", 0);
   o.reference = args.has("--reference");
@@ -180,10 +250,14 @@ int run_cut(const Arguments& raw) {
 }
 
 int run_render(const Arguments& raw) {
-  Args args(raw, {"--json", "--wireframe", "--box", "--reference"},
-            {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color"});
+  Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
+            {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
+             "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--point-size",
+             "--point-target", "--compare"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n"
+                 "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos]\n"
+                 "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
     return 2;
   }
   RenderOptions o = render_options(args);
@@ -230,6 +304,13 @@ int run_render(const Arguments& raw) {
   const double reference_db = o.reference ? write_reference(o, pipeline->scene(), frame, image) : -1;
   nlohmann::json j = render_report(o, settings, pipeline->scene(), renderer->description(), frames, reference_db);
   if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
+  if (const auto lines = pipeline->lines()) {
+    j["lines"] = {{"field", lines->field}, {"count", lines->line_count()}, {"points", lines->point_count()}, {"selected", settings.selected_lines.size()},
+                  {"segments_opaque", frames.back().line_segments_opaque}, {"segments_ghosted", frames.back().line_segments_ghosted}};
+    if (auto error = pipeline->lines_cut_error()) j["lines"]["cut_estimated_error"] = *error;
+  }
+  if (settings.points) j["points"] = frames.back().points;
+  if (!o.compare.empty()) j["compare_psnr_db"] = r::psnr(image, r::read_png(o.compare));
   if (o.json) std::cout << j.dump() << "\n";
   else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", o.output.c_str(), settings.width, settings.height, o.mode.c_str(),
                    pipeline->scene().tets.size() / 4, pipeline->scene().attribute.c_str(), j["median_ms"].get<double>());

@@ -6,6 +6,7 @@ import { checkMessage, decodeFrame, encodeMessage, VERSION } from '/protocol/js/
 import { OrbitCamera } from './camera.js';
 import { PRESETS, fromHex, toHex } from './colormaps.js';
 import { Jobs } from './jobs.js';
+import { LinesPanel } from './lines.js';
 import { composeStill, drawAxes, drawColorBar } from './overlays.js';
 import { TfEditor } from './tf-editor.js';
 import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from './view-state.js';
@@ -52,6 +53,7 @@ let capture = null;        // a still at a chosen size being waited for: {id, re
 
 const frameCanvas = $('frame');
 const frameContext = frameCanvas.getContext('2d');
+const linesPanel = new LinesPanel($('vector-panel'), frameCanvas, { send: (type, body) => send(type, body), onModes: () => onModes() });
 const tfEditor = new TfEditor($('tf-editor'), onTfEdited, { onSelectColor });
 const jobs = new Jobs(authHeaders, {
   onDatasetsChanged: () => loadDatasets(),
@@ -249,6 +251,7 @@ function onDataset(info) {
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
   if (datasetNotice) $('dataset-summary').textContent += `\n${datasetNotice}`;
   datasetNotice = '';
+  linesPanel.setDataset(info);
   showView();
   sendAll();
 }
@@ -330,6 +333,7 @@ function sendAll() {
   sendTf();
   sendMode();
   sendIso();
+  linesPanel.sendAll();
   sendLod();
   sendQuality();
   sendCamera(false);  // last: the still that follows shows everything
@@ -384,7 +388,8 @@ function queueTf() {  // at most one tf.set per animation frame
 
 function sendMode() {
   const v = state.view;
-  send('mode.set', { mode: ['dvr', 'iso', 'surface'].filter((m) => v[m]).join('+'), wireframe: v.wireframe, box: v.box });
+  const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes()].join('+');
+  send('mode.set', { mode, wireframe: v.wireframe, box: v.box });
 }
 
 function sendIso() {
@@ -457,7 +462,7 @@ function onRange() {
 function onModes() {
   const v = state.view;
   for (const m of ['dvr', 'iso', 'surface']) v[m] = $(`mode-${m}`).checked;
-  if (!v.dvr && !v.iso && !v.surface) v.dvr = $('mode-dvr').checked = true;
+  if (!v.dvr && !v.iso && !v.surface && !linesPanel.active()) v.dvr = $('mode-dvr').checked = true;
   v.wireframe = $('wireframe').checked;
   v.box = $('box').checked;
   $('iso-opacity').disabled = v.dvr;

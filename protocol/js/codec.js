@@ -15,6 +15,17 @@ export const DEFAULT_LIMITS = Object.freeze({
   max_tf_points: 256,
 });
 
+// lines.set and points.set ranges (protocol.h kMaxLineSeeds ... kMaxPointSizePixels)
+export const LINE_LIMITS = Object.freeze({
+  max_seeds: 2000,
+  max_dense_cells: 64,
+  max_steps: 100000,
+  max_selected: 4096,
+  max_line_width: 32,
+  max_point_size: 64,
+});
+export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points'];
+
 export class ProtocolError extends Error {
   constructor(code, message, id = null) {
     super(message);
@@ -123,7 +134,7 @@ const checkers = {
     const mode = f.string('mode', 64);
     if (!mode) f.fail('mode', 'missing');
     for (const part of mode.split('+')) {
-      if (!['dvr', 'iso', 'isosurface', 'surface'].includes(part)) f.fail('mode', `unknown mode '${part}' (dvr, iso, surface or combinations such as dvr+iso)`);
+      if (!MODE_PARTS.includes(part)) f.fail('mode', `unknown mode '${part}' (dvr, iso, surface, lines, points or combinations such as dvr+lines)`);
     }
     f.boolean('wireframe');
     f.boolean('box');
@@ -153,8 +164,62 @@ const checkers = {
     if (codec !== undefined && codec !== 'jpeg' && codec !== 'png') f.fail('still_codec', 'expected jpeg or png');
     f.optNumber('interaction_scale', 0.25, 1);
   },
+  'lines.set'(f) {
+    f.string('field', 128);
+    const seeds = f.find('seeds');
+    const dense = seeds === 'dense';
+    if (seeds !== undefined && !dense) {
+      if (!Array.isArray(seeds)) f.fail('seeds', 'expected "dense" or rake ends [[x, y, z], [x, y, z]]');
+      twoPoints(f, 'seeds', seeds);
+    }
+    if (f.find('count') !== undefined) {
+      if (seeds === undefined) f.fail('count', 'needs seeds ("dense" or a rake) in the same message');
+      f.integer('count', 1, dense ? LINE_LIMITS.max_dense_cells : LINE_LIMITS.max_seeds);
+    }
+    f.integer('max_steps', 1, LINE_LIMITS.max_steps);
+    const select = f.find('select');
+    if (select !== undefined) {
+      if (typeof select !== 'object' || Array.isArray(select)) f.fail('select', 'expected an object with lines, box or pixel');
+      const lines = select.lines ?? undefined;
+      if (lines !== undefined) {
+        if (!Array.isArray(lines)) f.fail('select.lines', 'expected a list of line ids');
+        if (lines.length > LINE_LIMITS.max_selected) f.fail('select.lines', `more than ${LINE_LIMITS.max_selected} lines`);
+        for (const id of lines) if (!isWhole(id) || id > 0xffffffff) f.fail('select.lines', 'expected whole numbers');
+      }
+      const box = select.box ?? undefined;
+      if (box !== undefined) {
+        const b = twoPoints(f, 'select.box', box);
+        if (!(b[0] <= b[3] && b[1] <= b[4] && b[2] <= b[5])) f.fail('select.box', 'the first corner must be the low one');
+      }
+      const pixel = select.pixel ?? undefined;
+      if (pixel !== undefined) {
+        if (!Array.isArray(pixel) || pixel.length !== 2) f.fail('select.pixel', 'expected [x, y], fractions of the image');
+        pixel.forEach((v) => f.number('select.pixel', v, 0, 1));
+      }
+    }
+    f.optNumber('ghost_opacity', 0.01, 1);
+    f.optNumber('line_width', 1, LINE_LIMITS.max_line_width);
+    f.boolean('halos');
+    const flow = f.string('flow', 16);
+    if (flow !== undefined && !['arrows', 'dashes', 'none'].includes(flow)) f.fail('flow', 'expected arrows, dashes or none');
+  },
+  'points.set'(f, limits) {
+    const values = f.find('values');
+    if (values !== undefined) {
+      if (!Array.isArray(values)) f.fail('values', 'expected a list of numbers');
+      if (values.length > limits.max_isovalues) f.fail('values', `more than ${limits.max_isovalues} isovalues`);
+      values.forEach((v) => f.number('values', v, -1e30, 1e30));
+    }
+    f.optNumber('size', 0, LINE_LIMITS.max_point_size);
+  },
   ping() {},
 };
+
+function twoPoints(f, field, v) {
+  if (!Array.isArray(v) || v.length !== 2 || !Array.isArray(v[0]) || v[0].length !== 3 || !Array.isArray(v[1]) || v[1].length !== 3)
+    f.fail(field, 'expected [[x, y, z], [x, y, z]]');
+  return [...v[0], ...v[1]].map((x) => f.number(field, x, -1e30, 1e30));
+}
 
 export function checkMessage(text, limits = DEFAULT_LIMITS) {
   const bytes = new TextEncoder().encode(text).length;

@@ -74,6 +74,7 @@ class Fields {
     return out;
   }
   const json& object() const { return object_; }
+  std::optional<uint32_t> id() const { return id_; }
 
  protected:
   static std::string text(double v) {

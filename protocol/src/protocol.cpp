@@ -14,6 +14,57 @@ using nlohmann::json;
 using detail::Fields;
 
 
+std::array<double, 6> two_points(const Fields& f, const std::string& field, const json& v) {
+  if (!v.is_array() || v.size() != 2 || !v[0].is_array() || v[0].size() != 3 || !v[1].is_array() || v[1].size() != 3)
+    f.fail(field, "expected [[x, y, z], [x, y, z]]");
+  std::array<double, 6> out{};
+  for (size_t i = 0; i < 6; ++i) out[i] = f.number(field, v[i / 3][i % 3], -1e30, 1e30);
+  return out;
+}
+
+LinesSet parse_lines_set(const Fields& f, uint32_t) {
+  LinesSet m;
+  m.field = f.string("field", 128);
+  if (const json* seeds = f.find("seeds")) {
+    if (seeds->is_string() && seeds->get<std::string>() == "dense") m.dense = true;
+    else if (seeds->is_array()) m.rake = two_points(f, "seeds", *seeds);
+    else f.fail("seeds", "expected \"dense\" or rake ends [[x, y, z], [x, y, z]]");
+  }
+  if (f.find("count")) {
+    if (!m.dense && !m.rake) f.fail("count", "needs seeds (\"dense\" or a rake) in the same message");
+    m.count = static_cast<uint32_t>(*f.integer("count", 1, m.dense ? kMaxDenseLineCells : kMaxLineSeeds));
+  }
+  if (auto steps = f.integer("max_steps", 1, kMaxLineSteps)) m.max_steps = static_cast<uint32_t>(*steps);
+  if (const json* select = f.find("select")) {
+    if (!select->is_object()) f.fail("select", "expected an object with lines, box or pixel");
+    m.select = true;
+    const Fields s(*select, f.id());
+    if (const json* lines = s.find("lines")) {
+      if (!lines->is_array()) f.fail("select.lines", "expected a list of line ids");
+      if (lines->size() > kMaxSelectedLines) f.fail("select.lines", "more than " + std::to_string(kMaxSelectedLines) + " lines");
+      for (const json& id : *lines) {
+        if (!id.is_number_unsigned() || id.get<uint64_t>() > 0xFFFFFFFFull) f.fail("select.lines", "expected whole numbers");
+        m.select_lines.push_back(static_cast<uint32_t>(id.get<uint64_t>()));
+      }
+    }
+    if (const json* box = s.find("box")) {
+      m.select_box = two_points(f, "select.box", *box);
+      const auto& b = *m.select_box;
+      if (!(b[0] <= b[3] && b[1] <= b[4] && b[2] <= b[5])) f.fail("select.box", "the first corner must be the low one");
+    }
+    if (const json* pixel = s.find("pixel")) {
+      if (!pixel->is_array() || pixel->size() != 2) f.fail("select.pixel", "expected [x, y], fractions of the image");
+      m.select_pixel = std::array<double, 2>{f.number("select.pixel", (*pixel)[0], 0, 1), f.number("select.pixel", (*pixel)[1], 0, 1)};
+    }
+  }
+  m.ghost_opacity = f.number("ghost_opacity", 0.01, 1);
+  m.line_width = f.number("line_width", 1, kMaxLineWidthPixels);
+  m.halos = f.boolean("halos");
+  m.flow = f.string("flow", 16);
+  if (m.flow && *m.flow != "arrows" && *m.flow != "dashes" && *m.flow != "none") f.fail("flow", "expected arrows, dashes or none");
+  return m;
+}
+
 Message parse_body(const std::string& type, const Fields& f, const Limits& limits, uint32_t id) {
   if (type == "hello") {
     Hello m;
@@ -57,6 +108,8 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
       m.dvr = modes.dvr;
       m.iso = modes.iso;
       m.surface = modes.surface;
+      m.lines = modes.lines;
+      m.points = modes.points;
     } catch (const std::invalid_argument& e) {
       f.fail("mode", e.what());
     }
@@ -98,6 +151,17 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     m.interaction_scale = f.number("interaction_scale", kMinInteractionScale, 1);
     return m;
   }
+  if (type == "lines.set") return parse_lines_set(f, id);
+  if (type == "points.set") {
+    PointsSet m;
+    if (const json* values = f.find("values")) {
+      if (!values->is_array()) f.fail("values", "expected a list of numbers");
+      if (values->size() > limits.max_isovalues) f.fail("values", "more than " + std::to_string(limits.max_isovalues) + " isovalues");
+      for (const json& v : *values) m.values.push_back(f.number("values", v, -1e30, 1e30));
+    }
+    m.size = f.number("size", 0, kMaxPointSizePixels);
+    return m;
+  }
   if (type == "ping") return Ping{};
   throw ProtocolError(code::kUnknownType, "unknown message type '" + type + "'", id);
 }
@@ -122,7 +186,9 @@ Modes parse_modes(std::string_view text) {
     if (part == "dvr") m.dvr = true;
     else if (part == "iso" || part == "isosurface") m.iso = true;
     else if (part == "surface") m.surface = true;
-    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface or combinations such as dvr+iso)");
+    else if (part == "lines") m.lines = true;
+    else if (part == "points") m.points = true;
+    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface, lines, points or combinations such as dvr+lines)");
     at = plus + 1;
   }
   return m;

@@ -12,6 +12,7 @@
 #include "camera_math.h"
 #include "egl_context.h"
 #include "gl_shaders.h"
+#include "lines.h"
 #include "scene_geometry.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/vec3.h"
@@ -39,6 +40,8 @@ void check_settings(const RenderSettings& s) {
     throw std::invalid_argument("image size must be 1.." + std::to_string(kMaxImageSide) + " a side");
   if (!known_colormap(s.tf.colormap)) throw std::invalid_argument("unknown colormap '" + s.tf.colormap + "' (viridis, plasma, cool-warm, grayscale)");
   if (!(s.iso_opacity > 0 && s.iso_opacity <= 1)) throw std::invalid_argument("isosurface opacity must be in (0, 1]");
+  check_line_settings(s);
+  check_point_settings(s);
 }
 
 // The camera, its matrix (near and far planes around the mesh's bounding sphere; with the eye
@@ -102,6 +105,7 @@ class GlRenderer final : public Renderer {
     boundary_ = boundary_geometry(mesh);
     upload_mesh(mesh, tet_cells(mesh));
     iso_cache_.clear();
+    point_pass_.set_mesh(mesh);
   }
 
   Image render(const RenderSettings& s, FrameTimings* timings) override {
@@ -125,10 +129,15 @@ class GlRenderer final : public Renderer {
     const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
     if (s.iso && !s.isovalues.empty() && !translucent_iso) opaque |= draw_opaque_isosurfaces(setup, s, tm);
     glDisable(GL_POLYGON_OFFSET_FILL);
+    // stream lines and point isosurfaces (lines.cpp, point_iso.cpp): opaque before the volume
+    const PassView pass_view{setup.frame, setup.mvp, s.width, s.height, setup.lo, setup.hi, colormap_texture_};
+    if (s.points) opaque |= point_pass_.draw(pass_view, s, tm);
+    if (s.lines) opaque |= line_pass_.draw_opaque(pass_view, s, tm);
     if (s.surface) draw_boundary_edges(setup, s.wireframe);
     if (s.box) draw_box(setup);
     if (translucent_iso && !s.isovalues.empty()) draw_translucent_isosurfaces(setup, s, tm);
     if (s.dvr && !mesh.tets.empty()) draw_volume(setup, s, opaque, tm);
+    if (s.lines) line_pass_.draw_ghosts(pass_view, s, tm);  // blended over the volume
     glFinish();
     tm.draw_ms = ms_since(start) - tm.sort_ms;
     Image image = read_back(s.width, s.height, tm);
@@ -488,6 +497,8 @@ class GlRenderer final : public Renderer {
   PreintegrationTable table_;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
+  LinePass line_pass_;       // after context_: made with a current context, gone before it
+  PointIsoPass point_pass_;
 };
 
 }  // namespace

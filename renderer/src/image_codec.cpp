@@ -12,6 +12,20 @@
 
 namespace tetrascope::renderer {
 
+Image read_png(const std::string& path) {
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&png, path.c_str())) throw std::invalid_argument(path + ": not a PNG image (" + png.message + ")");
+  png.format = PNG_FORMAT_RGBA;
+  if (png.width < 1 || png.height < 1 || png.width > kMaxImageSide || png.height > kMaxImageSide) {
+    png_image_free(&png);
+    throw std::invalid_argument(path + ": image sides must be 1.." + std::to_string(kMaxImageSide));
+  }
+  Image image{png.width, png.height, std::vector<uint8_t>(PNG_IMAGE_SIZE(png))};
+  if (!png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr)) throw std::invalid_argument(path + ": unreadable PNG (" + png.message + ")");
+  return image;
+}
+
 std::vector<uint8_t> encode_jpeg(const Image& image, int quality) {
   if (quality < 1 || quality > 100) throw std::invalid_argument("JPEG quality must be 1 to 100");
   tjhandle handle = tjInitCompress();

@@ -6,11 +6,18 @@
 #include <stdexcept>
 
 #include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/streamlines.h"
+#include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::renderer {
 namespace {
 
 std::atomic<uint64_t> next_scene_generation{1};
+constexpr const char* kDefaultSeeds = "dense:12";
+
+// What the traced lines depend on (the selection and style do not).
+bool same_trace(const LineRequest& a, const LineRequest& b) { return a.field == b.field && a.seeds == b.seeds && a.max_steps == b.max_steps; }
+bool same_selection(const LineRequest& a, const LineRequest& b) { return a.selected == b.selected && a.select_box == b.select_box && a.select_pixel == b.select_pixel; }
 
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
@@ -53,6 +60,58 @@ void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string
   scene_generation_ = next_scene_generation++;
 }
 
+// The field defaults to the mesh's first 3-component attribute. Throws std::invalid_argument
+// for a field the mesh lacks or that is not a vector, and for bad seeds.
+void ViewPipeline::trace_lines(const storage::TetMesh& mesh, const LineRequest& request) {
+  std::string field = request.field;
+  if (field.empty()) {
+    for (const auto& a : mesh.attributes)
+      if (a.info.components == 3) {
+        field = a.info.name;
+        break;
+      }
+    if (field.empty()) throw std::invalid_argument("the dataset has no vector field to trace stream lines in");
+  }
+  const lod::SeedSpec seeds = lod::parse_seeds(request.seeds.empty() ? kDefaultSeeds : request.seeds);
+  const std::vector<uint32_t> opposite = pair_faces(mesh.tets).opposite;
+  const lod::StreamlineTracer tracer(mesh, opposite, field);
+  lod::StreamlineOptions options;
+  options.max_steps = request.max_steps;
+  lines_ = std::make_shared<const LineSet>(line_set_from(tracer.trace(seeds, options), field));
+  traced_ = request;
+  selected_for_.reset();
+  lines_cut_error_ = cut_estimated_error_;
+}
+
+// The lines into the settings; a box or a click becomes line ids once (a click with the
+// camera of the frame it was made on).
+void ViewPipeline::apply_lines(const LineRequest& request, RenderSettings& s) {
+  if (!selected_for_ || !same_selection(*selected_for_, request)) {
+    selection_ = request.selected;
+    if (request.select_box) {
+      const auto& b = *request.select_box;
+      const auto in_box = lines_in_box(*lines_, {b[0], b[1], b[2]}, {b[3], b[4], b[5]});
+      selection_.insert(selection_.end(), in_box.begin(), in_box.end());
+    }
+    if (request.select_pixel) {
+      const auto& fraction = *request.select_pixel;  // of the image: the same line at any frame size
+      const auto picked = line_at_pixel(*lines_, s.camera, s.width, s.height, fraction[0] * s.width, fraction[1] * s.height);
+      selection_.insert(selection_.end(), picked.begin(), picked.end());
+    }
+    std::sort(selection_.begin(), selection_.end());
+    selection_.erase(std::unique(selection_.begin(), selection_.end()), selection_.end());
+    const size_t count = lines_->line_count();
+    std::erase_if(selection_, [count](uint32_t id) { return id >= count; });  // ids of an earlier trace
+    selected_for_ = request;
+  }
+  s.lines = lines_;
+  s.selected_lines = selection_;
+  s.line_width = request.line_width;
+  s.ghost_opacity = request.ghost_opacity;
+  s.halos = request.halos;
+  s.flow = request.flow;
+}
+
 RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* timings) {
   RenderSettings s;
   s.dvr = request.dvr;
@@ -67,7 +126,12 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   s.iso_opacity = request.iso_opacity;
   s.isovalues = request.isovalues;
   s.use_iso_color_attribute = !request.iso_color_attribute.empty();
+  s.points = request.points;
+  s.point_isovalues = request.point_isovalues;
+  s.point_size = request.point_size;
+  s.point_target = request.point_target;
   resolve_attribute(s.tf);
+  const bool trace = request.lines && (!traced_ || !same_trace(*traced_, request.line));
 
   s.camera = request.camera ? *request.camera : lod::default_camera(bounds_);
   s.camera.aspect = double(s.width) / s.height;
@@ -82,9 +146,17 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     cut_estimated_error_ = changes.estimated_error;
     t.cut_ms = ms_since(start);
     start = Clock::now();
-    if (!scene_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute)
-      rebuild_scene(lod::assemble_cut(*store_, *cache_, *cut_, false).mesh, s.tf.attribute, request.iso_color_attribute);
+    std::optional<lod::CutMesh> assembled;
+    if (!scene_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute) {
+      assembled = lod::assemble_cut(*store_, *cache_, *cut_, false);
+      rebuild_scene(assembled->mesh, s.tf.attribute, request.iso_color_attribute);
+    }
     t.assemble_ms = ms_since(start);
+    if (trace) {
+      if (!assembled) assembled = lod::assemble_cut(*store_, *cache_, *cut_, false);
+      trace_lines(assembled->mesh, request.line);
+    }
+    if (request.lines) apply_lines(request.line, s);
     return s;
   }
   const auto start = Clock::now();
@@ -92,6 +164,8 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   t.assemble_ms = ms_since(start);
   s.tf.attribute = scene_->attribute;
   if (s.iso && s.isovalues.empty()) s.isovalues = {0.5 * (scene_->value_min + scene_->value_max)};
+  if (trace) trace_lines(*mesh_, request.line);
+  if (request.lines) apply_lines(request.line, s);
   return s;
 }
 

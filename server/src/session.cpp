@@ -18,6 +18,7 @@
 #include <boost/beast/websocket.hpp>
 
 #include "frame_maker.h"
+#include "line_request.h"
 #include "server_impl.h"
 #include "session_replies.h"
 
@@ -168,6 +169,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       s.view.tf = lod::TransferFunction{};
       s.view.isovalues.clear();
       s.view.iso_color_attribute.clear();
+      s.view.line = renderer::LineRequest{};  // fields and seeds of the last dataset
     });
     // DELETE /api/v1/datasets/NAME closes the dataset for its sessions: this one is told
     dataset->watch(weak_from_this(), [weak = weak_from_this(), raw = dataset.get(), name = dataset->name] {
@@ -213,6 +215,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       s.view.dvr = m.dvr;
       s.view.iso = m.iso;
       s.view.surface = m.surface;
+      s.view.lines = m.lines;
+      s.view.points = m.points;
       if (m.wireframe) s.view.wireframe = *m.wireframe;
       if (m.box) s.view.box = *m.box;
     });
@@ -252,6 +256,17 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       if (m.still_codec) s.png_stills = *m.still_codec == "png";
       if (m.interaction_scale) s.interaction_scale = *m.interaction_scale;
     });
+    return Then::kStill;
+  }
+
+  Then on_message(const protocol::LinesSet& m, uint32_t id) {
+    if (m.field) check_vector_field(*need_dataset(id), *m.field, id);
+    change_state(id, [&](ViewState& s) { apply_lines_set(m, s.view.line); });
+    return Then::kStill;  // tracing takes a while: one still, not a burst of interaction frames
+  }
+
+  Then on_message(const protocol::PointsSet& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) { apply_points_set(m, s.view); });
     return Then::kStill;
   }
 

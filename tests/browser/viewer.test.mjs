@@ -277,6 +277,35 @@ test('keys and view buttons move the camera; the axes turn; ? lists the shortcut
   await shot('keys');
 });
 
+test('stream lines: turning them on changes the image; a click picks a line', async () => {
+  await settled();
+  const before = await frameImage();
+  const fields = await page.$$eval('#lines-field option', (options) => options.map((o) => o.value));
+  assert.deepEqual(fields, ['Velocity'], 'the vector fields of the dataset');
+  await page.evaluate(() => (window.tetrascope.sent.length = 0));
+  await page.check('#lines-on');
+  await settled();
+  const sent = await page.evaluate(() => window.tetrascope.sent);
+  const lines = sent.find((m) => m.type === 'lines.set')?.body;
+  assert.equal(lines?.field, 'Velocity');
+  assert.equal(lines?.seeds, 'dense');
+  assert.equal(sent.filter((m) => m.type === 'mode.set').at(-1)?.body.mode, 'dvr+lines');
+  const withLines = await frameImage();
+  assert.notEqual(withLines, before, 'the lines show in the image');
+  await shot('lines');
+  await page.check('#lines-pick');
+  const box = await page.locator('#frame').boundingBox();
+  await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
+  await settled();
+  const pick = (await page.evaluate(() => window.tetrascope.sent)).filter((m) => m.type === 'lines.set').at(-1)?.body;
+  assert.ok(Array.isArray(pick?.select?.pixel) && Math.abs(pick.select.pixel[0] - 0.5) < 0.05, 'the click is sent as a selection');
+  await shot('lines-picked');
+  await page.uncheck('#lines-pick');
+  await page.uncheck('#lines-on');
+  await settled();
+  assert.equal(await frameImage(), before, 'without lines the image is as before');
+});
+
 test('a reconnect sends the whole view again (the mode stays)', async () => {
   await page.check('#mode-iso');
   await page.check('#box');

@@ -46,6 +46,57 @@ TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
   EXPECT_NE(attribute.out.find("Temp"), std::string::npos) << "the message lists the attributes there are: " << attribute.out;
 }
 
+// `render` of lines (a selection ghosting the rest) and of point isosurfaces, as a user runs it.
+void render_lines_and_points(const std::string& mesh, const std::string& out, const std::filesystem::path& dir) {
+  Result ok = run("render " + mesh + " -o " + out + " --size 96x96 --mode dvr+lines --field Velocity --seeds line:0,-5,2,0,5,2,20 --select-lines 3,4 --json");
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  auto j = last_json_line(ok.out);
+  EXPECT_EQ(j["lines"]["count"], 20);
+  EXPECT_EQ(j["lines"]["selected"], 2);
+  EXPECT_GT(j["lines"]["segments_ghosted"].get<int>(), j["lines"]["segments_opaque"].get<int>());
+  Result compared = run("render " + mesh + " -o " + (dir / "plain.png").string() + " --size 96x96 --compare " + out + " --json");
+  ASSERT_EQ(compared.status, 0) << compared.out;
+  EXPECT_LT(last_json_line(compared.out)["compare_psnr_db"].get<double>(), 40.0) << "the lines change the image";
+  Result points = run("render " + mesh + " -o " + out + " --size 96x96 --mode points --attribute Temp --iso 400,600 --point-target 20000 --json");
+  ASSERT_EQ(points.status, 0) << points.out;
+  EXPECT_NEAR(last_json_line(points.out)["points"].get<double>(), 20000, 3000);
+}
+
+TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
+  const auto dir = scratch_dir("render-cli-lines");
+  const std::string out = (dir / "lines.png").string();
+  const std::string mesh = sample_mesh().string();
+#if defined(__SANITIZE_ADDRESS__)
+  constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+  constexpr bool kSanitized = __has_feature(address_sanitizer);
+#else
+  constexpr bool kSanitized = false;
+#endif
+  // under ASan the three renders take minutes (30 s in release on the shared machine): the
+  // release run covers them; the refusals below come before any rendering and run in both
+  if (!kSanitized) render_lines_and_points(mesh, out, dir);
+  // the threats: a scalar field, a field the mesh lacks, a malformed seed spec, line options
+  // without lines, a PNG to compare that is not one
+  Result scalar = run("render " + mesh + " -o " + out + " --mode lines --field Temp");
+  EXPECT_EQ(scalar.status, 2);
+  EXPECT_NE(scalar.out.find("Temp"), std::string::npos) << scalar.out;
+  Result missing = run("render " + mesh + " -o " + out + " --mode lines --field Nope");
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.out.find("Nope"), std::string::npos) << missing.out;
+  Result seeds = run("render " + mesh + " -o " + out + " --mode lines --seeds line:0,0,0");
+  EXPECT_EQ(seeds.status, 2);
+  EXPECT_NE(seeds.out.find("line"), std::string::npos) << seeds.out;
+  Result too_many = run("render " + mesh + " -o " + out + " --mode lines --seeds dense:100000");
+  EXPECT_EQ(too_many.status, 2) << too_many.out;
+  Result no_lines = run("render " + mesh + " -o " + out + " --seeds dense:4");
+  EXPECT_EQ(no_lines.status, 2);
+  EXPECT_NE(no_lines.out.find("needs a mode with lines"), std::string::npos) << no_lines.out;
+  Result bad_compare = run("render " + mesh + " -o " + out + " --size 16x16 --compare " + mesh);
+  EXPECT_EQ(bad_compare.status, 2);
+  EXPECT_NE(bad_compare.out.find("not a PNG"), std::string::npos) << bad_compare.out;
+}
+
 TEST(RenderCli, ImageSidesAreLimited) {
   const auto dir = scratch_dir("render-cli-limits");
   const std::string out = (dir / "frame.png").string();

@@ -96,6 +96,31 @@ TEST(ProtocolVectors, ParsedFieldsCarryTheValuesSent) {
   EXPECT_EQ(lod.interaction_budget, 20000u);
 }
 
+TEST(ProtocolVectors, LinesAndPointsMessagesCarryTheirFields) {
+  const Limits limits;
+  const auto rake = std::get<LinesSet>(parse_message(R"({"type":"lines.set","id":1,"field":"Velocity","seeds":[[0,-5,2],[0,5,2]],"count":100,
+                                                         "select":{"pixel":[0.5,0.25],"lines":[3,7]},"flow":"dashes"})", limits).message);
+  EXPECT_EQ(rake.field, "Velocity");
+  ASSERT_TRUE(rake.rake);
+  EXPECT_EQ((*rake.rake)[1], -5);
+  EXPECT_EQ((*rake.rake)[4], 5);
+  EXPECT_FALSE(rake.dense);
+  EXPECT_EQ(rake.count, 100u);
+  EXPECT_TRUE(rake.select);
+  EXPECT_EQ(rake.select_lines, (std::vector<uint32_t>{3, 7}));
+  EXPECT_EQ((*rake.select_pixel)[1], 0.25);
+  EXPECT_EQ(rake.flow, "dashes");
+  const auto style = std::get<LinesSet>(parse_message(R"({"type":"lines.set","id":2,"ghost_opacity":0.3})", limits).message);
+  EXPECT_FALSE(style.select) << "no select field: the selection stays";
+  EXPECT_FALSE(style.field);
+  EXPECT_EQ(style.ghost_opacity, 0.3);
+  const auto modes = std::get<ModeSet>(parse_message(R"({"type":"mode.set","id":3,"mode":"surface+lines+points"})", limits).message);
+  EXPECT_TRUE(modes.surface && modes.lines && modes.points && !modes.dvr);
+  const auto points = std::get<PointsSet>(parse_message(R"({"type":"points.set","id":4,"values":[1,2,3],"size":0})", limits).message);
+  EXPECT_EQ(points.values.size(), 3u);
+  EXPECT_EQ(points.size, 0.0);
+}
+
 TEST(ProtocolVectors, LimitsAreTheConfiguredOnes) {
   Limits limits;
   limits.max_image_side = 1024;

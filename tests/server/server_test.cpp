@@ -231,6 +231,35 @@ TEST_F(ServerTest, BadOversizedAndOutOfOrderMessagesGetErrorsAndTheSessionLivesO
   EXPECT_FALSE(c.closed());
 }
 
+TEST_F(ServerTest, StreamLinesOnAScalarOrMissingFieldAreRefusedAndLinesChangeTheFrame) {
+  start();
+  SessionClient c(ws_);
+  open(c);
+  const Frame plain = next_still(c);
+  c.send("lines.set", {{"field", "Temp"}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "a scalar field";
+  c.send("lines.set", {{"field", "Nope"}});
+  EXPECT_EQ(error_code_of(c), "not_found") << "a field the dataset lacks";
+  c.send("lines.set", {{"seeds", "dense"}, {"count", 65}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "dense seeding past its limit";
+  // the still that answers message `id` (stills of earlier messages may come first)
+  auto still_for = [&](uint32_t id) {
+    for (;;) {
+      Frame f = next_still(c);
+      if (f.header.width == 0 || f.header.message_id >= id) return f;
+    }
+  };
+  c.send("lines.set", {{"field", "Velocity"}, {"seeds", {{0, -5, 2}, {0, 5, 2}}}, {"count", 40}});
+  const Frame lines = still_for(c.send("mode.set", {{"mode", "dvr+lines"}}));
+  EXPECT_TRUE(lines.jpeg != plain.jpeg) << "the lines show";
+  const Frame selected = still_for(c.send("lines.set", {{"select", {{"lines", {0, 1, 2}}}}}));
+  EXPECT_TRUE(selected.jpeg != lines.jpeg) << "the others are ghosted";
+  c.send("mode.set", {{"mode", "points"}});
+  const Frame points = still_for(c.send("points.set", {{"values", {400, 600}}}));
+  EXPECT_TRUE(points.jpeg != plain.jpeg);
+  EXPECT_FALSE(c.closed());
+}
+
 TEST_F(ServerTest, AClientThatKeepsSendingGarbageIsClosedWithPolicyViolation) {
   auto o = options_for(data_dir());
   o.limits.max_bad_messages = 5;

@@ -35,6 +35,12 @@ constexpr uint32_t kMinImageSide = 16;            // view.resize width and heigh
 constexpr uint64_t kMaxBudget = 4000000000ull;    // lod.set, tets
 constexpr int kMaxJpegQuality = 100;              // quality.set, from 1
 constexpr double kMinInteractionScale = 0.25;     // quality.set interaction_scale, to 1
+constexpr uint32_t kMaxLineSeeds = 2000;          // lines.set count with a rake
+constexpr uint32_t kMaxDenseLineCells = 64;       // lines.set count with dense seeding
+constexpr uint32_t kMaxLineSteps = 100000;        // lines.set max_steps
+constexpr uint32_t kMaxSelectedLines = 4096;      // lines.set select.lines
+constexpr double kMaxLineWidthPixels = 32;        // lines.set line_width, from 1
+constexpr double kMaxPointSizePixels = 64;        // points.set size, from 0 (covering)
 
 // Every limit of a session, each configurable (ServerOptions::limits; `serve` has options for
 // the sessions, message size and rate and the image side) and tested at and past it.
@@ -95,15 +101,16 @@ struct CameraSet {
 struct TfSet {
   TransferFunction tf;  // checked (parse_transfer_function); the attribute is the session's to find
 };
-// What to draw: "dvr", "iso" (or "isosurface") and "surface" joined by '+', as mode.set and
-// `tetrascope render --mode` take them. Throws std::invalid_argument naming an unknown part.
+// What to draw: "dvr", "iso" (or "isosurface"), "surface", "lines" (stream lines) and
+// "points" (point isosurfaces) joined by '+', as mode.set and `tetrascope render --mode` take
+// them. Throws std::invalid_argument naming an unknown part.
 struct Modes {
-  bool dvr = false, iso = false, surface = false;
+  bool dvr = false, iso = false, surface = false, lines = false, points = false;
 };
 Modes parse_modes(std::string_view text);
 
 struct ModeSet {
-  bool dvr = true, iso = false, surface = false;
+  bool dvr = true, iso = false, surface = false, lines = false, points = false;
   std::optional<bool> wireframe, box;
 };
 struct IsoSet {
@@ -122,9 +129,29 @@ struct QualitySet {
   std::optional<std::string> still_codec;       // "jpeg" or "png"
   std::optional<double> interaction_scale;      // 0.25..1 of the view size
 };
+// Stream lines (§7.3). Every field optional; what is absent stays as it was.
+struct LinesSet {
+  std::optional<std::string> field;              // a vector attribute (the session checks it)
+  bool dense = false;                            // seeds "dense": §7.3.1 dense seeding
+  std::optional<std::array<double, 6>> rake;     // seeds [[x0,y0,z0],[x1,y1,z1]]: a line rake
+  std::optional<uint32_t> count;                 // rake seeds (1..kMaxLineSeeds) or dense cells (1..kMaxDenseLineCells); needs seeds
+  std::optional<uint32_t> max_steps;
+  bool select = false;                           // `select` present: the selection is replaced
+  std::vector<uint32_t> select_lines;
+  std::optional<std::array<double, 6>> select_box;    // [[lo], [hi]]
+  std::optional<std::array<double, 2>> select_pixel;  // a click, fractions 0..1 of the image
+  std::optional<double> ghost_opacity, line_width;
+  std::optional<bool> halos;
+  std::optional<std::string> flow;               // "arrows", "dashes" or "none"
+};
+// Point isosurfaces (§7.2).
+struct PointsSet {
+  std::vector<double> values;       // none: 8 regularly spaced over the colour range
+  std::optional<double> size;       // splat pixels; 0: covering
+};
 struct Ping {};
 
-using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, Ping>;
+using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, LinesSet, PointsSet, Ping>;
 
 struct Envelope {
   std::string type;

@@ -12,7 +12,13 @@
 //    the exact integrator (reference_render) says;
 //  - iso: marching tetrahedra for one or more isovalues, lit, opaque;
 //  - surface: the mesh boundary coloured by the attribute, lit, with silhouette edges
-//    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine.
+//    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine;
+//  - lines: stream lines (§7.3), lit by the illuminated-lines model, with depth-aware halos
+//    and the flow direction as arrowheads or dashes by arc length; with a selection, the
+//    selected lines opaque and the others ghosted (semi-transparent, one colour, sorted back
+//    to front; §7.3.2). Opaque lines are drawn before the volume and stop its rays; ghosts
+//    are blended after it (see renderer/src/lines.cpp for what that costs);
+//  - points: many isosurfaces sampled by points, density by area, drawn as lit splats (§7.2).
 // The colour legend is not drawn into the image: `render --json` and the server send it as
 // data (colormap, range, attribute), for the client to draw.
 #pragma once
@@ -24,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "tetrascope/lod/streamlines.h"
 #include "tetrascope/lod/view.h"
 #include "tetrascope/storage/mesh.h"
 
@@ -45,6 +52,34 @@ struct Image {
   std::vector<uint8_t> rgba;  // top row first
 };
 
+// Stream lines ready to draw (§7.3): points of all lines back to back in flow order, line l
+// spanning [line_first[l], line_first[l+1]). Built once per traced set (line_set_from) and
+// shared between frames; the renderer uploads a set once and keeps it while the pointer stays.
+struct LineSet {
+  std::vector<float> xyz;                // interleaved positions
+  std::vector<float> flow;               // interleaved field vector at each point
+  std::vector<float> value;              // colour value per point (|v|)
+  std::vector<uint32_t> line_first{0};   // line count + 1 offsets
+  double value_min = 0, value_max = 1;
+  double diagonal = 1;                   // of the lines' bounding box (halo depth, arrow spacing)
+  std::string field;                     // the vector field traced
+  size_t line_count() const { return line_first.size() - 1; }
+  size_t point_count() const { return value.size(); }
+};
+LineSet line_set_from(const lod::Streamlines& lines, const std::string& field);
+// The lines passing the box [lo, hi] (§7.3.2's selection box): ids, ascending.
+std::vector<uint32_t> lines_in_box(const LineSet& lines, const std::array<double, 3>& lo, const std::array<double, 3>& hi);
+// The line drawn nearest pixel (x, y) (top-left origin) of a view, within `max_pixels`: a
+// click. Empty when none is that close.
+std::vector<uint32_t> line_at_pixel(const LineSet& lines, const lod::Camera& camera, uint32_t width, uint32_t height, double x, double y,
+                                    double max_pixels = 8);
+
+enum class FlowStyle : uint8_t { none, arrows, dashes };
+
+// Limits of the line and point passes (checked by Renderer::render).
+constexpr double kMaxLineWidth = 32;   // pixels
+constexpr double kMaxPointSize = 64;   // pixels
+
 struct RenderSettings {
   bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
   lod::Camera camera;
@@ -55,11 +90,29 @@ struct RenderSettings {
   double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
   bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
+  // stream lines (§7.3): drawn when set
+  std::shared_ptr<const LineSet> lines;
+  std::vector<uint32_t> selected_lines;  // ascending ids; empty: every line opaque, else the rest ghosted
+  double line_width = 2.5;               // pixels, 1..kMaxLineWidth
+  double ghost_opacity = 0.15;           // (0, 1]
+  std::array<float, 3> ghost_color{0.85f, 0.88f, 0.95f};
+  bool halos = true;                     // depth-aware halos (3x the line width, pushed back)
+  FlowStyle flow = FlowStyle::arrows;
+  double flow_spacing = 0;               // arc length between arrows or dashes; 0: 1/30 of the lines' diagonal
+  double dash_phase = 0;                 // 0..1, moves dashes along the flow (animation)
+  // point-based isosurfaces (§7.2): drawn when `points` is set
+  bool points = false;
+  std::vector<double> point_isovalues;   // attribute units; none: 8 regularly spaced over the colour range
+  double point_area = 0;                 // isosurface area a point stands for; 0: total area / point_target
+  uint64_t point_target = 400000;        // points wanted when point_area is 0
+  double point_size = 0;                 // splat diameter in pixels; 0: covering (from point_area and depth)
+  bool point_depth_scaling = false;      // §7.2: fewer points far away
 };
 
 struct FrameTimings {
   double sort_ms = 0, draw_ms = 0, readback_ms = 0, encode_ms = 0, total_ms = 0;
   uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
+  uint64_t line_segments_opaque = 0, line_segments_ghosted = 0, points = 0;
 };
 
 // A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude
@@ -127,6 +180,8 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings);
 double psnr(const Image& a, const Image& b);  // dB over RGB
 std::vector<uint8_t> encode_jpeg(const Image& image, int quality);
 std::vector<uint8_t> encode_png(const Image& image);
+// A PNG file as RGBA (untrusted: std::invalid_argument naming the file when it is not one).
+Image read_png(const std::string& path);
 // Writes .png or .jpg/.jpeg by the extension (atomically: temp name, then rename).
 void write_image(const std::string& path, const Image& image, int quality);
 
@@ -134,5 +189,21 @@ void write_image(const std::string& path, const Image& image, int quality);
 // `isovalue`, oriented towards increasing values. With `iso_color`, also the scene's
 // iso_color_attribute interpolated at every corner (3 a triangle).
 std::vector<float> marching_tets(const SceneMesh& mesh, double isovalue, std::vector<float>* iso_color = nullptr);
+
+// §7.2's point sampling of isosurfaces: the marching-tets triangles of every isovalue,
+// subdivided until each is below `area`, then one point a triangle, a triangle smaller than
+// `area` kept with probability |t| / area (a fixed table of 100 random numbers, as §7.2).
+// `area` 0: the total isosurface area / `target`. Per point: position, unit normal (oriented
+// towards increasing values), the isovalue, and a random number in [0, 1) (depth scaling).
+struct IsoPoints {
+  std::vector<float> xyz, normal, value, dice;
+  double area = 0;          // the area a point stands for
+  double total_area = 0;    // of all isosurfaces
+  uint64_t triangles = 0;   // marching-tets triangles sampled
+  size_t count() const { return value.size(); }
+};
+IsoPoints sample_isosurfaces(const SceneMesh& mesh, const std::vector<double>& isovalues, double area, uint64_t target);
+// The isovalues points mode draws when none are given: n regularly spaced inside (lo, hi).
+std::vector<double> regular_isovalues(double lo, double hi, uint32_t n);
 
 }  // namespace tetrascope::renderer

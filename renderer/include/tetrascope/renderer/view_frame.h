@@ -11,6 +11,7 @@
 // attribute names, which only the dataset can check (std::invalid_argument).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -25,10 +26,32 @@
 
 namespace tetrascope::renderer {
 
+// Stream lines of a view (§7.3): traced on the view's mesh when the field, seeds or steps
+// change (a store: on the cut the view has then, whose estimated error the pipeline reports);
+// the selection and style change without tracing again.
+struct LineRequest {
+  std::string field;               // a 3-component attribute; empty: the dataset's first
+  std::string seeds;               // lod::parse_seeds text (line:, plane:, points:, dense:N); empty: dense:12
+  uint32_t max_steps = 2000;       // per direction
+  // the opaque lines; none of the three: every line opaque, else the rest ghosted
+  std::vector<uint32_t> selected;                  // line ids
+  std::optional<std::array<double, 6>> select_box;  // lo x, y, z, hi x, y, z: the lines passing it (§7.3.2)
+  std::optional<std::array<double, 2>> select_pixel;  // a click, fractions 0..1 of the image from the top left: the nearest line within 8 pixels
+  double line_width = 2.5, ghost_opacity = 0.15;
+  bool halos = true;
+  FlowStyle flow = FlowStyle::arrows;
+  bool operator==(const LineRequest&) const = default;
+};
+
 struct ViewRequest {
   std::optional<lod::Camera> camera;  // none: lod::default_camera of the dataset's bounds
   lod::TransferFunction tf;           // no attribute: the dataset's first; no range: the attribute's over the whole dataset
   bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
+  bool lines = false, points = false;
+  LineRequest line;
+  std::vector<double> point_isovalues;  // points mode; none: 8 regularly spaced over the colour range
+  double point_size = 0;                // pixels; 0: covering splats
+  uint64_t point_target = 400000;       // points wanted (RenderSettings::point_target)
   std::vector<double> isovalues;      // attribute units; none (with iso): mid-range
   double iso_opacity = 1;
   std::string iso_color_attribute;               // a second attribute colouring the isosurfaces; empty: by value
@@ -78,10 +101,16 @@ class ViewPipeline {
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)
   const SceneMesh& scene() const { return *scene_; }  // after update
   const lod::Cut* cut() const { return cut_.get(); }   // null for a whole mesh
+  // The lines traced for the last request with lines (null: none yet), and the error of the
+  // cut they were traced on (stores only).
+  std::shared_ptr<const LineSet> lines() const { return lines_; }
+  std::optional<double> lines_cut_error() const { return lines_cut_error_; }
 
  private:
   void resolve_attribute(lod::TransferFunction& tf) const;
   void rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute);
+  void trace_lines(const storage::TetMesh& mesh, const LineRequest& request);
+  void apply_lines(const LineRequest& request, RenderSettings& s);
 
   const storage::Store* store_ = nullptr;
   const lod::Dag* dag_ = nullptr;
@@ -93,6 +122,11 @@ class ViewPipeline {
   std::unique_ptr<const SceneMesh> scene_;
   std::string attribute_, iso_color_attribute_;      // the scene's
   uint64_t scene_generation_ = 0;         // unique over all pipelines of the process
+  std::shared_ptr<const LineSet> lines_;
+  std::optional<LineRequest> traced_;      // the request lines_ answers (field, seeds, steps)
+  std::optional<LineRequest> selected_for_;  // the request selection_ answers
+  std::vector<uint32_t> selection_;
+  std::optional<double> lines_cut_error_;
 };
 
 }  // namespace tetrascope::renderer

@@ -1,0 +1,24 @@
+// lines.set and points.set (protocol.h) applied to a session's view request, and the check of
+// a stream-line field against the dataset (at the edge, so a bad field is answered at once).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "datasets.h"
+#include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/view_frame.h"
+
+namespace tetrascope::server {
+
+constexpr uint32_t kDefaultRakeSeeds = 100;
+constexpr uint32_t kDefaultDenseCells = 12;
+
+// What the message carries replaces the request's; the rest stays.
+void apply_lines_set(const protocol::LinesSet& message, renderer::LineRequest& line);
+void apply_points_set(const protocol::PointsSet& message, renderer::ViewRequest& view);
+// Throws ProtocolError: not_found when the dataset has no attribute `name`, bad_field when it
+// is not a 3-component (vector) attribute; both name the dataset's vector fields.
+void check_vector_field(const Dataset& dataset, const std::string& name, uint32_t id);
+
+}  // namespace tetrascope::server
