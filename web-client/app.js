@@ -7,6 +7,8 @@ import { OrbitCamera } from './camera.js';
 import { PRESETS, fromHex, toHex } from './colormaps.js';
 import { Jobs } from './jobs.js';
 import { composeStill, drawAxes, drawColorBar } from './overlays.js';
+import { PlanesPanel } from './planes.js';
+import { Probe } from './probe.js';
 import { TfEditor } from './tf-editor.js';
 import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from './view-state.js';
 
@@ -53,6 +55,15 @@ let capture = null;        // a still at a chosen size being waited for: {id, re
 const frameCanvas = $('frame');
 const frameContext = frameCanvas.getContext('2d');
 const tfEditor = new TfEditor($('tf-editor'), onTfEdited, { onSelectColor });
+const planes = new PlanesPanel($('planes'), {
+  send,
+  view: () => state.view,
+  bounds: () => state.dataset?.bounds ?? null,
+  viewDirection: () => camera && camera.get().target.map((t, i) => t - camera.get().eye[i]),
+  saved: () => saveViewInHash(),
+});
+const probe = new Probe(frameCanvas, $('probe'), { send });
+state.probe = probe;
 const jobs = new Jobs(authHeaders, {
   onDatasetsChanged: () => loadDatasets(),
   onDone: (name) => openDataset(name),
@@ -117,6 +128,9 @@ function onText(text) {
       break;
     case 'dataset.info':
       onDataset(message);
+      break;
+    case 'probe.result':
+      probe.show(message);
       break;
     case 'error':
       state.errors.push(message);
@@ -223,6 +237,7 @@ function onDataset(info) {
   $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
   showView();
+  planes.show();
   sendAll();
 }
 
@@ -305,6 +320,7 @@ function sendAll() {
   sendIso();
   sendLod();
   sendQuality();
+  planes.sendAll();
   sendCamera(false);  // last: the still that follows shows everything
   saveViewInHash();
 }

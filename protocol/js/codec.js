@@ -5,6 +5,8 @@
 //   decodeFrame(arrayBuffer, limits) -> {header, payload}
 //   encodeFrameHeader(header) -> Uint8Array (tests, tools)
 
+import { planeCheckers } from './planes.js';
+
 export const VERSION = 1;
 export const FRAME_MAGIC = 0x31465354;
 export const FRAME_HEADER_BYTES = 48;
@@ -123,7 +125,7 @@ const checkers = {
     const mode = f.string('mode', 64);
     if (!mode) f.fail('mode', 'missing');
     for (const part of mode.split('+')) {
-      if (!['dvr', 'iso', 'isosurface', 'surface'].includes(part)) f.fail('mode', `unknown mode '${part}' (dvr, iso, surface or combinations such as dvr+iso)`);
+      if (!['dvr', 'iso', 'isosurface', 'surface', 'slice'].includes(part)) f.fail('mode', `unknown mode '${part}' (dvr, iso, surface, slice or combinations such as dvr+iso)`);
     }
     f.boolean('wireframe');
     f.boolean('box');
@@ -154,6 +156,7 @@ const checkers = {
     f.optNumber('interaction_scale', 0.25, 1);
   },
   ping() {},
+  ...planeCheckers,
 };
 
 export function checkMessage(text, limits = DEFAULT_LIMITS) {

@@ -99,6 +99,9 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     return m;
   }
   if (type == "ping") return Ping{};
+  if (type == "clip.set") return ClipSet{parse_clip_spec(f.object(), id)};  // planes.cpp
+  if (type == "slice.set") return SliceSet{parse_slice_spec(f.object(), id)};
+  if (type == "probe") return parse_probe(f.object(), limits.max_image_side, id);
   throw ProtocolError(code::kUnknownType, "unknown message type '" + type + "'", id);
 }
 
@@ -122,7 +125,9 @@ Modes parse_modes(std::string_view text) {
     if (part == "dvr") m.dvr = true;
     else if (part == "iso" || part == "isosurface") m.iso = true;
     else if (part == "surface") m.surface = true;
-    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface or combinations such as dvr+iso)");
+    else if (part == "slice") {  // the slice planes only (planes.h): none of the others
+    }
+    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface, slice or combinations such as dvr+iso)");
     at = plus + 1;
   }
   return m;

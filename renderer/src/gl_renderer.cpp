@@ -13,6 +13,7 @@
 #include "egl_context.h"
 #include "gl_shaders.h"
 #include "scene_geometry.h"
+#include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/vec3.h"
 #include "visibility_order.h"
@@ -102,6 +103,7 @@ class GlRenderer final : public Renderer {
     boundary_ = boundary_geometry(mesh);
     upload_mesh(mesh, tet_cells(mesh));
     iso_cache_.clear();
+    slices_ = {};
   }
 
   Image render(const RenderSettings& s, FrameTimings* timings) override {
@@ -124,7 +126,9 @@ class GlRenderer final : public Renderer {
     if (s.surface) opaque |= draw_boundary_surface(setup);
     const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
     if (s.iso && !s.isovalues.empty() && !translucent_iso) opaque |= draw_opaque_isosurfaces(setup, s, tm);
+    if (!s.slices.planes.empty()) opaque |= draw_slices(setup, s.slices);
     glDisable(GL_POLYGON_OFFSET_FILL);
+    if (s.slices.edges && !s.slices.planes.empty()) draw_lines(setup, slices_.edges);
     if (s.surface) draw_boundary_edges(setup, s.wireframe);
     if (s.box) draw_box(setup);
     if (translucent_iso && !s.isovalues.empty()) draw_translucent_isosurfaces(setup, s, tm);
@@ -303,6 +307,21 @@ class GlRenderer final : public Renderer {
     glBindVertexArray(line_vao_);
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(tris.size() / 4));
     tm.iso_triangles = tris.size() / 12;
+    return true;
+  }
+
+  // Slice planes (clip.h), opaque like isosurfaces; their triangles cached per mesh and planes.
+  bool draw_slices(const FrameSetup& setup, const protocol::SliceSpec& slices) {
+    const std::string key = slices.to_json().dump();
+    if (key != slices_.key) {
+      slices_ = {key, {}, {}};
+      for (const protocol::Plane& plane : slices.planes) slice_scene(*mesh_, plane, slices_.triangles, slices.edges ? &slices_.edges : nullptr);
+    }
+    if (slices_.triangles.empty()) return false;
+    glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(slices_.triangles.size() * 4), slices_.triangles.data(), GL_STREAM_DRAW);
+    use_surface_program(setup, false);
+    glBindVertexArray(line_vao_);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(slices_.triangles.size() / 4));
     return true;
   }
 
@@ -488,6 +507,10 @@ class GlRenderer final : public Renderer {
   PreintegrationTable table_;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
+  struct SliceCache {
+    std::string key;                    // the planes as JSON
+    std::vector<float> triangles, edges;  // (x, y, z, value) corners
+  } slices_;
 };
 
 }  // namespace

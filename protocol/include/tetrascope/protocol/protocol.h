@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/transfer_function.h"
 
 namespace tetrascope::protocol {
@@ -95,7 +96,8 @@ struct TfSet {
   TransferFunction tf;  // checked (parse_transfer_function); the attribute is the session's to find
 };
 // What to draw: "dvr", "iso" (or "isosurface") and "surface" joined by '+', as mode.set and
-// `tetrascope render --mode` take them. Throws std::invalid_argument naming an unknown part.
+// `tetrascope render --mode` take them; "slice" alone draws none of them (only the slice
+// planes of slice.set / --slice). Throws std::invalid_argument naming an unknown part.
 struct Modes {
   bool dvr = false, iso = false, surface = false;
 };
@@ -123,7 +125,8 @@ struct QualitySet {
 };
 struct Ping {};
 
-using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, Ping>;
+using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, Ping,
+                             ClipSet, SliceSet, Probe>;
 
 struct Envelope {
   std::string type;

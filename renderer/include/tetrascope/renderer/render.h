@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "tetrascope/lod/view.h"
+#include "tetrascope/protocol/planes.h"
 #include "tetrascope/storage/mesh.h"
 
 namespace tetrascope::renderer {
@@ -55,6 +56,10 @@ struct RenderSettings {
   double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
   bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
+  // Slice planes of the scene drawn, opaque and lit, coloured through the colormap, with the
+  // tets' edges on them when `slices.edges` (clip.h; a clip is applied to the scene itself,
+  // see clip_scene, so it clips the slices too).
+  protocol::SliceSpec slices;
 };
 
 struct FrameTimings {
