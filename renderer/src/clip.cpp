@@ -8,6 +8,7 @@
 // named twice) are dropped - they have no volume.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 #include "tetrascope/renderer/clip.h"
@@ -28,7 +29,15 @@ class PlaneClipper {
   void run() {
     const size_t vertex_count = mesh_.xyz.size() / 3;
     side_.resize(vertex_count);
-    for (size_t v = 0; v < vertex_count; ++v) side_[v] = plane_.side(mesh_.xyz[3 * v], mesh_.xyz[3 * v + 1], mesh_.xyz[3 * v + 2]);
+    // a vertex within float rounding of the plane lies on it: cutting there would make slivers
+    // of no volume (or of rounding-negative volume) instead of reusing the vertex
+    double extent = std::fabs(plane_.offset);
+    for (float c : mesh_.xyz) extent = std::max(extent, double(std::fabs(c)));
+    const double on_plane = 4 * extent * std::numeric_limits<float>::epsilon();
+    for (size_t v = 0; v < vertex_count; ++v) {
+      side_[v] = plane_.side(mesh_.xyz[3 * v], mesh_.xyz[3 * v + 1], mesh_.xyz[3 * v + 2]);
+      if (std::fabs(side_[v]) <= on_plane) side_[v] = 0;
+    }
     std::vector<uint32_t> out;
     out.reserve(mesh_.tets.size());
     for (size_t t = 0; t < mesh_.tets.size() / 4; ++t) {

@@ -28,8 +28,11 @@ TEST(PlaneVectors, EveryClipAndSliceMessageParsesOrIsRefusedWithItsCode) {
         ADD_FAILURE() << "accepted";
       } catch (const ProtocolError& e) {
         EXPECT_EQ(e.code(), vector["error"].get<std::string>()) << e.what();
-        if (vector["error_id"].is_null()) EXPECT_FALSE(e.id().has_value());
-        else EXPECT_EQ(e.id(), vector["error_id"].get<uint32_t>());
+        if (vector["error_id"].is_null()) {
+          EXPECT_FALSE(e.id().has_value());
+        } else {
+          EXPECT_EQ(e.id(), vector["error_id"].get<uint32_t>());
+        }
         ++refused;
       }
     } else {
