@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "mesh_checks.h"
 #include "test_paths.h"
@@ -210,6 +211,45 @@ TEST(Clip, ClippedAndSlicedVolumeMatchesTheReferenceOnTheSharedDatasets) {
     }
     EXPECT_GT(covered, slice_only.rgba.size() / 4 / 200) << "the slice shows";
   }
+}
+
+renderer::Image read_png(const std::filesystem::path& path) {
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  renderer::Image image;
+  if (!png_image_begin_read_from_file(&png, path.c_str())) return image;
+  png.format = PNG_FORMAT_RGBA;
+  image.width = png.width;
+  image.height = png.height;
+  image.rgba.resize(PNG_IMAGE_SIZE(png));
+  png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr);
+  return image;
+}
+
+TEST(Clip, AClipPlaneOnOneraShowsTheWing) {
+  if (kSanitized) GTEST_SKIP() << "450K tets: the release run covers it (minutes under ASan)";
+  // the wing sits in a 100-chord far field: the plane z = 0 cuts the domain through the wing,
+  // whose planform shows in the cut face, coloured by the pressure coefficient
+  const auto full = renderer::SceneMesh::from(storage::load_mesh(shared_data() / "onera_m6_potential.vtk"), "pressure_coefficient");
+  const auto scene = renderer::clip_scene(full, clip_of({clip_plane({0, 0, 1}, 0)}));
+  gl().set_mesh(scene);
+  renderer::RenderSettings s;
+  s.width = 192;
+  s.height = 144;
+  s.dvr = false;
+  s.surface = true;
+  s.camera = lod::parse_camera("eye=0.7,0.7,3,target=0.7,0.7,0,up=0,1,0,fov=40", scene.bounds);
+  s.camera.aspect = 192.0 / 144;
+  const renderer::Image image = gl().render(s);
+  const auto path = source_dir() / "tests" / "renderer" / "golden" / "onera_clip.png";
+  if (std::getenv("TETRA_UPDATE_GOLDEN")) renderer::write_image(path.string(), image, 90);
+  const renderer::Image expected = read_png(path);
+  ASSERT_EQ(expected.width, 192u) << "missing golden image " << path << " (TETRA_UPDATE_GOLDEN=1 writes it)";
+  EXPECT_GE(renderer::psnr(image, expected), 30.0);
+  // and the cut face is there: the clipped scene has boundary faces on z = 0 around the wing
+  size_t cap = 0;
+  for (const auto& f : scene.boundary) cap += std::fabs(scene.xyz[3 * size_t{f[0]} + 2]) < 1e-6 && std::fabs(scene.xyz[3 * size_t{f[1]} + 2]) < 1e-6 && std::fabs(scene.xyz[3 * size_t{f[2]} + 2]) < 1e-6;
+  EXPECT_GT(cap, 1000u);
 }
 
 }  // namespace
