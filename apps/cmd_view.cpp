@@ -15,7 +15,9 @@
 #include "tetrascope/lod/cut.h"
 #include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/streamlines.h"
+#include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/renderer/view_frame.h"
 #include "tetrascope/storage/mesh.h"
@@ -46,6 +48,48 @@ OpenedStore open_multires(const std::string& path, const std::string& single_lev
   s.dag = lod::open_dag(*s.store);
   if (!s.dag) throw std::invalid_argument(path + " is a single-level store" + single_level_hint);
   return s;
+}
+
+// --clip nx,ny,nz,d (repeatable, "!" in front or ",invert" after inverts), --clip-box
+// x0,y0,z0,x1,y1,z1, --crinkle, --slice nx,ny,nz,d (repeatable), --slice-edges: taken out of
+// the arguments before Args (which keeps one value an option) sees them.
+Arguments take_plane_options(const Arguments& raw, protocol::ClipSpec& clip, protocol::SliceSpec* slices) {
+  Arguments rest;
+  for (size_t i = 0; i < raw.size(); ++i) {
+    const std::string& a = raw[i];
+    const bool valued = a == "--clip" || a == "--clip-box" || (slices && a == "--slice");
+    if (valued && i + 1 >= raw.size()) throw std::invalid_argument(a + " needs a value (nx,ny,nz,d)");
+    if (a == "--clip") {
+      if (clip.planes.size() == protocol::kMaxClipPlanes) throw std::invalid_argument("--clip: at most " + std::to_string(protocol::kMaxClipPlanes) + " clip planes (use --clip-box for a box)");
+      try {
+        clip.planes.push_back(protocol::parse_plane_text(raw[++i], true));
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(std::string("--clip: ") + e.what());
+      }
+    } else if (a == "--clip-box") {
+      const std::vector<double> v = number_list("--clip-box", raw[++i]);
+      if (v.size() != 6) throw std::invalid_argument("--clip-box expects x0,y0,z0,x1,y1,z1");
+      protocol::ClipBox box{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}};
+      for (int k = 0; k < 3; ++k)
+        if (!(box.min[k] <= box.max[k])) throw std::invalid_argument("--clip-box: min exceeds max on axis " + std::string(1, "xyz"[k]));
+      clip.box = box;
+    } else if (a == "--crinkle") {
+      clip.crinkle = true;
+    } else if (slices && a == "--slice") {
+      if (slices->planes.size() == protocol::kMaxSlicePlanes) throw std::invalid_argument("--slice: at most " + std::to_string(protocol::kMaxSlicePlanes) + " slice planes");
+      try {
+        slices->planes.push_back(protocol::parse_plane_text(raw[++i], false).plane);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(std::string("--slice: ") + e.what());
+      }
+    } else if (slices && a == "--slice-edges") {
+      slices->edges = true;
+    } else {
+      rest.push_back(a);
+    }
+  }
+  if (clip.crinkle && clip.empty()) throw std::invalid_argument("--crinkle needs a --clip plane or a --clip-box");
+  return rest;
 }
 
 // What `render` was asked for, beyond the view itself.
@@ -200,7 +244,7 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
 
 // The CPU reference ray caster of `settings` (DVR only) next to the output, and its PSNR.
 double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const r::RenderSettings& settings, const r::Image& image) {
-  if (!settings.dvr || settings.iso || settings.surface) throw std::invalid_argument("--reference compares volume rendering only (--mode dvr)");
+  if (!settings.dvr || settings.iso || settings.surface) throw std::invalid_argument("--reference compares volume rendering only (--mode dvr, with --clip and --slice)");
   const r::Image reference = r::reference_render(scene, settings);
   std::filesystem::path path(o.output);
   path.replace_filename(path.stem().string() + ".reference" + path.extension().string());
@@ -210,10 +254,12 @@ double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const 
 
 }  // namespace
 
-int run_cut(const Arguments& raw) {
+int run_cut(const Arguments& all) {
+  protocol::ClipSpec clip;
+  const Arguments raw = take_plane_options(all, clip, nullptr);
   Args args(raw, {"--json"}, {"--output", "--budget", "--camera", "--size", "--tf", "--iso", "--attribute"});
   if (args.positionals().size() != 1 || !args.has("--output") || !args.has("--budget")) {
-    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--json]\n");
     return 2;
   }
   const OpenedStore opened = open_multires(args.positionals()[0], " (made by segment); run tetrascope preprocess for a multiresolution store");
@@ -233,12 +279,14 @@ int run_cut(const Arguments& raw) {
     }
     lod::set_view(criteria, camera);
   }
+  criteria.clip = clip.half_spaces();
   lod::Cut cut(*opened.dag);
   const auto start = Clock::now();
   const auto changes = cut.update(criteria, budget);
   const double update_ms = ms_since(start);
   storage::SegmentCache cache(store, kCutCacheBytes);
-  const auto mesh = lod::assemble_cut(store, cache, cut, false);
+  auto mesh = lod::assemble_cut(store, cache, cut, false, criteria.clip);
+  if (!clip.empty()) mesh.mesh = r::clip_mesh(mesh.mesh, clip);
   storage::write_vtk(args.get("--output"), mesh.mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
                       {"refinements", changes.refinements}, {"forced_refinements", changes.forced_refinements}, {"coarsenings", changes.coarsenings},
@@ -249,18 +297,24 @@ int run_cut(const Arguments& raw) {
   return 0;
 }
 
-int run_render(const Arguments& raw) {
+int run_render(const Arguments& all) {
+  protocol::ClipSpec clip;
+  protocol::SliceSpec slices;
+  const Arguments raw = take_plane_options(all, clip, &slices);
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--point-size",
              "--point-target", "--compare"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
+                 "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
     return 2;
   }
   RenderOptions o = render_options(args);
+  o.view.clip = clip;
+  o.view.slices = slices;
   // the mesh: the cut of a multiresolution store for this view, or a whole mesh file
   const std::string input = args.positionals()[0];
   OpenedStore opened;
@@ -276,7 +330,8 @@ int run_render(const Arguments& raw) {
     pipeline = std::make_unique<r::ViewPipeline>(storage::load_mesh(input));
   }
   if (!o.camera_text.empty()) o.view.camera = lod::parse_camera(o.camera_text, pipeline->bounds());
-  const r::RenderSettings settings = pipeline->update(o.view);
+  r::ViewTimings update_timings;  // the one-off cost of this view: cut, assembly, clip
+  const r::RenderSettings settings = pipeline->update(o.view, &update_timings);
   // The context stays up to exit, on every path: Mesa's driver, unloaded by eglTerminate,
   // would leave allocations behind that leak checkers report against us.
   static r::Renderer* renderer = nullptr;  // reachable from here: not a leak
@@ -311,6 +366,7 @@ int run_render(const Arguments& raw) {
   }
   if (settings.points) j["points"] = frames.back().points;
   if (!o.compare.empty()) j["compare_psnr_db"] = r::psnr(image, r::read_png(o.compare));
+  j["update"] = {{"cut_ms", update_timings.cut_ms}, {"assemble_ms", update_timings.assemble_ms}, {"clip_ms", update_timings.clip_ms}};
   if (o.json) std::cout << j.dump() << "\n";
   else std::printf("%s: %ux%u %s of %zu tets (%s), median %.1f ms a frame\n", o.output.c_str(), settings.width, settings.height, o.mode.c_str(),
                    pipeline->scene().tets.size() / 4, pipeline->scene().attribute.c_str(), j["median_ms"].get<double>());

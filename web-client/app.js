@@ -8,6 +8,8 @@ import { PRESETS, fromHex, toHex } from './colormaps.js';
 import { Jobs } from './jobs.js';
 import { LinesPanel } from './lines.js';
 import { composeStill, drawAxes, drawColorBar } from './overlays.js';
+import { PlanesPanel } from './planes.js';
+import { Probe } from './probe.js';
 import { TfEditor } from './tf-editor.js';
 import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from './view-state.js';
 
@@ -55,6 +57,15 @@ const frameCanvas = $('frame');
 const frameContext = frameCanvas.getContext('2d');
 const linesPanel = new LinesPanel($('vector-panel'), frameCanvas, { send: (type, body) => send(type, body), onModes: () => onModes() });
 const tfEditor = new TfEditor($('tf-editor'), onTfEdited, { onSelectColor });
+const planes = new PlanesPanel($('planes'), {
+  send,
+  view: () => state.view,
+  bounds: () => state.dataset?.bounds ?? null,
+  viewDirection: () => camera && camera.get().target.map((t, i) => t - camera.get().eye[i]),
+  saved: () => saveViewInHash(),
+});
+const probe = new Probe(frameCanvas, $('probe'), { send });
+state.probe = probe;
 const jobs = new Jobs(authHeaders, {
   onDatasetsChanged: () => loadDatasets(),
   onDone: (name) => openDataset(name),
@@ -119,6 +130,9 @@ function onText(text) {
       break;
     case 'dataset.info':
       onDataset(message);
+      break;
+    case 'probe.result':
+      probe.show(message);
       break;
     case 'error':
       state.errors.push(message);
@@ -253,6 +267,7 @@ function onDataset(info) {
   datasetNotice = '';
   linesPanel.setDataset(info);
   showView();
+  planes.show();
   sendAll();
 }
 
@@ -336,6 +351,7 @@ function sendAll() {
   linesPanel.sendAll();
   sendLod();
   sendQuality();
+  planes.sendAll();
   sendCamera(false);  // last: the still that follows shows everything
   saveViewInHash();
 }

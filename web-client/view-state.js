@@ -3,6 +3,7 @@
 // points are kept in normalised units t in [0, 1] over the range, so a new range keeps the
 // curve's shape; tfBody() maps them onto attribute values for tf.set.
 import { DEFAULT_PRESET, PRESETS } from './colormaps.js';
+import { planesFromHash, planesToHash } from './planes.js';
 
 // The default opacity curve, chosen by looking at the shared datasets (disk_out_ref,
 // fea_bracket, nasa_bluntfin, freefem_leman, onera_m6, nasa_combustion_chamber,
@@ -54,12 +55,13 @@ export function defaultView() {
     isoOpacity: 1,
     budget: null, interactionBudget: null,  // null: the server's
     interactionQuality: 60, stillQuality: 90, pngStills: false,
+    clips: [], slices: [], sliceEdges: false,  // planes.js
   };
 }
 
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
-  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null };
+  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [] };
 }
 
 // ---------- URL fragment ----------
@@ -97,6 +99,7 @@ export function viewToHash(view) {
   if (view.budget) put('budget', view.budget);
   if (view.interactionBudget) put('ibudget', view.interactionBudget);
   put('quality', `${view.interactionQuality},${view.stillQuality}${view.pngStills ? ',png' : ''}`);
+  p.push(...planesToHash(view));
   return p.join('&');
 }
 
@@ -165,6 +168,7 @@ export function viewFromHash(hash) {
     view.stillQuality = Math.min(Math.max(Math.round(Number(quality[1])), 1), 100);
     view.pngStills = quality[2] === 'png';
   }
+  Object.assign(view, planesFromHash(h));
   return view;
 }
 

@@ -86,6 +86,44 @@ void Cut::apply_coarsen(uint32_t node, CutChanges* changes) {
 
 // The unrefined ancestors a refinement of `node` needs, coarsest first, node last.
 namespace {
+// the smallest and largest n.x - d over a box's corners
+std::pair<double, double> side_range(const protocol::Plane& plane, const float box[6]) {
+  double lo = -plane.offset, hi = -plane.offset;
+  for (int k = 0; k < 3; ++k) {
+    const double a = plane.normal[k] * box[k], b = plane.normal[k] * box[k + 3];
+    lo += std::min(a, b);
+    hi += std::max(a, b);
+  }
+  return {lo, hi};
+}
+}  // namespace
+
+bool clipped_away(std::span<const protocol::Plane> clip, const float box[6]) {
+  for (const protocol::Plane& plane : clip)
+    if (side_range(plane, box).first > 0) return true;
+  return false;
+}
+
+bool crosses(const protocol::Plane& plane, const float box[6]) {
+  const auto [lo, hi] = side_range(plane, box);
+  return lo <= 0 && hi >= 0;
+}
+
+double Cut::slice_weight(uint32_t node, uint32_t channel) {
+  if (channel >= dag_.channel_count()) return 1.0 / (1 + dag_.node(node).level);
+  if (slice_weight_.size() != dag_.node_count() || slice_weight_channel_ != channel) {
+    slice_weight_.assign(dag_.node_count(), -1);
+    slice_weight_channel_ = channel;
+  }
+  if (slice_weight_[node] < 0) {
+    double sum = 0;
+    for (float h : dag_.field_histogram(node, channel)) sum += h;
+    slice_weight_[node] = sum;
+  }
+  return slice_weight_[node];
+}
+
+namespace {
 // The share of the view a box covers: its bounding sphere's projected area over the view's
 // (height²), clamped to 1; 1 with the eye inside the sphere. A segment's error counts for the
 // pixels it covers.
@@ -211,8 +249,13 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     weight_isovalues_ = criteria.isovalues;
   }
   auto error = [&](uint32_t v) {
-    if (criteria.frustum && !criteria.frustum->intersects(dag_.node(v).bounds)) return 0.0;
-    return weight_[v] * (criteria.camera ? view_share(*criteria.camera, dag_.node(v).bounds) : 1.0);
+    const float* box = dag_.node(v).bounds;
+    if (criteria.frustum && !criteria.frustum->intersects(box)) return 0.0;
+    if (clipped_away(criteria.clip, box)) return 0.0;
+    double weight = weight_[v];
+    for (const protocol::Plane& slice : criteria.slices)
+      if (crosses(slice, box)) weight = std::max(weight, kSliceWeight * slice_weight(v, criteria.channel));
+    return weight * (criteria.camera ? view_share(*criteria.camera, box) : 1.0);
   };
   std::vector<double> e(n);
   for (uint32_t v = 0; v < n; ++v) e[v] = error(v);
@@ -365,12 +408,13 @@ CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const Tran
   return c;
 }
 
-CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency) {
+CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency, std::span<const protocol::Plane> clip) {
   using storage::store::kMeshBoundary;
   using storage::store::kSegmentBorder;
   const Dag& dag = cut.dag();
   CutMesh out;
   out.patches = cut.active_patches();
+  if (!clip.empty()) std::erase_if(out.patches, [&](uint32_t p) { return clipped_away(clip, dag.node(dag.patch(p).floor).bounds); });
   const auto& attributes = store.manifest().attributes;
   for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components}, {}});
   std::unordered_map<uint32_t, uint32_t> vertex_of;

@@ -5,6 +5,8 @@
 //   decodeFrame(arrayBuffer, limits) -> {header, payload}
 //   encodeFrameHeader(header) -> Uint8Array (tests, tools)
 
+import { planeCheckers } from './planes.js';
+
 export const VERSION = 1;
 export const FRAME_MAGIC = 0x31465354;
 export const FRAME_HEADER_BYTES = 48;
@@ -24,7 +26,7 @@ export const LINE_LIMITS = Object.freeze({
   max_line_width: 32,
   max_point_size: 64,
 });
-export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points'];
+export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points', 'slice'];
 
 export class ProtocolError extends Error {
   constructor(code, message, id = null) {
@@ -134,7 +136,7 @@ const checkers = {
     const mode = f.string('mode', 64);
     if (!mode) f.fail('mode', 'missing');
     for (const part of mode.split('+')) {
-      if (!MODE_PARTS.includes(part)) f.fail('mode', `unknown mode '${part}' (dvr, iso, surface, lines, points or combinations such as dvr+lines)`);
+      if (!MODE_PARTS.includes(part)) f.fail('mode', `unknown mode '${part}' (dvr, iso, surface, lines, points, slice or combinations such as dvr+lines)`);
     }
     f.boolean('wireframe');
     f.boolean('box');
@@ -213,6 +215,7 @@ const checkers = {
     f.optNumber('size', 0, LINE_LIMITS.max_point_size);
   },
   ping() {},
+  ...planeCheckers,
 };
 
 function twoPoints(f, field, v) {

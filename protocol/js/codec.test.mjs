@@ -7,6 +7,8 @@ import { checkMessage, decodeFrame, encodeFrameHeader, DEFAULT_LIMITS, ProtocolE
 
 const dir = fileURLToPath(new URL('../testdata/', import.meta.url));
 const messages = JSON.parse(readFileSync(dir + 'messages.json', 'utf8'));
+// clip.set and slice.set have their own file (protocol/js/planes.js)
+messages.messages.push(...JSON.parse(readFileSync(dir + 'planes.json', 'utf8')).messages);
 const frames = JSON.parse(readFileSync(dir + 'frames.json', 'utf8'));
 const limits = { ...DEFAULT_LIMITS, ...messages.limits };
 

@@ -163,6 +163,9 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     return m;
   }
   if (type == "ping") return Ping{};
+  if (type == "clip.set") return ClipSet{parse_clip_spec(f.object(), id)};  // planes.cpp
+  if (type == "slice.set") return SliceSet{parse_slice_spec(f.object(), id)};
+  if (type == "probe") return parse_probe(f.object(), limits.max_image_side, id);
   throw ProtocolError(code::kUnknownType, "unknown message type '" + type + "'", id);
 }
 
@@ -188,7 +191,9 @@ Modes parse_modes(std::string_view text) {
     else if (part == "surface") m.surface = true;
     else if (part == "lines") m.lines = true;
     else if (part == "points") m.points = true;
-    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface, lines, points or combinations such as dvr+lines)");
+    else if (part == "slice") {  // the slice planes only (planes.h): none of the others
+    }
+    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface, lines, points, slice or combinations such as dvr+lines)");
     at = plus + 1;
   }
   return m;

@@ -14,6 +14,7 @@
 #include "gl_shaders.h"
 #include "lines.h"
 #include "scene_geometry.h"
+#include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/vec3.h"
 #include "visibility_order.h"
@@ -106,6 +107,7 @@ class GlRenderer final : public Renderer {
     upload_mesh(mesh, tet_cells(mesh));
     iso_cache_.clear();
     point_pass_.set_mesh(mesh);
+    slices_ = {};
   }
 
   Image render(const RenderSettings& s, FrameTimings* timings) override {
@@ -128,11 +130,13 @@ class GlRenderer final : public Renderer {
     if (s.surface) opaque |= draw_boundary_surface(setup);
     const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
     if (s.iso && !s.isovalues.empty() && !translucent_iso) opaque |= draw_opaque_isosurfaces(setup, s, tm);
+    if (!s.slices.planes.empty()) opaque |= draw_slices(setup, s.slices);
     glDisable(GL_POLYGON_OFFSET_FILL);
     // stream lines and point isosurfaces (lines.cpp, point_iso.cpp): opaque before the volume
     const PassView pass_view{setup.frame, setup.mvp, s.width, s.height, setup.lo, setup.hi, colormap_texture_};
     if (s.points) opaque |= point_pass_.draw(pass_view, s, tm);
     if (s.lines) opaque |= line_pass_.draw_opaque(pass_view, s, tm);
+    if (s.slices.edges && !s.slices.planes.empty()) draw_lines(setup, slices_.edges);
     if (s.surface) draw_boundary_edges(setup, s.wireframe);
     if (s.box) draw_box(setup);
     if (translucent_iso && !s.isovalues.empty()) draw_translucent_isosurfaces(setup, s, tm);
@@ -312,6 +316,21 @@ class GlRenderer final : public Renderer {
     glBindVertexArray(line_vao_);
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(tris.size() / 4));
     tm.iso_triangles = tris.size() / 12;
+    return true;
+  }
+
+  // Slice planes (clip.h), opaque like isosurfaces; their triangles cached per mesh and planes.
+  bool draw_slices(const FrameSetup& setup, const protocol::SliceSpec& slices) {
+    const std::string key = slices.to_json().dump();
+    if (key != slices_.key) {
+      slices_ = {key, {}, {}};
+      for (const protocol::Plane& plane : slices.planes) slice_scene(*mesh_, plane, slices_.triangles, slices.edges ? &slices_.edges : nullptr);
+    }
+    if (slices_.triangles.empty()) return false;
+    glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(slices_.triangles.size() * 4), slices_.triangles.data(), GL_STREAM_DRAW);
+    use_surface_program(setup, false);
+    glBindVertexArray(line_vao_);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(slices_.triangles.size() / 4));
     return true;
   }
 
@@ -499,6 +518,10 @@ class GlRenderer final : public Renderer {
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
   LinePass line_pass_;       // after context_: made with a current context, gone before it
   PointIsoPass point_pass_;
+  struct SliceCache {
+    std::string key;                    // the planes as JSON
+    std::vector<float> triangles, edges;  // (x, y, z, value) corners
+  } slices_;
 };
 
 }  // namespace

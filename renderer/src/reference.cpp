@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "camera_math.h"
+#include "slice_hits.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/tet_topology.h"
 #include "tetrascope/storage/vec3.h"
@@ -84,20 +85,29 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
             {static_cast<float>(t_in), static_cast<float>(t_out), static_cast<float>(dot(g, a) + c0), static_cast<float>(dot(g, b) + c0)});
       }
   }
+  // slices are opaque: rays end at the nearest one, which shows behind the volume before it
+  const SliceHits slices = slice_hits(mesh, settings, lo, hi);
   Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4)};
   for (size_t i = 0; i < pixels.size(); ++i) {
     auto& list = pixels[i];
     std::sort(list.begin(), list.end(), [](const Segment& a, const Segment& b) { return a.t_in < b.t_in; });
     double r = 0, g = 0, b = 0, a = 0;
-    for (const Segment& seg : list) {
-      if (a > 0.9999) break;
+    const float stop = slices.distance[i];
+    for (Segment seg : list) {
+      if (a > 0.9999 || seg.t_in >= stop) break;
+      if (seg.t_out > stop) {
+        seg.s_out = seg.s_in + (seg.s_out - seg.s_in) * (stop - seg.t_in) / (seg.t_out - seg.t_in);
+        seg.t_out = stop;
+      }
       const auto c = integrate_segment(settings.tf, lo, hi, unit, seg.s_in, seg.s_out, double(seg.t_out) - seg.t_in);
       r += (1 - a) * c[0];
       g += (1 - a) * c[1];
       b += (1 - a) * c[2];
       a += (1 - a) * c[3];
     }
-    const double out[3] = {r + (1 - a) * settings.background[0], g + (1 - a) * settings.background[1], b + (1 - a) * settings.background[2]};
+    const bool hit = std::isfinite(stop);
+    const std::array<float, 3> behind = hit ? slices.rgb[i] : settings.background;
+    const double out[3] = {r + (1 - a) * behind[0], g + (1 - a) * behind[1], b + (1 - a) * behind[2]};
     for (int k = 0; k < 3; ++k) image.rgba[4 * i + k] = static_cast<uint8_t>(std::lround(std::clamp(out[k], 0.0, 1.0) * 255));
     image.rgba[4 * i + 3] = 255;
     std::vector<Segment>().swap(list);

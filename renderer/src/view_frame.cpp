@@ -8,6 +8,7 @@
 #include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/streamlines.h"
 #include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/renderer/clip.h"
 
 namespace tetrascope::renderer {
 namespace {
@@ -110,6 +111,18 @@ void ViewPipeline::apply_lines(const LineRequest& request, RenderSettings& s) {
   s.ghost_opacity = request.ghost_opacity;
   s.halos = request.halos;
   s.flow = request.flow;
+void ViewPipeline::update_clip(const protocol::ClipSpec& clip, ViewTimings& timings) {
+  const auto start = Clock::now();
+  if (clip.empty()) {
+    clipped_.reset();
+    drawn_generation_ = scene_generation_;
+  } else if (!clipped_ || clipped_from_ != scene_generation_ || !(clip_ == clip)) {
+    clipped_ = std::make_unique<const SceneMesh>(clip_scene(*scene_, clip));
+    clip_ = clip;
+    clipped_from_ = scene_generation_;
+    drawn_generation_ = next_scene_generation++;
+  }
+  timings.clip_ms = ms_since(start);
 }
 
 RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* timings) {
@@ -130,6 +143,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   s.point_isovalues = request.point_isovalues;
   s.point_size = request.point_size;
   s.point_target = request.point_target;
+  s.slices = request.slices;
   resolve_attribute(s.tf);
   const bool trace = request.lines && (!traced_ || !same_trace(*traced_, request.line));
 
@@ -141,19 +155,25 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     if (s.iso && s.isovalues.empty() && s.tf.range) s.isovalues = {0.5 * ((*s.tf.range)[0] + (*s.tf.range)[1])};
     lod::CutCriteria criteria = lod::criteria_for(*store_, *dag_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
     lod::set_view(criteria, s.camera);
+    criteria.clip = request.clip.half_spaces();
+    criteria.slices = request.slices.planes;
     auto start = Clock::now();
     const auto changes = cut_->update(criteria, request.budget);
     cut_estimated_error_ = changes.estimated_error;
     t.cut_ms = ms_since(start);
     start = Clock::now();
+    // segments wholly clipped away are not read (a change of the clip may need others)
     std::optional<lod::CutMesh> assembled;
-    if (!scene_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute) {
-      assembled = lod::assemble_cut(*store_, *cache_, *cut_, false);
+    if (!scene_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute ||
+        !(assembled_clip_ == criteria.clip)) {
+      assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip);
       rebuild_scene(assembled->mesh, s.tf.attribute, request.iso_color_attribute);
+      assembled_clip_ = criteria.clip;
     }
     t.assemble_ms = ms_since(start);
+    update_clip(request.clip, t);
     if (trace) {
-      if (!assembled) assembled = lod::assemble_cut(*store_, *cache_, *cut_, false);
+      if (!assembled) assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip);
       trace_lines(assembled->mesh, request.line);
     }
     if (request.lines) apply_lines(request.line, s);
@@ -164,6 +184,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   t.assemble_ms = ms_since(start);
   s.tf.attribute = scene_->attribute;
   if (s.iso && s.isovalues.empty()) s.isovalues = {0.5 * (scene_->value_min + scene_->value_max)};
+  update_clip(request.clip, t);
   if (trace) trace_lines(*mesh_, request.line);
   if (request.lines) apply_lines(request.line, s);
   return s;
@@ -173,9 +194,9 @@ Image ViewPipeline::draw(const RenderSettings& settings, Renderer& renderer, uin
   ViewTimings local;
   ViewTimings& t = timings ? *timings : local;
   auto start = Clock::now();
-  if (held_generation != scene_generation_) {
-    renderer.set_mesh(*scene_);
-    held_generation = scene_generation_;
+  if (held_generation != drawn_generation_) {
+    renderer.set_mesh(scene());
+    held_generation = drawn_generation_;
   }
   t.upload_ms = ms_since(start);
   start = Clock::now();
@@ -188,7 +209,7 @@ ViewFrame ViewPipeline::render(const ViewRequest& request, Renderer& renderer, u
   ViewFrame frame;
   frame.settings = update(request, &frame.timings);
   frame.image = draw(frame.settings, renderer, held_generation, &frame.timings);
-  frame.tets = scene_->tets.size() / 4;
+  frame.tets = scene().tets.size() / 4;
   return frame;
 }
 

@@ -42,6 +42,8 @@ class FrameMaker {
   // Renders the newest state (still: the full budget, quality and size, else the interaction
   // ones) and encodes it. Throws std::invalid_argument for requests the dataset cannot satisfy.
   RenderedFrame render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number);
+  // The probe.result reply (JSON) for pixel (x, y) of the still view of `state` (frame_probe.cpp).
+  std::string probe(const ViewState& state, double x, double y, uint32_t id);
 
  private:
   // render() without the memory return of large frames (malloc_trim after 2048^2 pixels and up)

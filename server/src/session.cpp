@@ -170,6 +170,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       s.view.isovalues.clear();
       s.view.iso_color_attribute.clear();
       s.view.line = renderer::LineRequest{};  // fields and seeds of the last dataset
+      s.view.clip = {};
+      s.view.slices = {};
     });
     // DELETE /api/v1/datasets/NAME closes the dataset for its sessions: this one is told
     dataset->watch(weak_from_this(), [weak = weak_from_this(), raw = dataset.get(), name = dataset->name] {
@@ -275,6 +277,38 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     return Then::kReplied;
   }
 
+  // clip.set and slice.set: the planes replace the session's; a drag streams these.
+  Then on_message(const protocol::ClipSet& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) { s.view.clip = m.clip; });
+    return Then::kInteraction;
+  }
+
+  Then on_message(const protocol::SliceSet& m, uint32_t id) {
+    change_state(id, [&](ViewState& s) { s.view.slices = m.slice; });
+    return Then::kInteraction;
+  }
+
+  // probe: answered from a pool worker, between (never during) the session's render turns
+  Then on_message(const protocol::Probe& m, uint32_t id) {
+    need_dataset(id);
+    ViewState snapshot;
+    {
+      std::lock_guard lock(mutex_);
+      snapshot = state_;
+    }
+    server_.pool->submit([self = shared_from_this(), snapshot, m, id](Worker&) {
+      std::string reply;
+      try {
+        std::lock_guard frames(self->frames_mutex_);
+        reply = self->frames_.probe(snapshot, m.x, m.y, id);
+      } catch (const std::exception& e) {
+        reply = protocol::error_reply(protocol::code::kInternal, std::string("probe failed: ") + e.what(), id);
+      }
+      net::post(self->ws_.get_executor(), [self, reply] { self->send_text(reply); });
+    });
+    return Then::kReplied;
+  }
+
   static void check_attribute(const Dataset& dataset, const std::string& name, uint32_t id) {
     if (name.empty()) return;
     for (const auto& a : dataset.store->manifest().attributes)
@@ -329,7 +363,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     const auto start = Clock::now();
     next_allowed_ = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / std::max(0.1, server_.options.max_fps)));
     try {
+      std::unique_lock frames(frames_mutex_);  // a probe may be using the pipeline
       RenderedFrame frame = frames_.render(snapshot, kind == Pending::kStill, worker, number);
+      frames.unlock();
       server_.metrics.render_ms.observe(frame.header.render_ms);
       server_.metrics.encode_ms.observe(frame.header.encode_ms);
       server_.metrics.cut_ms.observe(frame.timings.cut_ms);
@@ -423,7 +459,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   bool busy_ = false, closed_ = false;
   uint32_t frame_number_ = 0;
   std::atomic<Clock::time_point> next_allowed_{Clock::time_point{}};
-  // render turn only (one at a time)
+  // render turn and probes, one at a time
+  std::mutex frames_mutex_;
   FrameMaker frames_;
 };
 

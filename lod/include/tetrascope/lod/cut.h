@@ -17,6 +17,7 @@
 
 #include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/view.h"
+#include "tetrascope/protocol/planes.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/store.h"
 
@@ -29,13 +30,25 @@ namespace tetrascope::lod {
 // isovalues (normalised, [0, 1]) the spatial-error histogram around each isovalue is used
 // instead. Segments are refined in the order of E per tet the refinement adds (forced
 // refinements included), so a budget buys the most image error removed.
+//
+// Clip planes and slices (protocol/planes.h): a segment whose box lies wholly outside a kept
+// half-space has E = 0 (coarsened first, never refined; assemble_cut with the same planes does
+// not read it). A slice plane is an isosurface of the signed distance: a segment whose box it
+// crosses has E = kSliceWeight · V · A · Σ_n H(n) (the field error with every value visible,
+// as the opaque slice shows them all), so those segments are refined before any other.
 struct CutCriteria {
   uint32_t channel = 0;
   std::vector<float> opacity;    // per histogram bin
   std::vector<double> isovalues;
   std::optional<Frustum> frustum;
   std::optional<Camera> camera;  // the eye and the field of view, for A
+  std::vector<protocol::Plane> clip;    // kept half-spaces n.x <= d (ClipSpec::half_spaces)
+  std::vector<protocol::Plane> slices;
 };
+constexpr double kSliceWeight = 1e6;
+// Whether the box (min xyz, max xyz) lies wholly outside one of the kept half-spaces.
+bool clipped_away(std::span<const protocol::Plane> clip, const float box[6]);
+bool crosses(const protocol::Plane& plane, const float box[6]);
 // Both view parts of the criteria from one camera (the frustum reaches `far_plane`).
 void set_view(CutCriteria& criteria, const Camera& camera, double far_plane = 1e30);
 
@@ -82,6 +95,7 @@ class Cut {
   void apply_coarsen(uint32_t node, CutChanges* changes);
   void note(uint32_t patch);
   bool displayed(uint32_t node) const;  // every parent refined: all its tets are shown
+  double slice_weight(uint32_t node, uint32_t channel);  // Σ_n H(n) of the field histogram, cached
   const Dag& dag_;
   std::vector<uint8_t> refined_;
   std::vector<uint32_t> refined_children_, unrefined_parents_;
@@ -94,6 +108,8 @@ class Cut {
   std::vector<float> weight_opacity_;
   std::vector<double> weight_isovalues_;
   uint32_t weight_channel_ = 0xFFFFFFFFu;
+  std::vector<double> slice_weight_;
+  uint32_t slice_weight_channel_ = 0xFFFFFFFFu;
 };
 
 // Keeps the segments a cut needs mapped (Cut::resident_segments) and lets the others go
@@ -122,7 +138,9 @@ struct CutMesh {
   std::vector<uint32_t> patch_first_tet;  // per active patch (in active_patches() order)
   std::vector<uint32_t> patches;
 };
-CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true);
+// With `clip`, the patches of segments wholly clipped away (clipped_away) are not read.
+CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true,
+                     std::span<const protocol::Plane> clip = {});
 
 // The criteria of a transfer function over a store's attribute (the manifest's range maps
 // the function's values onto the histogram bins), and of isosurfaces at `isovalues`

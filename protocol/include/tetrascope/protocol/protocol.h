@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/transfer_function.h"
 
 namespace tetrascope::protocol {
@@ -103,7 +104,8 @@ struct TfSet {
 };
 // What to draw: "dvr", "iso" (or "isosurface"), "surface", "lines" (stream lines) and
 // "points" (point isosurfaces) joined by '+', as mode.set and `tetrascope render --mode` take
-// them. Throws std::invalid_argument naming an unknown part.
+// them; "slice" alone draws none of them (only the slice planes of slice.set / --slice).
+// Throws std::invalid_argument naming an unknown part.
 struct Modes {
   bool dvr = false, iso = false, surface = false, lines = false, points = false;
 };
@@ -151,7 +153,8 @@ struct PointsSet {
 };
 struct Ping {};
 
-using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, LinesSet, PointsSet, Ping>;
+using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, LinesSet, PointsSet, Ping,
+                             ClipSet, SliceSet, Probe>;
 
 struct Envelope {
   std::string type;

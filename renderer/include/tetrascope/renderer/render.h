@@ -32,6 +32,7 @@
 
 #include "tetrascope/lod/streamlines.h"
 #include "tetrascope/lod/view.h"
+#include "tetrascope/protocol/planes.h"
 #include "tetrascope/storage/mesh.h"
 
 namespace tetrascope::renderer {
@@ -107,6 +108,10 @@ struct RenderSettings {
   uint64_t point_target = 400000;        // points wanted when point_area is 0
   double point_size = 0;                 // splat diameter in pixels; 0: covering (from point_area and depth)
   bool point_depth_scaling = false;      // §7.2: fewer points far away
+  // Slice planes of the scene drawn, opaque and lit, coloured through the colormap, with the
+  // tets' edges on them when `slices.edges` (clip.h; a clip is applied to the scene itself,
+  // see clip_scene, so it clips the slices too).
+  protocol::SliceSpec slices;
 };
 
 struct FrameTimings {

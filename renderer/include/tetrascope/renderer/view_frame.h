@@ -58,6 +58,8 @@ struct ViewRequest {
   double unit_distance = 0;           // RenderSettings::unit_distance
   uint64_t budget = 0;                // tets of the cut (stores only)
   uint32_t width = 1024, height = 768;
+  protocol::ClipSpec clip;     // applied to the scene (clip_scene) and to the cut (criteria, assembly)
+  protocol::SliceSpec slices;  // drawn (RenderSettings::slices); the cut refines where they cross
 };
 
 // Where a frame's time went (ms): cut update, assembly of the cut's mesh and scene (0 when
@@ -65,6 +67,7 @@ struct ViewRequest {
 // readback.
 struct ViewTimings {
   double cut_ms = 0, assemble_ms = 0, upload_ms = 0, draw_ms = 0;
+  double clip_ms = 0;  // clipping the scene (0 when neither the scene nor the planes changed)
   FrameTimings draw;  // the renderer's own split
 };
 
@@ -99,7 +102,8 @@ class ViewPipeline {
   // The cut's estimated error after the last update (stores only; see lod::CutChanges).
   std::optional<double> cut_estimated_error() const { return cut_estimated_error_; }
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)
-  const SceneMesh& scene() const { return *scene_; }  // after update
+  // The scene drawn after update: clipped when the request has a clip.
+  const SceneMesh& scene() const { return clipped_ ? *clipped_ : *scene_; }
   const lod::Cut* cut() const { return cut_.get(); }   // null for a whole mesh
   // The lines traced for the last request with lines (null: none yet), and the error of the
   // cut they were traced on (stores only).
@@ -127,6 +131,13 @@ class ViewPipeline {
   std::optional<LineRequest> selected_for_;  // the request selection_ answers
   std::vector<uint32_t> selection_;
   std::optional<double> lines_cut_error_;
+  // the clipped scene, rebuilt when the scene or the clip changes
+  void update_clip(const protocol::ClipSpec& clip, ViewTimings& timings);
+  std::unique_ptr<const SceneMesh> clipped_;
+  protocol::ClipSpec clip_;
+  std::vector<protocol::Plane> assembled_clip_;  // the half-spaces the scene was assembled with
+  uint64_t clipped_from_ = 0;             // the scene generation clipped_ was cut from
+  uint64_t drawn_generation_ = 0;         // of scene(): clipped_'s own or scene_generation_
 };
 
 }  // namespace tetrascope::renderer

@@ -1,0 +1,172 @@
+// Clip and slice planes at the protocol edge (clip.set, slice.set) and on the command line.
+#include "tetrascope/protocol/planes.h"
+
+#include <cmath>
+
+#include "json_fields.h"
+#include "tetrascope/protocol/protocol.h"
+
+namespace tetrascope::protocol {
+namespace {
+
+using nlohmann::json;
+using detail::Fields;
+
+// n and d divided by |n|; false for a zero or non-finite normal
+bool normalise(Plane& p) {
+  const double length = std::hypot(p.normal[0], p.normal[1], p.normal[2]);
+  if (!(length > 0) || !std::isfinite(length)) return false;
+  for (double& c : p.normal) c /= length;
+  p.offset /= length;
+  return std::isfinite(p.offset) && std::isfinite(p.normal[0]) && std::isfinite(p.normal[1]) && std::isfinite(p.normal[2]);
+}
+
+Plane plane_of(const Fields& f, const std::string& name) {
+  Plane p;
+  p.normal = f.vector3("normal");
+  const json& offset = f.require("offset");
+  p.offset = f.number("offset", offset, -kMaxPlaneCoordinate, kMaxPlaneCoordinate);
+  if (!normalise(p)) throw ProtocolError(code::kBadField, name + ".normal: zero length (a plane needs a direction)", std::nullopt);
+  return p;
+}
+
+const json& plane_list(const Fields& f, size_t max) {
+  static const json kEmpty = json::array();
+  const json* planes = f.find("planes");
+  if (!planes) return kEmpty;
+  if (!planes->is_array()) f.fail("planes", "expected a list of {\"normal\": [x, y, z], \"offset\": d}");
+  if (planes->size() > max) f.fail("planes", std::to_string(planes->size()) + " planes; at most " + std::to_string(max));
+  return *planes;
+}
+
+// A plane's own fields, with errors naming planes[i] and the message's id.
+template <class Read>
+auto each_plane(const json& plane, size_t i, std::optional<uint32_t> id, Read read) {
+  const std::string name = "planes[" + std::to_string(i) + "]";
+  if (!plane.is_object()) throw ProtocolError(code::kBadField, name + ": expected {\"normal\": [x, y, z], \"offset\": d}", id);
+  try {
+    return read(Fields(plane, id), name);
+  } catch (const ProtocolError& e) {
+    throw ProtocolError(e.code(), std::string(e.what()).rfind(name, 0) == 0 ? e.what() : name + "." + e.what(), id);
+  }
+}
+
+}  // namespace
+
+std::vector<Plane> ClipSpec::half_spaces() const {
+  std::vector<Plane> out;
+  for (const ClipPlane& p : planes) out.push_back(p.kept());
+  if (box) {
+    for (int k = 0; k < 3; ++k) {
+      Plane upper, lower;
+      upper.normal = {0, 0, 0};
+      upper.normal[k] = 1;
+      upper.offset = box->max[k];
+      lower.normal = {0, 0, 0};
+      lower.normal[k] = -1;
+      lower.offset = -box->min[k];
+      out.push_back(upper);
+      out.push_back(lower);
+    }
+  }
+  return out;
+}
+
+json ClipSpec::to_json() const {
+  json j = {{"planes", json::array()}, {"crinkle", crinkle}};
+  for (const ClipPlane& p : planes) j["planes"].push_back({{"normal", p.plane.normal}, {"offset", p.plane.offset}, {"invert", p.invert}});
+  if (box) j["box"] = {{"min", box->min}, {"max", box->max}};
+  return j;
+}
+
+json SliceSpec::to_json() const {
+  json j = {{"planes", json::array()}, {"edges", edges}};
+  for (const Plane& p : planes) j["planes"].push_back({{"normal", p.normal}, {"offset", p.offset}});
+  return j;
+}
+
+ClipSpec parse_clip_spec(const json& object, std::optional<uint32_t> id) {
+  const Fields f(object, id);
+  ClipSpec spec;
+  const json& planes = plane_list(f, kMaxClipPlanes);
+  for (size_t i = 0; i < planes.size(); ++i)
+    spec.planes.push_back(each_plane(planes[i], i, id, [](const Fields& pf, const std::string& name) {
+      ClipPlane c;
+      c.plane = plane_of(pf, name);
+      c.invert = pf.boolean("invert").value_or(false);
+      return c;
+    }));
+  if (const json* box = f.find("box")) {
+    if (!box->is_object()) f.fail("box", "expected {\"min\": [x, y, z], \"max\": [x, y, z]}");
+    const Fields bf(*box, id);
+    ClipBox b;
+    try {
+      b.min = bf.vector3("min");
+      b.max = bf.vector3("max");
+    } catch (const ProtocolError& e) {
+      throw ProtocolError(e.code(), "box." + std::string(e.what()), id);
+    }
+    for (int k = 0; k < 3; ++k)
+      if (!(b.min[k] <= b.max[k])) f.fail("box", "min exceeds max on axis " + std::string(1, "xyz"[k]));
+    spec.box = b;
+  }
+  spec.crinkle = f.boolean("crinkle").value_or(false);
+  return spec;
+}
+
+SliceSpec parse_slice_spec(const json& object, std::optional<uint32_t> id) {
+  const Fields f(object, id);
+  SliceSpec spec;
+  const json& planes = plane_list(f, kMaxSlicePlanes);
+  for (size_t i = 0; i < planes.size(); ++i)
+    spec.planes.push_back(each_plane(planes[i], i, id, [](const Fields& pf, const std::string& name) { return plane_of(pf, name); }));
+  spec.edges = f.boolean("edges").value_or(false);
+  return spec;
+}
+
+Probe parse_probe(const json& object, uint32_t max_image_side, std::optional<uint32_t> id) {
+  const Fields f(object, id);
+  Probe p;
+  p.x = f.number("x", f.require("x"), 0, max_image_side);
+  p.y = f.number("y", f.require("y"), 0, max_image_side);
+  return p;
+}
+
+ClipPlane parse_plane_text(std::string_view text, bool allow_invert) {
+  ClipPlane c;
+  std::string_view rest = text;
+  if (allow_invert && !rest.empty() && rest.front() == '!') {
+    c.invert = true;
+    rest.remove_prefix(1);
+  }
+  std::vector<std::string> parts;
+  for (size_t at = 0; at <= rest.size();) {
+    size_t comma = rest.find(',', at);
+    if (comma == std::string_view::npos) comma = rest.size();
+    parts.emplace_back(rest.substr(at, comma - at));
+    at = comma + 1;
+  }
+  if (allow_invert && parts.size() == 5 && parts.back() == "invert") {
+    c.invert = true;
+    parts.pop_back();
+  }
+  const std::string form = allow_invert ? "nx,ny,nz,d (or nx,ny,nz,d,invert)" : "nx,ny,nz,d";
+  if (parts.size() != 4) throw std::invalid_argument("plane '" + std::string(text) + "': expected " + form);
+  double v[4];
+  for (int i = 0; i < 4; ++i) {
+    size_t used = 0;
+    try {
+      v[i] = std::stod(parts[i], &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != parts[i].size() || !std::isfinite(v[i]) || std::fabs(v[i]) > kMaxPlaneCoordinate)
+      throw std::invalid_argument("plane '" + std::string(text) + "': '" + parts[i] + "' is not a finite number (expected " + form + ")");
+  }
+  c.plane.normal = {v[0], v[1], v[2]};
+  c.plane.offset = v[3];
+  if (!normalise(c.plane)) throw std::invalid_argument("plane '" + std::string(text) + "': the normal is zero (a plane needs a direction)");
+  return c;
+}
+
+}  // namespace tetrascope::protocol

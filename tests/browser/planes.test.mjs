@@ -1,0 +1,149 @@
+// Clip and slice planes in the web client, in headless Chromium (as viewer.test.mjs): adding
+// a clip plane and dragging it along its normal changes the image, a slice shows, the planes
+// go into the URL and come back from a link, and the messages sent pass the codec.
+//   node --test tests/browser/planes.test.mjs   (TETRA_BINARY: the tetrascope executable)
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn, execFileSync } from 'node:child_process';
+import { mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const root = join(dirname(fileURLToPath(import.meta.url)), '..', '..');
+const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release', 'apps', 'tetrascope');
+const sample = join(root, 'data', 'samples', 'disk_out_ref.vtk');
+
+let data, server, url, browser, page;
+
+before(async () => {
+  data = mkdtempSync(join(tmpdir(), 'tetrascope-planes-'));
+  execFileSync(binary, ['preprocess', sample, '-o', join(data, 'disk'), '--segment-tets', '2000', '--base-tets', '3000', '--progress', 'none']);
+  server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  url = await new Promise((resolve, reject) => {
+    let out = '';
+    server.stdout.on('data', (chunk) => {
+      out += chunk;
+      const m = out.match(/open (http:\/\/\S+)/);
+      if (m) resolve(m[1]);
+    });
+    server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
+  });
+  browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
+  page = await browser.newPage({ viewport: { width: 900, height: 700 } });
+  page.on('pageerror', (e) => console.error('page error:', e));
+});
+
+after(async () => {
+  await browser?.close();
+  server?.kill('SIGTERM');
+  if (data) rmSync(data, { recursive: true, force: true });
+});
+
+const frameImage = () =>
+  page.evaluate(async () => {
+    const url = document.getElementById('frame').toDataURL('image/png');
+    const digest = await crypto.subtle.digest('SHA-256', new TextEncoder().encode(url));
+    return [...new Uint8Array(digest)].map((b) => b.toString(16).padStart(2, '0')).join('');
+  });
+
+async function settled() {
+  await page.waitForFunction(
+    () => {
+      const s = window.tetrascope;
+      return s.lastFrame?.header.still && s.lastFrame.header.message_id === s.lastSentId;
+    },
+    null,
+    { timeout: 60000 },
+  );
+  await page.waitForTimeout(200);
+}
+
+const lastSent = (type) => page.evaluate((t) => window.tetrascope.sent.filter((m) => m.type === t).at(-1)?.body, type);
+const errors = () => page.evaluate(() => window.tetrascope.errors);
+
+test('adding a clip plane and dragging it along its normal changes the image', async () => {
+  await page.goto(url);
+  await settled();
+  const unclipped = await frameImage();
+  await page.click('[data-add=clip]');
+  await settled();
+  const clip = await lastSent('clip.set');
+  assert.equal(clip.planes.length, 1);
+  assert.deepEqual(clip.planes[0].normal, [1, 0, 0]);
+  const clipped = await frameImage();
+  assert.notEqual(clipped, unclipped, 'the clip at the centre changed the image');
+  // drag the plane's slider thumb to the left: the plane moves along -x
+  const slider = page.locator('.plane-row[data-kind=clips] .plane-offset');
+  const box = await slider.boundingBox();
+  const y = box.y + box.height / 2;
+  await page.mouse.move(box.x + box.width / 2, y);
+  await page.mouse.down();
+  for (let i = 1; i <= 10; ++i) await page.mouse.move(box.x + box.width / 2 - i * (box.width / 160), y);  // a sixteenth: the mesh stays partly kept
+  await page.mouse.up();
+  await settled();
+  const dragged = await lastSent('clip.set');
+  assert.ok(dragged.planes[0].offset < clip.planes[0].offset, `the plane moved along -x: ${clip.planes[0].offset} -> ${dragged.planes[0].offset}`);
+  assert.notEqual(await frameImage(), clipped, 'the image changed with the drag');
+  assert.match(page.url(), /clip=1:0:0:/, 'the plane is in the URL');
+  assert.deepEqual(await errors(), []);
+});
+
+test('a slice with edges facing the view shows, and a normal from a preset', async () => {
+  const before = await frameImage();
+  await page.click('[data-add=slice]');
+  await page.check('#slice-edges');
+  await page.selectOption('.plane-row[data-kind=slices] .plane-normal', 'view');
+  await settled();
+  const slice = await lastSent('slice.set');
+  assert.equal(slice.edges, true);
+  const camera = await page.evaluate(() => window.tetrascope.view.camera);
+  const d = camera.target.map((t, i) => t - camera.eye[i]);
+  const l = Math.hypot(...d);
+  slice.planes[0].normal.forEach((n, i) => assert.ok(Math.abs(n - d[i] / l) < 1e-6, `${slice.planes[0].normal} along ${d}`));
+  assert.notEqual(await frameImage(), before, 'the slice shows');
+  assert.match(page.url(), /slice=/);
+  assert.match(page.url(), /sedges=1/);
+  // a preset normal for the clip
+  await page.selectOption('.plane-row[data-kind=clips] .plane-normal', '+y');
+  await settled();
+  assert.deepEqual((await lastSent('clip.set')).planes[0].normal, [0, 1, 0]);
+  assert.deepEqual(await errors(), []);
+});
+
+test('a link brings the planes back, and removing them restores the image', async () => {
+  const link = page.url();
+  const shown = await frameImage();
+  const other = await browser.newPage({ viewport: { width: 900, height: 700 } });
+  await other.goto(link);
+  await other.waitForFunction(() => window.tetrascope.sent.some((m) => m.type === 'clip.set') && window.tetrascope.sent.some((m) => m.type === 'slice.set'), null, { timeout: 60000 });
+  const planes = await other.evaluate(() => ({ clips: window.tetrascope.view.clips.length, slices: window.tetrascope.view.slices.length, rows: document.querySelectorAll('.plane-row').length }));
+  assert.deepEqual(planes, { clips: 1, slices: 1, rows: 2 });
+  await other.close();
+  await page.click('.plane-row[data-kind=slices] .plane-remove');
+  await page.click('.plane-row[data-kind=clips] .plane-remove');
+  await settled();
+  assert.deepEqual(await lastSent('clip.set'), { planes: [] });
+  assert.notEqual(await frameImage(), shown);
+  assert.doesNotMatch(page.url(), /clip=/);
+});
+
+test('a click on the image reports the field under the cursor', async () => {
+  await page.click('[data-add=slice]');
+  await settled();
+  const box = await page.locator('#frame').boundingBox();
+  await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
+  await page.waitForFunction(() => window.tetrascope.probe.last, null, { timeout: 60000 });
+  const result = await page.evaluate(() => window.tetrascope.probe.last);
+  assert.equal(result.hit, true, JSON.stringify(result));
+  assert.ok(['slice', 'boundary'].includes(result.surface), result.surface);
+  const range = await page.evaluate((name) => window.tetrascope.dataset.attributes.find((a) => a.name === name)?.range ?? null, result.attribute);
+  assert.ok(Number.isFinite(result.value));
+  if (range) assert.ok(result.value >= range[0] - 1e-3 * Math.abs(range[0]) && result.value <= range[1] + 1e-3 * Math.abs(range[1]), `${result.value} in ${range}`);
+  assert.match(await page.textContent('#probe'), /=/);
+  // the sky: nothing
+  await page.mouse.click(box.x + 3, box.y + 3);
+  await page.waitForFunction(() => window.tetrascope.probe.last && !window.tetrascope.probe.last.hit, null, { timeout: 60000 });
+  assert.deepEqual(await errors(), []);
+});

@@ -1,0 +1,46 @@
+// The probe: a click on the image (a press and release without moving) asks the server for
+// the field under the cursor (probe -> probe.result) and shows it beside the cursor.
+const kClickSlop = 3;  // px a click may move
+
+export class Probe {
+  // host: { send(type, body) -> id }
+  constructor(canvas, overlay, host) {
+    this.canvas = canvas;
+    this.overlay = overlay;
+    this.host = host;
+    this.asked = null;  // {id, left, top}
+    this.last = null;   // the last probe.result
+    let down = null;
+    canvas.addEventListener('pointerdown', (e) => {
+      down = e.button === 0 ? { x: e.clientX, y: e.clientY } : null;
+    });
+    canvas.addEventListener('pointerup', (e) => {
+      if (!down || Math.hypot(e.clientX - down.x, e.clientY - down.y) > kClickSlop) return;
+      down = null;
+      this.ask(e.clientX, e.clientY);
+    });
+  }
+
+  ask(clientX, clientY) {
+    const rect = this.canvas.getBoundingClientRect();
+    // the view.resize size is the canvas's pixel size
+    const x = ((clientX - rect.left) / rect.width) * this.canvas.width, y = ((clientY - rect.top) / rect.height) * this.canvas.height;
+    const id = this.host.send('probe', { x: Math.max(0, x), y: Math.max(0, y) });
+    if (id >= 0) this.asked = { id, left: clientX - rect.left, top: clientY - rect.top };
+  }
+
+  // a probe.result from the server
+  show(message) {
+    this.last = message;
+    if (!this.asked || message.id !== this.asked.id) return;
+    const fmt = (v) => (Math.abs(v) >= 1e4 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(3) : v.toPrecision(4));
+    this.overlay.textContent = message.hit
+      ? `${message.attribute || 'value'} = ${fmt(message.value)}${message.iso_color_attribute ? `, ${message.iso_color_attribute} = ${fmt(message.iso_color_value)}` : ''}\n` +
+        `at (${message.position.map(fmt).join(', ')}) on the ${message.surface}`
+      : 'nothing under the cursor';
+    Object.assign(this.overlay.style, { left: `${this.asked.left + 12}px`, top: `${this.asked.top + 12}px` });
+    this.overlay.hidden = false;
+    clearTimeout(this.timer);
+    this.timer = setTimeout(() => (this.overlay.hidden = true), 6000);
+  }
+}
