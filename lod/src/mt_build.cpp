@@ -53,7 +53,7 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   const auto start = clock::now();
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   check_options(options, store_path);
-  const mt::StageProgress stage{progress};
+  const mt::StageProgress stage{progress, {}};
   PreprocessReport report;
 
   stage("read", 0);

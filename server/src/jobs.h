@@ -90,7 +90,6 @@ class JobRunner {
   unsigned running_ = 0;
   bool stopping_ = false;
   std::vector<std::thread> threads_;
-  uint64_t sequence_ = 0;
 };
 
 }  // namespace tetrascope::server
