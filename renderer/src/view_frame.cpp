@@ -111,6 +111,8 @@ void ViewPipeline::apply_lines(const LineRequest& request, RenderSettings& s) {
   s.ghost_opacity = request.ghost_opacity;
   s.halos = request.halos;
   s.flow = request.flow;
+}
+
 void ViewPipeline::update_clip(const protocol::ClipSpec& clip, ViewTimings& timings) {
   const auto start = Clock::now();
   if (clip.empty()) {
