@@ -85,6 +85,8 @@ RenderOptions render_options(const Args& args) {
   o.quality = static_cast<int>(args.number("--quality", kDefaultQuality));
   if (o.quality < 1 || o.quality > protocol::kMaxJpegQuality) throw std::invalid_argument("--quality must be 1 to 100");
   if (args.has("--unit-distance")) v.unit_distance = args.real("--unit-distance");
+  if (const std::string method = args.get("--volume", "projected"); method == "exact") v.volume = r::VolumeMethod::exact;
+  else if (method != "projected") throw std::invalid_argument("--volume must be projected or exact");
   if (args.has("--iso-opacity")) v.iso_opacity = args.real("--iso-opacity");
   if (args.has("--iso")) v.isovalues = number_list("--iso", args.get("--iso"));
   v.iso_color_attribute = args.get("--iso-color");
@@ -130,7 +132,8 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
 
 // The CPU reference ray caster of `settings` (DVR only) next to the output, and its PSNR.
 double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const r::RenderSettings& settings, const r::Image& image) {
-  if (!settings.dvr || settings.iso || settings.surface) throw std::invalid_argument("--reference compares volume rendering only (--mode dvr)");
+  if (!settings.dvr || settings.surface || settings.use_iso_color_attribute)
+    throw std::invalid_argument("--reference compares volume rendering only (--mode dvr or dvr+iso, isosurfaces coloured by value)");
   const r::Image reference = r::reference_render(scene, settings);
   std::filesystem::path path(o.output);
   path.replace_filename(path.stem().string() + ".reference" + path.extension().string());
@@ -181,9 +184,9 @@ int run_cut(const Arguments& raw) {
 
 int run_render(const Arguments& raw) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference"},
-            {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color"});
+            {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color", "--volume"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume projected|exact] [--wireframe] [--box] [--orbit N] [--json]\n");
     return 2;
   }
   RenderOptions o = render_options(args);

@@ -2,7 +2,12 @@
 // llvmpipe here, NVIDIA EGL on GPU hosts), rendering into a framebuffer object.
 //
 // Modes:
-//  - dvr: direct volume rendering by cell projection - every tet's front faces are drawn in
+//  - dvr: direct volume rendering by cell projection, in one of two methods (VolumeMethod):
+//    projected (the default): Shirley-Tuchman projected tetrahedra - each visible tet's
+//    projection is classified on the CPU (both cores) and split into 3 or 4 triangles around
+//    a thick vertex carrying front value, back value and thickness, so a fragment does one
+//    table lookup on interpolated values; tets reaching the near plane are drawn exactly as
+//    below, in their place in the order. exact: every tet's front faces are drawn in
 //    back-to-front order (radix sort of centroid depths); each fragment intersects its view
 //    ray with the tet's planes to find the exact segment through it (front value, back
 //    value, length) and looks up a pre-integrated transfer function table (Engel et al.
@@ -10,7 +15,10 @@
 //    the near plane are drawn by their back faces with segments starting at the near plane,
 //    and colour is composed in 32-bit floats, so thousands of tiny tets along a ray add up as
 //    the exact integrator (reference_render) says;
-//  - iso: marching tetrahedra for one or more isovalues, lit, opaque;
+//  - iso: marching tetrahedra for one or more isovalues, lit, opaque; with dvr and an
+//    isosurface opacity below 1, the isosurfaces are composed inside the volume instead: a
+//    tet whose ray segment crosses an isovalue composes the part in front, the lit surface,
+//    then the part behind (both methods, and reference_render alike);
 //  - surface: the mesh boundary coloured by the attribute, lit, with silhouette edges
 //    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine.
 // The colour legend is not drawn into the image: `render --json` and the server send it as
@@ -19,6 +27,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -45,6 +54,13 @@ struct Image {
   std::vector<uint8_t> rgba;  // top row first
 };
 
+// How the volume is drawn (see the top of this file).
+enum class VolumeMethod { projected, exact };
+
+// Tets a volume draw call issues at most: between two, Renderer::render asks
+// RenderSettings::should_stop whether to go on.
+constexpr uint32_t kTetsPerChunk = 65536;
+
 struct RenderSettings {
   bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
   lod::Camera camera;
@@ -52,14 +68,21 @@ struct RenderSettings {
   lod::TransferFunction tf;          // attribute, range, colormap, opacity
   double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
   std::vector<double> isovalues;     // attribute units
-  double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
+  double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted without dvr, composed in the volume with it)
   bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
+  VolumeMethod volume = VolumeMethod::projected;
+  // Asked between draw calls (every kTetsPerChunk tets of the volume, and between passes);
+  // true stops drawing: the frame is read back as it stands and FrameTimings::interrupted is
+  // set. Empty: never stop.
+  std::function<bool()> should_stop;
 };
 
 struct FrameTimings {
   double sort_ms = 0, draw_ms = 0, readback_ms = 0, encode_ms = 0, total_ms = 0;
   uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
+  bool interrupted = false;  // should_stop said stop: a partial image
+  double classify_ms = 0;    // projected tetrahedra: the CPU classification (inside draw_ms)
 };
 
 // A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude
