@@ -121,7 +121,7 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
                       {"tets", scene.tets.size() / 4}, {"tets_drawn", last.tets_drawn}, {"tets_skipped", last.tets_skipped},
                       {"iso_triangles", last.iso_triangles}, {"frames", frames.size()},
                       {"median_ms", median_of(&r::FrameTimings::total_ms)}, {"median_sort_ms", median_of(&r::FrameTimings::sort_ms)},
-                      {"median_draw_ms", median_of(&r::FrameTimings::draw_ms)}, {"median_readback_ms", median_of(&r::FrameTimings::readback_ms)},
+                      {"median_draw_ms", median_of(&r::FrameTimings::draw_ms)}, {"median_classify_ms", median_of(&r::FrameTimings::classify_ms)}, {"median_cpu_ms", median_of(&r::FrameTimings::cpu_ms)}, {"median_readback_ms", median_of(&r::FrameTimings::readback_ms)},
                       {"median_encode_ms", median_of(&r::FrameTimings::encode_ms)}, {"reference_psnr_db", reference_db},
                       {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <map>
 #include <optional>
 
@@ -23,6 +24,11 @@ namespace {
 
 using clock_type = std::chrono::steady_clock;
 double ms_since(clock_type::time_point t) { return std::chrono::duration<double, std::milli>(clock_type::now() - t).count(); }
+double process_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
 
 constexpr uint32_t kSlotsPerDraw = kTetsPerChunk;  // tets a draw call (the index buffers' size)
 constexpr unsigned kClassifyThreads = 2;          // projected tetrahedra: CPU threads classifying a chunk
@@ -89,7 +95,20 @@ class GlRenderer final : public Renderer {
     surface_program_ = link_program(kSurfaceVertex, kSurfaceFragment);
     line_program_ = link_program(kSurfaceVertex, kLineFragment);
     glCreateVertexArrays(1, &empty_vao_);
-    glCreateVertexArrays(1, &projected_vao_);
+    glCreateVertexArrays(1, &projected_vao_);  // ProjectedVertex: position, segment, light
+    for (RingBuffer& ring : projected_ring_) {
+      glCreateBuffers(1, &ring.buffer);
+      const GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+      const auto bytes = static_cast<GLsizeiptr>(size_t{kTetsPerChunk} * kVerticesPerTet * sizeof(ProjectedVertex));
+      glNamedBufferStorage(ring.buffer, bytes, nullptr, flags);
+      ring.vertices = static_cast<ProjectedVertex*>(glMapNamedBufferRange(ring.buffer, 0, bytes, flags));
+      if (!ring.vertices) throw RenderError("cannot map the projected tetrahedra's vertex buffers");
+    }
+    for (GLuint a = 0; a < 3; ++a) {
+      glEnableVertexArrayAttrib(projected_vao_, a);
+      glVertexArrayAttribFormat(projected_vao_, a, a == 2 ? 1 : 3, GL_FLOAT, GL_FALSE, 12 * a);
+      glVertexArrayAttribBinding(projected_vao_, a, 0);
+    }
     glCreateVertexArrays(1, &surface_vao_);
     glCreateBuffers(1, &surface_buffer_);
     glCreateBuffers(1, &line_buffer_);
@@ -135,6 +154,7 @@ class GlRenderer final : public Renderer {
     FrameTimings& tm = timings ? *timings : local;
     tm = FrameTimings();
     const auto start = clock_type::now();
+    const double cpu_start = process_cpu_ms();
     ensure_framebuffer(s.width, s.height);
     const FrameSetup setup = frame_setup(mesh, s);
     update_colormap(s.tf, setup.lo, setup.hi);
@@ -160,6 +180,7 @@ class GlRenderer final : public Renderer {
     // large still's (600 MB at 4096^2) is given back at once instead of held by the worker
     if (uint64_t{s.width} * s.height > kKeepFramebufferPixels) release_framebuffer();
     tm.total_ms = ms_since(start);
+    tm.cpu_ms = process_cpu_ms() - cpu_start;
     return image;
   }
 
@@ -181,7 +202,7 @@ class GlRenderer final : public Renderer {
       upload(index_buffer_, indices.data(), indices.size() * 4);
       const std::vector<uint32_t> fans = projected_fan_indices(kSlotsPerDraw);
       upload(projected_index_buffer_, fans.data(), fans.size() * 4);
-      glCreateBuffers(1, &thick_buffer_);
+      glVertexArrayElementBuffer(projected_vao_, projected_index_buffer_);
     }
     glNamedBufferData(surface_buffer_, static_cast<GLsizeiptr>(boundary_.corners.size() * 4), boundary_.corners.data(), GL_STATIC_DRAW);
     surface_vertices_ = static_cast<GLsizei>(boundary_.corners.size() / 4);
@@ -421,6 +442,7 @@ class GlRenderer final : public Renderer {
     glBindTextureUnit(1, table_texture_);
     glBindTextureUnit(2, distance_copy_);
     glFrontFace(GL_CCW);
+    glProvokingVertex(GL_FIRST_VERTEX_CONVENTION);  // the fans' thick vertex
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // back to front, premultiplied
     glDepthMask(GL_FALSE);
@@ -429,7 +451,7 @@ class GlRenderer final : public Renderer {
     auto draw_range = [&](uint32_t first, uint32_t end) {
       for (uint32_t slot = first; slot < end; slot += kTetsPerChunk) {
         const uint32_t n = std::min(kTetsPerChunk, end - slot);
-        if (projected) draw_projected(setup, order.subspan(slot, n), slot, tm);
+        if (projected) draw_projected(setup, order.subspan(slot, n), !isos.empty(), tm);
         else draw_exact(slot, n, false);
         tm.tets_drawn += n;
         if (stop()) return false;
@@ -449,6 +471,7 @@ class GlRenderer final : public Renderer {
     glDisable(GL_BLEND);
     glDisable(GL_CULL_FACE);
     glEnable(GL_DEPTH_TEST);
+    glProvokingVertex(GL_LAST_VERTEX_CONVENTION);
   }
 
   void set_volume_uniforms(GLuint p, const FrameSetup& setup, const RenderSettings& s, bool opaque, const std::vector<float>& isos) {
@@ -485,22 +508,28 @@ class GlRenderer final : public Renderer {
     if (!near) glFlush();  // llvmpipe rasterises this chunk while the next one is issued
   }
 
-  // Tets `tets` (at position `first` of the order) by projected tetrahedra: classified on the
-  // CPU, their thick vertices uploaded (a fresh buffer store, so no wait on the last chunk's
-  // draw), a fan of 4 triangles a tet, no culling.
-  void draw_projected(const FrameSetup& setup, std::span<const uint32_t> tets, uint32_t first, FrameTimings& tm) {
+  // Tets `tets` by projected tetrahedra: classified on the CPU straight into the next buffer
+  // of a ring of persistently mapped vertex buffers (waiting only for that buffer's last draw;
+  // a fresh buffer store a chunk cost a page-faulted, zeroed allocation each), drawn as a fan
+  // of 4 triangles a tet with the thick vertex first (provoking), no culling.
+  void draw_projected(const FrameSetup& setup, std::span<const uint32_t> tets, bool light, FrameTimings& tm) {
     const auto classify_start = clock_type::now();
-    classify_tets(*mesh_, tets, setup.frame, setup.lo, 1 / (setup.hi - setup.lo), kClassifyThreads, thick_);
+    RingBuffer& ring = projected_ring_[ring_next_];
+    ring_next_ = (ring_next_ + 1) % kRingBuffers;
+    if (ring.fence) {
+      glClientWaitSync(ring.fence, GL_SYNC_FLUSH_COMMANDS_BIT, ~GLuint64{0});
+      glDeleteSync(ring.fence);
+      ring.fence = nullptr;
+    }
+    classify_tets(*mesh_, tets, setup.frame, setup.lo, 1 / (setup.hi - setup.lo), light, kClassifyThreads, ring.vertices);
     tm.classify_ms += ms_since(classify_start);
-    glNamedBufferData(thick_buffer_, static_cast<GLsizeiptr>(thick_.size() * sizeof(ThickVertex)), thick_.data(), GL_STREAM_DRAW);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, thick_buffer_);
     glUseProgram(projected_program_);
-    glUniform1ui(glGetUniformLocation(projected_program_, "first_slot"), first);
     glDisable(GL_CULL_FACE);
     glEnable(GL_DEPTH_TEST);
     glBindVertexArray(projected_vao_);
-    glVertexArrayElementBuffer(projected_vao_, projected_index_buffer_);
+    glVertexArrayVertexBuffer(projected_vao_, 0, ring.buffer, 0, sizeof(ProjectedVertex));
     glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * tets.size()), GL_UNSIGNED_INT, nullptr);
+    ring.fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
     glFlush();
   }
 
@@ -547,7 +576,7 @@ class GlRenderer final : public Renderer {
   static constexpr GLenum kBothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};  // colour, distance
   EglContext context_;  // first: made before any GL call, torn down after every GL object
   GLuint tet_program_ = 0, surface_program_ = 0, line_program_ = 0, empty_vao_ = 0, surface_vao_ = 0, line_vao_ = 0;
-  GLuint cell_buffer_ = 0, index_buffer_ = 0, projected_index_buffer_ = 0, thick_buffer_ = 0, projected_program_ = 0, projected_vao_ = 0;
+  GLuint cell_buffer_ = 0, index_buffer_ = 0, projected_index_buffer_ = 0, projected_program_ = 0, projected_vao_ = 0;
   GLuint vertex_buffer_ = 0, tet_buffer_ = 0, order_buffer_ = 0, surface_buffer_ = 0, line_buffer_ = 0, pack_buffer_ = 0;
   GLuint resolve_framebuffer_ = 0, resolve_color_ = 0;
   GLuint framebuffer_ = 0, color_ = 0, depth_ = 0, distance_texture_ = 0, distance_copy_ = 0, table_texture_ = 0, colormap_texture_ = 0;
@@ -557,7 +586,14 @@ class GlRenderer final : public Renderer {
   TetSortInputs sort_inputs_;
   BoundaryGeometry boundary_;
   VisibilityOrder visibility_;
-  std::vector<ThickVertex> thick_;  // the chunk being drawn
+  struct RingBuffer {
+    GLuint buffer = 0;
+    ProjectedVertex* vertices = nullptr;  // mapped for good
+    GLsync fence = nullptr;               // after the last draw from it
+  };
+  static constexpr int kRingBuffers = 3;
+  std::array<RingBuffer, kRingBuffers> projected_ring_;
+  int ring_next_ = 0;
   PreintegrationTable table_;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color

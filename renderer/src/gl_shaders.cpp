@@ -51,13 +51,15 @@ vec4 lookup(float sf, float sb, float t) {
                   (clamp(log(1.0 + t / length_scale) * inv_log_length_range, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
   return texture(table, uvw);
 }
-vec4 shade(float sf, float sb, float t, vec3 gradient, vec3 d) {
+float iso_light(vec3 gradient, vec3 d) {
+  float g = length(gradient);
+  return 0.25 + 0.75 * (g > 0.0 ? abs(dot(gradient / g, d)) : 1.0);
+}
+vec4 shade(float sf, float sb, float t, float light) {
   if (iso_count == 0) return lookup(sf, sb, t);
   vec4 acc = vec4(0.0);
   float s0 = sf, t0 = 0.0;
   bool rising = sb > sf;
-  float g = length(gradient);
-  float light = 0.25 + 0.75 * (g > 0.0 ? abs(dot(gradient / g, d)) : 1.0);
   for (int k = 0; k < iso_count; ++k) {
     float iv = isos[rising ? k : iso_count - 1 - k];
     if ((s0 < iv) != (sb < iv)) {
@@ -122,50 +124,32 @@ void main() {
   }
   float sf = (dot(field.xyz, front) + field.w - lo) * inv_span;
   float sb = sf + dot(field.xyz, d) * t * inv_span;
-  color = shade(sf, sb, t, field.xyz, d);
+  color = shade(sf, sb, t, iso_count > 0 ? iso_light(field.xyz, d) : 1.0);
 }
 )";
 const char* const kTetFragment = kTetFragmentSource.c_str();
 
-// Projected tetrahedra (projected_tets.h): vertex 5i + 4 of a draw is tet i's thick vertex,
-// 5i + j (j < 4) its boundary corner j; a corner has no thickness, front and back its value.
+// Projected tetrahedra (projected_tets.h): the CPU wrote every vertex of every fan.
 const char* const kProjectedVertex = R"(#version 450 core
-layout(std430, binding = 0) readonly buffer Vertices { vec4 vertices[]; };
-layout(std430, binding = 1) readonly buffer Tets { uvec4 tets[]; };
-layout(std430, binding = 2) readonly buffer Order { uint order[]; };
-layout(std430, binding = 3) readonly buffer Cells { vec4 cells[]; };
-struct Thick { vec4 point; vec4 segment; };  // point.w: the boundary's corners, 2 bits each
-layout(std430, binding = 4) readonly buffer Thicks { Thick thick[]; };
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 segment_in;  // front value, back value, length
+layout(location = 2) in float light_in;
 uniform mat4 mvp;
-uniform uint first_slot;
-uniform float lo, inv_span;
-uniform int iso_count;
 out vec3 world;
-out vec3 segment;  // front value, back value, length
-flat out vec3 gradient;
+out vec3 segment;
+flat out float light;  // from the thick vertex, the provoking one
 void main() {
-  uint local = uint(gl_VertexID) / 5u, j = uint(gl_VertexID) % 5u;
-  Thick th = thick[local];
-  uint tet = order[first_slot + local];
-  if (j == 4u) {
-    world = th.point.xyz;
-    segment = th.segment.xyz;
-  } else {
-    uint corner = (floatBitsToUint(th.point.w) >> (2u * j)) & 3u;
-    vec4 v = vertices[tets[tet][corner]];
-    world = v.xyz;
-    float s = (v.w - lo) * inv_span;
-    segment = vec3(s, s, 0.0);
-  }
-  gradient = iso_count > 0 ? cells[5u * tet + 4u].xyz : vec3(0.0);
-  gl_Position = mvp * vec4(world, 1.0);
+  world = position;
+  segment = segment_in;
+  light = light_in;
+  gl_Position = mvp * vec4(position, 1.0);
 }
 )";
 
 const std::string kProjectedFragmentSource = R"(#version 450 core
 in vec3 world;
 in vec3 segment;
-flat in vec3 gradient;
+flat in float light;
 uniform vec3 eye, forward;
 uniform bool ortho;
 uniform bool clip_depth;
@@ -183,7 +167,7 @@ void main() {
     sb = sf + (sb - sf) * (t > 0.0 ? cut / t : 0.0);
     t = cut;
   }
-  color = shade(sf, sb, t, gradient, d);
+  color = shade(sf, sb, t, light);
 }
 )";
 const char* const kProjectedFragment = kProjectedFragmentSource.c_str();

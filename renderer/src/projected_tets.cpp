@@ -26,27 +26,34 @@ double space_parameter(double u, double wa, double wb, bool ortho) {
   return a + b > 0 ? std::clamp(b / (a + b), 0.0, 1.0) : u;
 }
 
-uint32_t boundary(int a, int b, int c, int d) { return uint32_t(a) | uint32_t(b) << 2 | uint32_t(c) << 4 | uint32_t(d) << 6; }
+// The isosurfaces' shading: the field's gradient against the ray through `p`.
+float iso_light(const Projected& q, const Frame& f, const Vec3& p) {
+  const Vec3 e1 = q.p[1] - q.p[0], e2 = q.p[2] - q.p[0], e3 = q.p[3] - q.p[0];
+  const Vec3 g = (q.s[1] - q.s[0]) * cross(e2, e3) + (q.s[2] - q.s[0]) * cross(e3, e1) + (q.s[3] - q.s[0]) * cross(e1, e2);  // times the volume
+  const Vec3 d = f.ortho ? f.forward : p - f.eye;
+  const double gn = length(g), dn = length(d);
+  return static_cast<float>(0.25 + 0.75 * (gn > 0 && dn > 0 ? std::fabs(dot(g, d)) / (gn * dn) : 1.0));
+}
 
-// The thick vertex from the two points where the ray through it meets the tet.
-ThickVertex thick(const Frame& f, const Vec3& p1, double s1, const Vec3& p2, double s2, uint32_t corners) {
+// The fan's five vertices: the boundary's corners, then the thick vertex from the two points
+// where the ray through it meets the tet.
+void emit(const Projected& q, const Frame& f, const int (&corners)[4], const Vec3& p1, double s1, const Vec3& p2, double s2, bool light,
+          ProjectedVertex* out) {
+  for (int j = 0; j < 4; ++j) {
+    const int c = corners[j];
+    out[j] = {static_cast<float>(q.p[c][0]), static_cast<float>(q.p[c][1]), static_cast<float>(q.p[c][2]), static_cast<float>(q.s[c]),
+              static_cast<float>(q.s[c]), 0, 1};
+  }
   const double d1 = f.ortho ? dot(p1 - f.eye, f.forward) : length(p1 - f.eye), d2 = f.ortho ? dot(p2 - f.eye, f.forward) : length(p2 - f.eye);
   const bool first_in_front = d1 <= d2;
   const Vec3& front = first_in_front ? p1 : p2;
-  ThickVertex t;
-  t.x = static_cast<float>(front[0]);
-  t.y = static_cast<float>(front[1]);
-  t.z = static_cast<float>(front[2]);
-  t.corners = corners;
-  t.front = static_cast<float>(first_in_front ? s1 : s2);
-  t.back = static_cast<float>(first_in_front ? s2 : s1);
-  t.thickness = static_cast<float>(length(p2 - p1));
-  return t;
+  out[4] = {static_cast<float>(front[0]), static_cast<float>(front[1]), static_cast<float>(front[2]), static_cast<float>(first_in_front ? s1 : s2),
+            static_cast<float>(first_in_front ? s2 : s1), static_cast<float>(length(p2 - p1)), light ? iso_light(q, f, front) : 1.0f};
 }
 
 }  // namespace
 
-ThickVertex classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& f, double lo, double inv_span) {
+void classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& f, double lo, double inv_span, bool light, ProjectedVertex* out) {
   Projected q;
   for (int k = 0; k < 4; ++k) {
     const uint32_t v = mesh.tets[4 * size_t{tet} + k];
@@ -71,7 +78,8 @@ ThickVertex classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& f, do
     if (!(o1 * o2 < 0 && o3 * o4 < 0)) continue;
     const double u = space_parameter(o3 / (o3 - o4), q.w[a], q.w[b], f.ortho), v = space_parameter(o1 / (o1 - o2), q.w[c], q.w[d], f.ortho);
     const Vec3 pab = q.p[a] + u * (q.p[b] - q.p[a]), pcd = q.p[c] + v * (q.p[d] - q.p[c]);
-    return thick(f, pab, q.s[a] + u * (q.s[b] - q.s[a]), pcd, q.s[c] + v * (q.s[d] - q.s[c]), boundary(a, c, b, d));
+    emit(q, f, {a, c, b, d}, pab, q.s[a] + u * (q.s[b] - q.s[a]), pcd, q.s[c] + v * (q.s[d] - q.s[c]), light, out);
+    return;
   }
   // a triangle: the corner projecting inside the other three's triangle (the one with the
   // largest smallest barycentric coordinate, robust to corners on edges)
@@ -91,13 +99,8 @@ ThickVertex classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& f, do
     }
   }
   if (best < 0) {  // the projection has no area: nothing to draw
-    ThickVertex t;
-    t.x = static_cast<float>(q.p[0][0]);
-    t.y = static_cast<float>(q.p[0][1]);
-    t.z = static_cast<float>(q.p[0][2]);
-    t.corners = boundary(1, 2, 3, 3);
-    t.front = t.back = static_cast<float>(q.s[0]);
-    return t;
+    emit(q, f, {1, 2, 3, 3}, q.p[0], q.s[0], q.p[0], q.s[0], false, out);
+    return;
   }
   const int* o = kOthers[best];
   double mu[3], sum = 0;
@@ -112,14 +115,13 @@ ThickVertex classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& f, do
     face = face + m * q.p[o[k]];
     s_face += m * q.s[o[k]];
   }
-  return thick(f, q.p[best], q.s[best], face, s_face, boundary(o[0], o[1], o[2], o[2]));
+  emit(q, f, {o[0], o[1], o[2], o[2]}, q.p[best], q.s[best], face, s_face, light, out);
 }
 
-void classify_tets(const SceneMesh& mesh, std::span<const uint32_t> order, const Frame& frame, double lo, double inv_span, unsigned threads,
-                   std::vector<ThickVertex>& out) {
-  out.resize(order.size());
+void classify_tets(const SceneMesh& mesh, std::span<const uint32_t> order, const Frame& frame, double lo, double inv_span, bool light, unsigned threads,
+                   ProjectedVertex* out) {
   auto work = [&](size_t first, size_t end) {
-    for (size_t i = first; i < end; ++i) out[i] = classify_tet(mesh, order[i], frame, lo, inv_span);
+    for (size_t i = first; i < end; ++i) classify_tet(mesh, order[i], frame, lo, inv_span, light, out + kVerticesPerTet * i);
   };
   threads = std::max(1u, threads);
   if (threads == 1 || order.size() < 4096) {

@@ -19,23 +19,26 @@
 
 namespace tetrascope::renderer {
 
-// One tet's thick vertex, as the projected-tetrahedra vertex shader reads it (32 bytes).
-struct ThickVertex {
-  float x = 0, y = 0, z = 0;  // where the ray enters the tet
-  uint32_t corners = 0;       // the boundary p0..p3 as tet corners, 2 bits each from bit 0
+// One vertex of a tet's fan, as the projected-tetrahedra vertex shader reads it (28 bytes):
+// classify_tet writes 5 a tet, its boundary p0..p3 (thickness 0, front and back its value)
+// then its thick vertex.
+struct ProjectedVertex {
+  float x = 0, y = 0, z = 0;  // the thick vertex: where the ray enters the tet
   float front = 0, back = 0;  // values at entry and exit, over the transfer function's range (0..1 inside)
   float thickness = 0;        // length of the ray inside the tet
-  float pad = 0;
+  float light = 1;            // isosurfaces' shading in this tet, 0.25 + 0.75 |cos| of the gradient and the ray (thick vertex only)
 };
-static_assert(sizeof(ThickVertex) == 32);
+static_assert(sizeof(ProjectedVertex) == 28);
+constexpr int kVerticesPerTet = 5;
 
-// Tet `tet` of `mesh` seen from `frame`; values normalised as (v - lo) * inv_span. The frame's
-// eye must be in front of every corner (perspective): the renderer draws tets that reach the
-// near plane with the exact method.
-ThickVertex classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& frame, double lo, double inv_span);
+// Tet `tet` of `mesh` seen from `frame`: writes its 5 vertices to `out`; values normalised as
+// (v - lo) * inv_span; with `light`, the isosurfaces' shading. The frame's eye must be in front
+// of every corner (perspective): the renderer draws tets that reach the near plane with the
+// exact method.
+void classify_tet(const SceneMesh& mesh, uint32_t tet, const Frame& frame, double lo, double inv_span, bool light, ProjectedVertex* out);
 
-// classify_tet for every tet of `order`, into `out` (resized), on `threads` threads.
-void classify_tets(const SceneMesh& mesh, std::span<const uint32_t> order, const Frame& frame, double lo, double inv_span, unsigned threads,
-                   std::vector<ThickVertex>& out);
+// classify_tet for every tet of `order`, into out[5 * i...], on `threads` threads.
+void classify_tets(const SceneMesh& mesh, std::span<const uint32_t> order, const Frame& frame, double lo, double inv_span, bool light, unsigned threads,
+                   ProjectedVertex* out);
 
 }  // namespace tetrascope::renderer

@@ -109,7 +109,9 @@ TEST(ProjectedTets, ThickVertexIsTheRayThroughTheTet) {
     const renderer::Frame f = renderer::camera_frame(c, 100, 100);
     int crossing = 0;
     for (uint32_t t = 0; t < 200; ++t) {
-      const renderer::ThickVertex th = renderer::classify_tet(mesh, t, f, -3, 1.0 / 6);
+      renderer::ProjectedVertex fan[renderer::kVerticesPerTet];
+      renderer::classify_tet(mesh, t, f, -3, 1.0 / 6, false, fan);
+      const renderer::ProjectedVertex& th = fan[4];
       const Vec3 p{th.x, th.y, th.z};
       const Vec3 d = f.ortho ? f.forward : normalise(p - f.eye);
       // the exact segment of the ray through p
@@ -131,7 +133,8 @@ TEST(ProjectedTets, ThickVertexIsTheRayThroughTheTet) {
       auto value = [](const Vec3& x) { return (2 * x[0] - x[1] + 0.5 * x[2] + 3) / 6; };
       EXPECT_NEAR(th.front, value(p), 1e-4);
       EXPECT_NEAR(th.back, value(back), 1e-4);
-      crossing += (th.corners >> 4 & 3) != (th.corners >> 6 & 3);  // a quadrilateral projection
+      crossing += fan[2].x != fan[3].x;  // a quadrilateral projection (a triangle repeats p2)
+      for (int j = 0; j < 4; ++j) EXPECT_EQ(fan[j].thickness, 0.0f);
     }
     EXPECT_GT(crossing, 20) << "both classes occur";
     EXPECT_LT(crossing, 180) << "both classes occur";

@@ -83,6 +83,7 @@ struct FrameTimings {
   uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
   bool interrupted = false;  // should_stop said stop: a partial image
   double classify_ms = 0;    // projected tetrahedra: the CPU classification (inside draw_ms)
+  double cpu_ms = 0;         // CPU time of the whole process over the frame, every thread (llvmpipe's too): the work, on a shared machine
 };
 
 // A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude
