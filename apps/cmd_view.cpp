@@ -85,8 +85,8 @@ RenderOptions render_options(const Args& args) {
   o.quality = static_cast<int>(args.number("--quality", kDefaultQuality));
   if (o.quality < 1 || o.quality > protocol::kMaxJpegQuality) throw std::invalid_argument("--quality must be 1 to 100");
   if (args.has("--unit-distance")) v.unit_distance = args.real("--unit-distance");
-  if (const std::string method = args.get("--volume", "projected"); method == "exact") v.volume = r::VolumeMethod::exact;
-  else if (method != "projected") throw std::invalid_argument("--volume must be projected or exact");
+  if (const std::string method = args.get("--volume", "exact"); method == "projected") v.volume = r::VolumeMethod::projected;
+  else if (method != "exact") throw std::invalid_argument("--volume must be exact or projected");
   if (args.has("--iso-opacity")) v.iso_opacity = args.real("--iso-opacity");
   if (args.has("--iso")) v.isovalues = number_list("--iso", args.get("--iso"));
   v.iso_color_attribute = args.get("--iso-color");
@@ -186,7 +186,7 @@ int run_render(const Arguments& raw) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color", "--volume"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume projected|exact] [--wireframe] [--box] [--orbit N] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--json]\n");
     return 2;
   }
   RenderOptions o = render_options(args);

@@ -34,7 +34,9 @@ for n in $meshes; do
   iso=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-iso-$n.jpg --mode iso --attribute analytic_f --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
   pv_frames=$frames
   [[ $n == 5m ]] && pv_frames=$(( frames < 8 ? frames : 8 ))
-  pv=$(xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch bench/paraview_render.py "$mesh" analytic_f 1024 768 "$pv_frames" 2>/dev/null | tail -1)
+  # xvfb-run -a can lose a race for a display with other runs on a shared machine: one retry
+  pv=$(xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch bench/paraview_render.py "$mesh" analytic_f 1024 768 "$pv_frames" 2>/dev/null | tail -1) ||
+    pv=$(xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch bench/paraview_render.py "$mesh" analytic_f 1024 768 "$pv_frames" 2>/dev/null | tail -1)
   rows+=("$(python3 - "$n" "$dvr" "$iso" "$pv" "$exact" <<'PY'
 import json, sys
 n, dvr, iso, pv, exact = sys.argv[1], *map(json.loads, sys.argv[2:6])
