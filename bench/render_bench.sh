@@ -3,7 +3,7 @@
 # and ~5M-tet turbine blades, next to ParaView 5.11's "Projected tetra" volume rendering
 # of the same mesh, size and camera path (bench/paraview_render.py, pvbatch under Xvfb; both
 # on Mesa llvmpipe), in one run. Writes bench/results/render.json.
-# DVR runs twice: the default method (projected tetrahedra) and --volume exact. Each row also
+# DVR runs twice: --volume projected (rows "dvr") and --volume exact, the default ("dvr_exact"). Each row also
 # has the process CPU time per frame (every thread, llvmpipe's included), which a shared
 # machine disturbs less than wall time.
 #   bench/render_bench.sh [FRAMES] [MESHES]   (default 36, "100k 1m 5m"; ParaView gets at most 8 frames on 5M tets)
@@ -29,7 +29,7 @@ for n in $meshes; do
   range=$(build/release/apps/tetrascope info --json "$mesh" | python3 -c 'import json,sys; a=[x for x in json.load(sys.stdin)["attributes"] if x["name"]=="analytic_f"][0]; print(a["min"], a["max"])')
   read -r lo hi <<< "$range"
   printf '{"attribute": "analytic_f", "colormap": "viridis", "opacity": [[%s, 0], [%s, 0.4]]}\n' "$lo" "$hi" > bench/out/render-tf.json
-  dvr=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
+  dvr=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume projected --json | tail -1)
   exact=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-exact-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume exact --json | tail -1)
   iso=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-iso-$n.jpg --mode iso --attribute analytic_f --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
   pv_frames=$frames
