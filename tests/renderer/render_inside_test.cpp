@@ -41,7 +41,7 @@ std::array<double, 3> inside_point(const renderer::SceneMesh& scene, std::array<
   return best;
 }
 
-// The default volume method (projected tetrahedra) against the reference: at least this
+// The projected-tetrahedra volume method against the reference: at least this
 // (the goal for the default quality); the thresholds below are the exact method's.
 constexpr double kProjectedMinimumDb = 35.0;
 

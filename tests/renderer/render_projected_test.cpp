@@ -1,4 +1,4 @@
-// The projected-tetrahedra volume method (the default) and the exact one against the CPU
+// The projected-tetrahedra volume method (`--volume projected`) and the exact one (the default) against the CPU
 // reference (reference_render): from outside and inside meshes, with isosurfaces composed in
 // the volume; the thick vertex against the exact ray through it; frames stopped between
 // chunks by RenderSettings::should_stop.
