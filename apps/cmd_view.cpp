@@ -184,6 +184,8 @@ RenderOptions render_options(const Args& args) {
   o.quality = static_cast<int>(args.number("--quality", kDefaultQuality));
   if (o.quality < 1 || o.quality > protocol::kMaxJpegQuality) throw std::invalid_argument("--quality must be 1 to 100");
   if (args.has("--unit-distance")) v.unit_distance = args.real("--unit-distance");
+  if (const std::string method = args.get("--volume", "exact"); method == "projected") v.volume = r::VolumeMethod::projected;
+  else if (method != "exact") throw std::invalid_argument("--volume must be exact or projected");
   if (args.has("--iso-opacity")) v.iso_opacity = args.real("--iso-opacity");
   if (args.has("--iso")) v.isovalues = number_list("--iso", args.get("--iso"));
   if (v.points) v.point_isovalues = v.isovalues;
@@ -233,7 +235,7 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
                       {"tets", scene.tets.size() / 4}, {"tets_drawn", last.tets_drawn}, {"tets_skipped", last.tets_skipped},
                       {"iso_triangles", last.iso_triangles}, {"frames", frames.size()},
                       {"median_ms", median_of(&r::FrameTimings::total_ms)}, {"median_sort_ms", median_of(&r::FrameTimings::sort_ms)},
-                      {"median_draw_ms", median_of(&r::FrameTimings::draw_ms)}, {"median_readback_ms", median_of(&r::FrameTimings::readback_ms)},
+                      {"median_draw_ms", median_of(&r::FrameTimings::draw_ms)}, {"median_classify_ms", median_of(&r::FrameTimings::classify_ms)}, {"median_cpu_ms", median_of(&r::FrameTimings::cpu_ms)}, {"median_readback_ms", median_of(&r::FrameTimings::readback_ms)},
                       {"median_encode_ms", median_of(&r::FrameTimings::encode_ms)}, {"reference_psnr_db", reference_db},
                       {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
@@ -244,7 +246,8 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
 
 // The CPU reference ray caster of `settings` (DVR only) next to the output, and its PSNR.
 double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const r::RenderSettings& settings, const r::Image& image) {
-  if (!settings.dvr || settings.iso || settings.surface) throw std::invalid_argument("--reference compares volume rendering only (--mode dvr, with --clip and --slice)");
+  if (!settings.dvr || settings.surface || settings.use_iso_color_attribute)
+    throw std::invalid_argument("--reference compares volume rendering only (--mode dvr or dvr+iso, isosurfaces coloured by value, with --clip and --slice)");
   const r::Image reference = r::reference_render(scene, settings);
   std::filesystem::path path(o.output);
   path.replace_filename(path.stem().string() + ".reference" + path.extension().string());
@@ -304,9 +307,9 @@ int run_render(const Arguments& all) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--point-size",
-             "--point-target", "--compare"});
+             "--point-target", "--compare", "--volume"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");

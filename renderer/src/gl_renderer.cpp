@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <map>
 #include <optional>
 
@@ -13,6 +14,7 @@
 #include "egl_context.h"
 #include "gl_shaders.h"
 #include "lines.h"
+#include "projected_tets.h"
 #include "scene_geometry.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
@@ -24,8 +26,15 @@ namespace {
 
 using clock_type = std::chrono::steady_clock;
 double ms_since(clock_type::time_point t) { return std::chrono::duration<double, std::milli>(clock_type::now() - t).count(); }
+double process_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
 
-constexpr uint32_t kSlotsPerDraw = 1u << 20;  // tets a draw call (the index buffer's size)
+constexpr uint32_t kSlotsPerDraw = kTetsPerChunk;  // tets a draw call (the index buffers' size)
+constexpr unsigned kClassifyThreads = 2;          // projected tetrahedra: CPU threads classifying a chunk
+constexpr size_t kMaxIsosInVolume = 8;            // isovalues composed in the volume (the shader's array)
 constexpr size_t kMaxCachedIsosurfaces = 8;    // isovalue sets kept per mesh
 
 // What every pass of one frame shares.
@@ -66,13 +75,44 @@ FrameSetup frame_setup(const SceneMesh& mesh, const RenderSettings& s) {
   return out;
 }
 
+// Whether isosurfaces are composed inside the volume (translucent, with dvr) rather than drawn
+// as triangles.
+bool isosurfaces_in_volume(const RenderSettings& s) { return s.dvr && s.iso && s.iso_opacity < 1 && !s.use_iso_color_attribute && !s.isovalues.empty(); }
+
+// The isovalues composed in the volume, over the transfer function's range, ascending and
+// distinct; at most kMaxIsosInVolume.
+std::vector<float> volume_isovalues(const RenderSettings& s, double lo, double hi) {
+  std::vector<float> out;
+  if (!isosurfaces_in_volume(s)) return out;
+  for (double v : s.isovalues) out.push_back(static_cast<float>((v - lo) / (hi - lo)));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  if (out.size() > kMaxIsosInVolume) out.resize(kMaxIsosInVolume);
+  return out;
+}
+
 class GlRenderer final : public Renderer {
  public:
   GlRenderer() {
     tet_program_ = link_program(kTetVertex, kTetFragment);
+    projected_program_ = link_program(kProjectedVertex, kProjectedFragment);
     surface_program_ = link_program(kSurfaceVertex, kSurfaceFragment);
     line_program_ = link_program(kSurfaceVertex, kLineFragment);
     glCreateVertexArrays(1, &empty_vao_);
+    glCreateVertexArrays(1, &projected_vao_);  // ProjectedVertex: position, segment, light
+    for (RingBuffer& ring : projected_ring_) {
+      glCreateBuffers(1, &ring.buffer);
+      const GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+      const auto bytes = static_cast<GLsizeiptr>(size_t{kTetsPerChunk} * kVerticesPerTet * sizeof(ProjectedVertex));
+      glNamedBufferStorage(ring.buffer, bytes, nullptr, flags);
+      ring.vertices = static_cast<ProjectedVertex*>(glMapNamedBufferRange(ring.buffer, 0, bytes, flags));
+      if (!ring.vertices) throw RenderError("cannot map the projected tetrahedra's vertex buffers");
+    }
+    for (GLuint a = 0; a < 3; ++a) {
+      glEnableVertexArrayAttrib(projected_vao_, a);
+      glVertexArrayAttribFormat(projected_vao_, a, a == 2 ? 1 : 3, GL_FLOAT, GL_FALSE, 12 * a);
+      glVertexArrayAttribBinding(projected_vao_, a, 0);
+    }
     glCreateVertexArrays(1, &surface_vao_);
     glCreateBuffers(1, &surface_buffer_);
     glCreateBuffers(1, &line_buffer_);
@@ -120,28 +160,32 @@ class GlRenderer final : public Renderer {
     FrameTimings& tm = timings ? *timings : local;
     tm = FrameTimings();
     const auto start = clock_type::now();
+    const double cpu_start = process_cpu_ms();
     ensure_framebuffer(s.width, s.height);
     const FrameSetup setup = frame_setup(mesh, s);
     update_colormap(s.tf, setup.lo, setup.hi);
     begin_frame(s);
     bool opaque = false;
+    // between passes and between the volume's chunks: should the frame stop here?
+    auto stop = [&] { return s.should_stop && (tm.interrupted = tm.interrupted || s.should_stop()); };
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1, 1);
     if (s.surface) opaque |= draw_boundary_surface(setup);
     const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
-    if (s.iso && !s.isovalues.empty() && !translucent_iso) opaque |= draw_opaque_isosurfaces(setup, s, tm);
-    if (!s.slices.planes.empty()) opaque |= draw_slices(setup, s.slices);
+    const bool iso_triangles_drawn = s.iso && !s.isovalues.empty() && !isosurfaces_in_volume(s);
+    if (iso_triangles_drawn && !translucent_iso && !stop()) opaque |= draw_opaque_isosurfaces(setup, s, tm);
+    if (!s.slices.planes.empty() && !stop()) opaque |= draw_slices(setup, s.slices);
     glDisable(GL_POLYGON_OFFSET_FILL);
     // stream lines and point isosurfaces (lines.cpp, point_iso.cpp): opaque before the volume
     const PassView pass_view{setup.frame, setup.mvp, s.width, s.height, setup.lo, setup.hi, colormap_texture_};
-    if (s.points) opaque |= point_pass_.draw(pass_view, s, tm);
-    if (s.lines) opaque |= line_pass_.draw_opaque(pass_view, s, tm);
+    if (s.points && !stop()) opaque |= point_pass_.draw(pass_view, s, tm);
+    if (s.lines && !stop()) opaque |= line_pass_.draw_opaque(pass_view, s, tm);
     if (s.slices.edges && !s.slices.planes.empty()) draw_lines(setup, slices_.edges);
-    if (s.surface) draw_boundary_edges(setup, s.wireframe);
+    if (s.surface && !stop()) draw_boundary_edges(setup, s.wireframe);
     if (s.box) draw_box(setup);
-    if (translucent_iso && !s.isovalues.empty()) draw_translucent_isosurfaces(setup, s, tm);
-    if (s.dvr && !mesh.tets.empty()) draw_volume(setup, s, opaque, tm);
-    if (s.lines) line_pass_.draw_ghosts(pass_view, s, tm);  // blended over the volume
+    if (iso_triangles_drawn && translucent_iso && !stop()) draw_translucent_isosurfaces(setup, s, tm);
+    if (s.dvr && !mesh.tets.empty() && !stop()) draw_volume(setup, s, opaque, stop, tm);
+    if (s.lines && !tm.interrupted) line_pass_.draw_ghosts(pass_view, s, tm);  // blended over the volume
     glFinish();
     tm.draw_ms = ms_since(start) - tm.sort_ms;
     Image image = read_back(s.width, s.height, tm);
@@ -149,6 +193,7 @@ class GlRenderer final : public Renderer {
     // large still's (600 MB at 4096^2) is given back at once instead of held by the worker
     if (uint64_t{s.width} * s.height > kKeepFramebufferPixels) release_framebuffer();
     tm.total_ms = ms_since(start);
+    tm.cpu_ms = process_cpu_ms() - cpu_start;
     return image;
   }
 
@@ -168,6 +213,9 @@ class GlRenderer final : public Renderer {
     if (!index_buffer_) {
       const std::vector<uint32_t> indices = tet_corner_indices(kSlotsPerDraw);
       upload(index_buffer_, indices.data(), indices.size() * 4);
+      const std::vector<uint32_t> fans = projected_fan_indices(kSlotsPerDraw);
+      upload(projected_index_buffer_, fans.data(), fans.size() * 4);
+      glVertexArrayElementBuffer(projected_vao_, projected_index_buffer_);
     }
     glNamedBufferData(surface_buffer_, static_cast<GLsizeiptr>(boundary_.corners.size() * 4), boundary_.corners.data(), GL_STATIC_DRAW);
     surface_vertices_ = static_cast<GLsizei>(boundary_.corners.size() / 4);
@@ -392,15 +440,20 @@ class GlRenderer final : public Renderer {
   // The volume: visible tets back to front, blended premultiplied; with `opaque`, rays stop at
   // the distance the opaque passes wrote. Tets that reach the near plane are drawn in their
   // place in the order by their back faces, their segments starting at the near plane (their
-  // front faces are clipped there, or behind the eye).
-  void draw_volume(const FrameSetup& setup, const RenderSettings& s, bool opaque, FrameTimings& tm) {
+  // front faces are clipped there, or behind the eye), with the exact method; the others by
+  // the settings' method. Issued kTetsPerChunk tets a draw call, asking `stop` after each.
+  template <class Stop>
+  void draw_volume(const FrameSetup& setup, const RenderSettings& s, bool opaque, Stop& stop, FrameTimings& tm) {
     const SceneMesh& mesh = *mesh_;
     const double unit = s.unit_distance > 0 ? s.unit_distance : mesh.diagonal / 100;
     update_table(s.tf, setup.lo, setup.hi, unit, mesh.max_edge);
+    const std::vector<float> isos = volume_isovalues(s, setup.lo, setup.hi);
+    visibility_.set_isovalues(isos);
     const auto sort_start = clock_type::now();
     const std::span<const uint32_t> order = visibility_.sort(mesh, sort_inputs_, setup.lo, setup.hi, setup.frame, setup.near_depth, tm);
     const auto count = static_cast<uint32_t>(order.size());
     tm.sort_ms = ms_since(sort_start);
+    tm.tets_drawn = 0;
     if (!count) return;
     glNamedBufferSubData(order_buffer_, 0, count * 4, order.data());
     if (opaque) {
@@ -408,56 +461,104 @@ class GlRenderer final : public Renderer {
                          static_cast<GLsizei>(s.height), 1);
     }
     glDrawBuffers(1, kBothTargets);
-    use_program(tet_program_, setup);
+    for (GLuint p : {tet_program_, projected_program_}) set_volume_uniforms(p, setup, s, opaque, isos);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, vertex_buffer_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tet_buffer_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, order_buffer_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cell_buffer_);
+    glBindTextureUnit(0, colormap_texture_);
     glBindTextureUnit(1, table_texture_);
-    glUniform1i(glGetUniformLocation(tet_program_, "table"), 1);
     glBindTextureUnit(2, distance_copy_);
-    glUniform1i(glGetUniformLocation(tet_program_, "depth_limit"), 2);
-    glUniform1i(glGetUniformLocation(tet_program_, "clip_depth"), opaque);
-    glUniform2f(glGetUniformLocation(tet_program_, "viewport"), float(s.width), float(s.height));
-    glUniform1f(glGetUniformLocation(tet_program_, "length_scale"), float(table_.length_scale));
-    glUniform1f(glGetUniformLocation(tet_program_, "inv_log_length_range"), float(1 / std::log1p(table_.max_length / table_.length_scale)));
-    glUniform1f(glGetUniformLocation(tet_program_, "table_n"), float(table_.n));
-    glUniform1f(glGetUniformLocation(tet_program_, "table_lengths"), float(table_.lengths));
-    glUniform1f(glGetUniformLocation(tet_program_, "near_depth"), float(setup.near_depth));
-    glEnable(GL_CULL_FACE);
     glFrontFace(GL_CCW);
+    glProvokingVertex(GL_FIRST_VERTEX_CONVENTION);  // the fans' thick vertex
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // back to front, premultiplied
     glDepthMask(GL_FALSE);
-    glBindVertexArray(empty_vao_);
-    glVertexArrayElementBuffer(empty_vao_, index_buffer_);
+    const bool projected = s.volume == VolumeMethod::projected;
+    // [first, end) by the settings' method, a chunk a draw call; false when stopped
+    auto draw_range = [&](uint32_t first, uint32_t end) {
+      for (uint32_t slot = first; slot < end; slot += kTetsPerChunk) {
+        const uint32_t n = std::min(kTetsPerChunk, end - slot);
+        if (projected) draw_projected(setup, order.subspan(slot, n), !isos.empty(), tm);
+        else draw_exact(slot, n, false);
+        tm.tets_drawn += n;
+        if (stop()) return false;
+      }
+      return true;
+    };
     uint32_t first = 0;
+    bool going = true;
     for (uint32_t near : visibility_.near_positions()) {
-      draw_tets(first, near, false);
-      draw_tets(near, near + 1, true);
+      if (!(going = draw_range(first, near))) break;
+      draw_exact(near, 1, true);
+      ++tm.tets_drawn;
       first = near + 1;
     }
-    draw_tets(first, count, false);
+    if (going) draw_range(first, count);
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
     glDisable(GL_CULL_FACE);
     glEnable(GL_DEPTH_TEST);
+    glProvokingVertex(GL_LAST_VERTEX_CONVENTION);
   }
 
-  // Tets at positions [first, end) of the order: front faces, or for `near` back faces with
-  // no depth test (the segment from the near plane may end before an opaque surface that
-  // the back face lies behind; the distance limit cuts it there).
-  void draw_tets(uint32_t first, uint32_t end, bool near) {
-    if (first >= end) return;
+  void set_volume_uniforms(GLuint p, const FrameSetup& setup, const RenderSettings& s, bool opaque, const std::vector<float>& isos) {
+    use_program(p, setup);
+    glUniform1i(glGetUniformLocation(p, "colormap"), 0);
+    glUniform1i(glGetUniformLocation(p, "table"), 1);
+    glUniform1i(glGetUniformLocation(p, "depth_limit"), 2);
+    glUniform1i(glGetUniformLocation(p, "clip_depth"), opaque);
+    glUniform2f(glGetUniformLocation(p, "viewport"), float(s.width), float(s.height));
+    glUniform1f(glGetUniformLocation(p, "length_scale"), float(table_.length_scale));
+    glUniform1f(glGetUniformLocation(p, "inv_log_length_range"), float(1 / std::log1p(table_.max_length / table_.length_scale)));
+    glUniform1f(glGetUniformLocation(p, "table_n"), float(table_.n));
+    glUniform1f(glGetUniformLocation(p, "table_lengths"), float(table_.lengths));
+    glUniform1f(glGetUniformLocation(p, "near_depth"), float(setup.near_depth));
+    glUniform1i(glGetUniformLocation(p, "iso_count"), static_cast<GLint>(isos.size()));
+    if (!isos.empty()) glUniform1fv(glGetUniformLocation(p, "isos"), static_cast<GLsizei>(isos.size()), isos.data());
+    glUniform1f(glGetUniformLocation(p, "iso_opacity"), float(s.iso_opacity));
+  }
+
+  // Tets at positions [first, first + n) of the order, exact: front faces, or for `near` back
+  // faces with no depth test (the segment from the near plane may end before an opaque
+  // surface that the back face lies behind; the distance limit cuts it there).
+  void draw_exact(uint32_t first, uint32_t n, bool near) {
+    glUseProgram(tet_program_);
     glUniform1i(glGetUniformLocation(tet_program_, "near_pass"), near);
+    glEnable(GL_CULL_FACE);
     glCullFace(near ? GL_FRONT : GL_BACK);
     if (near) glDisable(GL_DEPTH_TEST);
     else glEnable(GL_DEPTH_TEST);
-    const GLint first_slot = glGetUniformLocation(tet_program_, "first_slot");
-    for (uint32_t slot = first; slot < end; slot += kSlotsPerDraw) {
-      glUniform1ui(first_slot, slot);
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * std::min(kSlotsPerDraw, end - slot)), GL_UNSIGNED_INT, nullptr);
+    glUniform1ui(glGetUniformLocation(tet_program_, "first_slot"), first);
+    glBindVertexArray(empty_vao_);
+    glVertexArrayElementBuffer(empty_vao_, index_buffer_);
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * n), GL_UNSIGNED_INT, nullptr);
+    if (!near) glFlush();  // llvmpipe rasterises this chunk while the next one is issued
+  }
+
+  // Tets `tets` by projected tetrahedra: classified on the CPU straight into the next buffer
+  // of a ring of persistently mapped vertex buffers (waiting only for that buffer's last draw;
+  // a fresh buffer store a chunk cost a page-faulted, zeroed allocation each), drawn as a fan
+  // of 4 triangles a tet with the thick vertex first (provoking), no culling.
+  void draw_projected(const FrameSetup& setup, std::span<const uint32_t> tets, bool light, FrameTimings& tm) {
+    const auto classify_start = clock_type::now();
+    RingBuffer& ring = projected_ring_[ring_next_];
+    ring_next_ = (ring_next_ + 1) % kRingBuffers;
+    if (ring.fence) {
+      glClientWaitSync(ring.fence, GL_SYNC_FLUSH_COMMANDS_BIT, ~GLuint64{0});
+      glDeleteSync(ring.fence);
+      ring.fence = nullptr;
     }
+    classify_tets(*mesh_, tets, setup.frame, setup.lo, 1 / (setup.hi - setup.lo), light, kClassifyThreads, ring.vertices);
+    tm.classify_ms += ms_since(classify_start);
+    glUseProgram(projected_program_);
+    glDisable(GL_CULL_FACE);
+    glEnable(GL_DEPTH_TEST);
+    glBindVertexArray(projected_vao_);
+    glVertexArrayVertexBuffer(projected_vao_, 0, ring.buffer, 0, sizeof(ProjectedVertex));
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * tets.size()), GL_UNSIGNED_INT, nullptr);
+    ring.fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    glFlush();
   }
 
   // The colour target through a pixel buffer, rows flipped to top first.
@@ -503,7 +604,7 @@ class GlRenderer final : public Renderer {
   static constexpr GLenum kBothTargets[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};  // colour, distance
   EglContext context_;  // first: made before any GL call, torn down after every GL object
   GLuint tet_program_ = 0, surface_program_ = 0, line_program_ = 0, empty_vao_ = 0, surface_vao_ = 0, line_vao_ = 0;
-  GLuint cell_buffer_ = 0, index_buffer_ = 0;
+  GLuint cell_buffer_ = 0, index_buffer_ = 0, projected_index_buffer_ = 0, projected_program_ = 0, projected_vao_ = 0;
   GLuint vertex_buffer_ = 0, tet_buffer_ = 0, order_buffer_ = 0, surface_buffer_ = 0, line_buffer_ = 0, pack_buffer_ = 0;
   GLuint resolve_framebuffer_ = 0, resolve_color_ = 0;
   GLuint framebuffer_ = 0, color_ = 0, depth_ = 0, distance_texture_ = 0, distance_copy_ = 0, table_texture_ = 0, colormap_texture_ = 0;
@@ -513,6 +614,14 @@ class GlRenderer final : public Renderer {
   TetSortInputs sort_inputs_;
   BoundaryGeometry boundary_;
   VisibilityOrder visibility_;
+  struct RingBuffer {
+    GLuint buffer = 0;
+    ProjectedVertex* vertices = nullptr;  // mapped for good
+    GLsync fence = nullptr;               // after the last draw from it
+  };
+  static constexpr int kRingBuffers = 3;
+  std::array<RingBuffer, kRingBuffers> projected_ring_;
+  int ring_next_ = 0;
   PreintegrationTable table_;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color

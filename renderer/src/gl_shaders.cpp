@@ -33,21 +33,61 @@ void main() {
 }
 )";
 
-const char* const kTetFragment = R"(#version 450 core
+// The colour of one ray segment through a tet (values over the transfer function's range,
+// length in world units): one table lookup, or with isosurfaces in the volume, the parts
+// between the isovalues it crosses composed front to back with the lit surfaces between.
+// `isos` ascending, distinct. A crossing counts where (value < iso) changes, so a ray through
+// a vertex on the isosurface meets it once.
+const std::string kSegmentShading = R"(
+uniform sampler3D table;
+uniform float table_n, table_lengths;
+uniform float length_scale, inv_log_length_range;  // the table's length axis (PreintegrationTable)
+uniform int iso_count;
+uniform float isos[8];
+uniform float iso_opacity;
+uniform sampler1D colormap;
+vec4 lookup(float sf, float sb, float t) {
+  vec3 uvw = vec3((clamp(sf, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n, (clamp(sb, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n,
+                  (clamp(log(1.0 + t / length_scale) * inv_log_length_range, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
+  return texture(table, uvw);
+}
+float iso_light(vec3 gradient, vec3 d) {
+  float g = length(gradient);
+  return 0.25 + 0.75 * (g > 0.0 ? abs(dot(gradient / g, d)) : 1.0);
+}
+vec4 shade(float sf, float sb, float t, float light) {
+  if (iso_count == 0) return lookup(sf, sb, t);
+  vec4 acc = vec4(0.0);
+  float s0 = sf, t0 = 0.0;
+  bool rising = sb > sf;
+  for (int k = 0; k < iso_count; ++k) {
+    float iv = isos[rising ? k : iso_count - 1 - k];
+    if ((s0 < iv) != (sb < iv)) {
+      float ti = t * (iv - sf) / (sb - sf);
+      acc += (1.0 - acc.a) * lookup(s0, iv, ti - t0);
+      vec3 base = texture(colormap, clamp(iv, 0.0, 1.0)).rgb;
+      acc += (1.0 - acc.a) * vec4(base * light * iso_opacity, iso_opacity);
+      s0 = iv;
+      t0 = ti;
+    }
+  }
+  return acc + (1.0 - acc.a) * lookup(s0, sb, t - t0);
+}
+)";
+
+const std::string kTetFragmentSource = R"(#version 450 core
 in vec3 world;
 flat in vec4 plane0, plane1, plane2, plane3, field;
 uniform vec3 eye, forward;
 uniform bool ortho;
 uniform float lo, inv_span;
-uniform sampler3D table;
-uniform float table_n, table_lengths;
-uniform float length_scale, inv_log_length_range;  // the table's length axis (PreintegrationTable)
 uniform bool clip_depth;
 uniform sampler2D depth_limit;   // distance along the ray to the nearest opaque surface
 uniform vec2 viewport;
 uniform bool near_pass;          // back faces of a tet that reaches the near plane: the segment ends here
 uniform float near_depth;        // the near plane's distance from the eye along `forward`
 out vec4 color;
+)" + kSegmentShading + R"(
 void exit_of(vec4 pl, vec3 d, inout float t) {
   float dn = dot(pl.xyz, d);
   if (dn > 1e-20) t = min(t, -(dot(pl.xyz, world) + pl.w) / dn);
@@ -84,11 +124,53 @@ void main() {
   }
   float sf = (dot(field.xyz, front) + field.w - lo) * inv_span;
   float sb = sf + dot(field.xyz, d) * t * inv_span;
-  vec3 uvw = vec3((clamp(sf, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n, (clamp(sb, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n,
-                  (clamp(log(1.0 + t / length_scale) * inv_log_length_range, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
-  color = texture(table, uvw);
+  color = shade(sf, sb, t, iso_count > 0 ? iso_light(field.xyz, d) : 1.0);
 }
 )";
+const char* const kTetFragment = kTetFragmentSource.c_str();
+
+// Projected tetrahedra (projected_tets.h): the CPU wrote every vertex of every fan.
+const char* const kProjectedVertex = R"(#version 450 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 segment_in;  // front value, back value, length
+layout(location = 2) in float light_in;
+uniform mat4 mvp;
+out vec3 world;
+out vec3 segment;
+flat out float light;  // from the thick vertex, the provoking one
+void main() {
+  world = position;
+  segment = segment_in;
+  light = light_in;
+  gl_Position = mvp * vec4(position, 1.0);
+}
+)";
+
+const std::string kProjectedFragmentSource = R"(#version 450 core
+in vec3 world;
+in vec3 segment;
+flat in float light;
+uniform vec3 eye, forward;
+uniform bool ortho;
+uniform bool clip_depth;
+uniform sampler2D depth_limit;
+uniform vec2 viewport;
+out vec4 color;
+)" + kSegmentShading + R"(
+void main() {
+  vec3 d = ortho ? forward : normalize(world - eye);
+  float sf = segment.x, sb = segment.y, t = max(segment.z, 0.0);
+  if (clip_depth) {
+    float limit = texture(depth_limit, gl_FragCoord.xy / viewport).r;
+    float here = ortho ? dot(world - eye, forward) : length(world - eye);
+    float cut = min(t, max(limit - here, 0.0));
+    sb = sf + (sb - sf) * (t > 0.0 ? cut / t : 0.0);
+    t = cut;
+  }
+  color = shade(sf, sb, t, light);
+}
+)";
+const char* const kProjectedFragment = kProjectedFragmentSource.c_str();
 
 const char* const kSurfaceVertex = R"(#version 450 core
 layout(location = 0) in vec3 position;

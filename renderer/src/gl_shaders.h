@@ -11,6 +11,10 @@ namespace tetrascope::renderer {
 // `near_pass`, the tet's back faces, and the segment starts at max(near plane, entry).
 extern const char* const kTetVertex;
 extern const char* const kTetFragment;
+// Volume by projected tetrahedra: a tet's fan of triangles around its thick vertex
+// (projected_tets.h); one table lookup a fragment on the interpolated segment.
+extern const char* const kProjectedVertex;
+extern const char* const kProjectedFragment;
 // Lit triangles (boundary surface, isosurfaces) coloured by value or a solid colour; also
 // write the distance along the ray to the second target (the volume stops there).
 extern const char* const kSurfaceVertex;

@@ -1,6 +1,9 @@
 // The CPU reference renderer: for every pixel, the exact segments its ray cuts through the
 // tets, sorted by depth and composed front to back with integrate_segment - the same
-// transfer function integrated finely, with no table and no per-tet sort.
+// transfer function integrated finely, with no table and no per-tet sort. With isosurfaces
+// (settings.iso, coloured by value), a segment that crosses isovalues is split there and the
+// lit surface composed between its parts, at the isosurface opacity - what the GL renderer
+// does inside the volume (and, at opacity 1, what its opaque isosurfaces show).
 #include <algorithm>
 #include <cmath>
 
@@ -23,8 +26,14 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
   if (!(hi > lo)) hi = lo + 1;
   const double unit = settings.unit_distance > 0 ? settings.unit_distance : mesh.diagonal / 100;
   struct Segment {
-    float t_in, t_out, s_in, s_out;
+    float t_in, t_out, s_in, s_out, light;
   };
+  std::vector<double> isos;  // over [lo, hi], ascending, distinct
+  if (settings.iso && !settings.use_iso_color_attribute)
+    for (double v : settings.isovalues) isos.push_back(static_cast<float>((v - lo) / (hi - lo)));  // as the renderer's float uniforms
+  std::sort(isos.begin(), isos.end());
+  isos.erase(std::unique(isos.begin(), isos.end()), isos.end());
+  const double iso_opacity = std::clamp(settings.iso_opacity, 0.0, 1.0);
   std::vector<std::vector<Segment>> pixels(size_t{W} * H);
   for (size_t t = 0; t < mesh.tets.size() / 4; ++t) {
     const uint32_t* tet = &mesh.tets[4 * t];
@@ -80,9 +89,11 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
           else if (num < 0) miss = true;  // parallel and outside
         }
         if (miss || !(t_in < t_out)) continue;
+        const double gn = length(g);
+        const float light = static_cast<float>(0.25 + 0.75 * (gn > 0 ? std::fabs(dot(g, dir)) / (gn * length(dir)) : 1.0));
         const Vec3 a{o[0] + t_in * dir[0], o[1] + t_in * dir[1], o[2] + t_in * dir[2]}, b{o[0] + t_out * dir[0], o[1] + t_out * dir[1], o[2] + t_out * dir[2]};
         pixels[size_t{static_cast<uint32_t>(y)} * W + static_cast<uint32_t>(x)].push_back(
-            {static_cast<float>(t_in), static_cast<float>(t_out), static_cast<float>(dot(g, a) + c0), static_cast<float>(dot(g, b) + c0)});
+            {static_cast<float>(t_in), static_cast<float>(t_out), static_cast<float>(dot(g, a) + c0), static_cast<float>(dot(g, b) + c0), light});
       }
   }
   // slices are opaque: rays end at the nearest one, which shows behind the volume before it
@@ -93,17 +104,33 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
     std::sort(list.begin(), list.end(), [](const Segment& a, const Segment& b) { return a.t_in < b.t_in; });
     double r = 0, g = 0, b = 0, a = 0;
     const float stop = slices.distance[i];
-    for (Segment seg : list) {
-      if (a > 0.9999 || seg.t_in >= stop) break;
-      if (seg.t_out > stop) {
-        seg.s_out = seg.s_in + (seg.s_out - seg.s_in) * (stop - seg.t_in) / (seg.t_out - seg.t_in);
-        seg.t_out = stop;
-      }
-      const auto c = integrate_segment(settings.tf, lo, hi, unit, seg.s_in, seg.s_out, double(seg.t_out) - seg.t_in);
+    auto over = [&](const std::array<double, 4>& c) {
       r += (1 - a) * c[0];
       g += (1 - a) * c[1];
       b += (1 - a) * c[2];
       a += (1 - a) * c[3];
+    };
+    for (Segment seg : list) {
+      if (a > 0.9999 || seg.t_in >= stop) break;
+      if (seg.t_out > stop) {  // the segment ends at the slice
+        seg.s_out = seg.s_in + (seg.s_out - seg.s_in) * (stop - seg.t_in) / (seg.t_out - seg.t_in);
+        seg.t_out = stop;
+      }
+      const double length_in = double(seg.t_out) - seg.t_in;
+      double s0 = seg.s_in, t0 = 0;
+      const bool rising = seg.s_out > seg.s_in;
+      for (size_t k = 0; k < isos.size(); ++k) {
+        const double iv = isos[rising ? k : isos.size() - 1 - k];
+        if ((s0 < iv) == (seg.s_out < iv)) continue;
+        const double ti = length_in * (iv - seg.s_in) / (double(seg.s_out) - seg.s_in);
+        over(integrate_segment(settings.tf, lo, hi, unit, s0, iv, ti - t0));
+        const double value = lo + std::clamp(iv, 0.0, 1.0) * (hi - lo);
+        const auto base = settings.tf.colors.empty() ? colormap(settings.tf.colormap, std::clamp(iv, 0.0, 1.0)) : settings.tf.user_color(value);
+        over({base[0] * seg.light * iso_opacity, base[1] * seg.light * iso_opacity, base[2] * seg.light * iso_opacity, iso_opacity});
+        s0 = iv;
+        t0 = ti;
+      }
+      over(integrate_segment(settings.tf, lo, hi, unit, s0, seg.s_out, length_in - t0));
     }
     const bool hit = std::isfinite(stop);
     const std::array<float, 3> behind = hit ? slices.rgb[i] : settings.background;

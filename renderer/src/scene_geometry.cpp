@@ -80,6 +80,14 @@ TetSortInputs tet_sort_inputs(const SceneMesh& mesh) {
   return out;
 }
 
+std::vector<uint32_t> projected_fan_indices(uint32_t slots) {
+  static constexpr uint32_t kFan[12] = {4, 0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0};
+  std::vector<uint32_t> out(size_t{slots} * 12);
+  for (uint32_t i = 0; i < slots; ++i)
+    for (int k = 0; k < 12; ++k) out[12 * size_t{i} + k] = 5 * i + kFan[k];
+  return out;
+}
+
 std::vector<uint32_t> tet_corner_indices(uint32_t slots) {
   std::vector<uint32_t> indices(12 * size_t{slots});
   for (uint32_t i = 0; i < slots; ++i)

@@ -28,6 +28,10 @@ TetSortInputs tet_sort_inputs(const SceneMesh& mesh);
 // 4i..4i+3, so a vertex cache runs 4 vertex shaders a tet, not 12.
 std::vector<uint32_t> tet_corner_indices(uint32_t slots);
 
+// The 12 indices of each of `slots` projected-tetrahedra fans (projected_tets.h): slot i's
+// vertices are 5i..5i+3 (its boundary) and 5i+4 (its thick vertex).
+std::vector<uint32_t> projected_fan_indices(uint32_t slots);
+
 // Boundary triangles as (x, y, z, value) corners, and every boundary edge with the one or two
 // boundary faces that share it (kNoOppositeFace where open).
 struct BoundaryGeometry {

@@ -138,6 +138,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   s.height = request.height;
   s.tf = request.tf;
   s.unit_distance = request.unit_distance;
+  s.volume = request.volume;
   s.iso_opacity = request.iso_opacity;
   s.isovalues = request.isovalues;
   s.use_iso_color_attribute = !request.iso_color_attribute.empty();

@@ -45,8 +45,22 @@ bool VisibilityOrder::reaches_near_region(const TetSortInputs& tets, size_t t, c
   const float* c = &tets.centroid[3 * t];
   const Vec3 q = Vec3{c[0], c[1], c[2]} - f.eye;
   const double r = tets.radius[t];
-  if (!f.ortho) return dot(q, q) < (r + corner) * (r + corner);
+  if (!f.ortho) {
+    if (dot(q, q) < (r + corner) * (r + corner)) return true;
+    if (dot(q, f.forward) - r >= near_depth) return false;
+    // crossing the near plane: near unless the ball lies beyond a side of the frustum
+    const double tx = f.tan_half * f.aspect, ty = f.tan_half, z = dot(q, f.forward), x = dot(q, f.right), y = dot(q, f.up);
+    return std::fabs(x) - tx * z < r * std::sqrt(1 + tx * tx) && std::fabs(y) - ty * z < r * std::sqrt(1 + ty * ty);
+  }
   return dot(q, f.forward) - r < near_depth && std::fabs(dot(q, f.right)) < f.half_height * f.aspect + r && std::fabs(dot(q, f.up)) < f.half_height + r;
+}
+
+bool VisibilityOrder::holds_isovalue(float a, float b, double lo, double hi) const {
+  for (float iso : isos_) {
+    const double v = lo + iso * (hi - lo);
+    if (a <= v && v <= b) return true;
+  }
+  return false;
 }
 
 std::span<const uint32_t> VisibilityOrder::sort(const SceneMesh& mesh, const TetSortInputs& tets, double lo, double hi, const Frame& f, double near_depth,
@@ -61,7 +75,7 @@ std::span<const uint32_t> VisibilityOrder::sort(const SceneMesh& mesh, const Tet
     int a = static_cast<int>(std::floor((tets.range[2 * t] - lo) * scale)), b = static_cast<int>(std::floor((tets.range[2 * t + 1] - lo) * scale));
     a = std::clamp(a, 0, kValueSlots - 1);
     b = std::clamp(b, 0, kValueSlots - 1);
-    if (visible_prefix_[b + 1] - visible_prefix_[a] == 0) {
+    if (visible_prefix_[b + 1] - visible_prefix_[a] == 0 && !holds_isovalue(tets.range[2 * t], tets.range[2 * t + 1], lo, hi)) {
       ++tm.tets_skipped;
       continue;
     }

@@ -2,7 +2,13 @@
 // llvmpipe here, NVIDIA EGL on GPU hosts), rendering into a framebuffer object.
 //
 // Modes:
-//  - dvr: direct volume rendering by cell projection - every tet's front faces are drawn in
+//  - dvr: direct volume rendering by cell projection, in one of two methods (VolumeMethod):
+//    projected: Shirley-Tuchman projected tetrahedra - each visible tet's
+//    projection is classified on the CPU (both cores) and split into 3 or 4 triangles around
+//    a thick vertex carrying front value, back value and thickness, so a fragment does one
+//    table lookup on interpolated values; tets reaching the near plane are drawn exactly as
+//    below, in their place in the order (on llvmpipe it measured no faster than exact, so it is
+//    not the default); exact (the default): every tet's front faces are drawn in
 //    back-to-front order (radix sort of centroid depths); each fragment intersects its view
 //    ray with the tet's planes to find the exact segment through it (front value, back
 //    value, length) and looks up a pre-integrated transfer function table (Engel et al.
@@ -10,7 +16,10 @@
 //    the near plane are drawn by their back faces with segments starting at the near plane,
 //    and colour is composed in 32-bit floats, so thousands of tiny tets along a ray add up as
 //    the exact integrator (reference_render) says;
-//  - iso: marching tetrahedra for one or more isovalues, lit, opaque;
+//  - iso: marching tetrahedra for one or more isovalues, lit, opaque; with dvr and an
+//    isosurface opacity below 1, the isosurfaces are composed inside the volume instead: a
+//    tet whose ray segment crosses an isovalue composes the part in front, the lit surface,
+//    then the part behind (both methods, and reference_render alike);
 //  - surface: the mesh boundary coloured by the attribute, lit, with silhouette edges
 //    (§7.1) and an optional wireframe; dvr+iso and surface+iso combine;
 //  - lines: stream lines (§7.3), lit by the illuminated-lines model, with depth-aware halos
@@ -25,6 +34,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -80,6 +90,12 @@ enum class FlowStyle : uint8_t { none, arrows, dashes };
 // Limits of the line and point passes (checked by Renderer::render).
 constexpr double kMaxLineWidth = 32;   // pixels
 constexpr double kMaxPointSize = 64;   // pixels
+// How the volume is drawn (see the top of this file).
+enum class VolumeMethod { projected, exact };
+
+// Tets a volume draw call issues at most: between two, Renderer::render asks
+// RenderSettings::should_stop whether to go on.
+constexpr uint32_t kTetsPerChunk = 65536;
 
 struct RenderSettings {
   bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
@@ -88,7 +104,7 @@ struct RenderSettings {
   lod::TransferFunction tf;          // attribute, range, colormap, opacity
   double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
   std::vector<double> isovalues;     // attribute units
-  double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
+  double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted without dvr, composed in the volume with it)
   bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
   // stream lines (§7.3): drawn when set
@@ -112,12 +128,20 @@ struct RenderSettings {
   // tets' edges on them when `slices.edges` (clip.h; a clip is applied to the scene itself,
   // see clip_scene, so it clips the slices too).
   protocol::SliceSpec slices;
+  VolumeMethod volume = VolumeMethod::exact;
+  // Asked between draw calls (every kTetsPerChunk tets of the volume, and between passes);
+  // true stops drawing: the frame is read back as it stands and FrameTimings::interrupted is
+  // set. Empty: never stop.
+  std::function<bool()> should_stop;
 };
 
 struct FrameTimings {
   double sort_ms = 0, draw_ms = 0, readback_ms = 0, encode_ms = 0, total_ms = 0;
   uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
   uint64_t line_segments_opaque = 0, line_segments_ghosted = 0, points = 0;
+  bool interrupted = false;  // should_stop said stop: a partial image
+  double classify_ms = 0;    // projected tetrahedra: the CPU classification (inside draw_ms)
+  double cpu_ms = 0;         // CPU time of the whole process over the frame, every thread (llvmpipe's too): the work, on a shared machine
 };
 
 // A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude

@@ -56,6 +56,7 @@ struct ViewRequest {
   double iso_opacity = 1;
   std::string iso_color_attribute;               // a second attribute colouring the isosurfaces; empty: by value
   double unit_distance = 0;           // RenderSettings::unit_distance
+  VolumeMethod volume = VolumeMethod::exact;  // RenderSettings::volume
   uint64_t budget = 0;                // tets of the cut (stores only)
   uint32_t width = 1024, height = 768;
   protocol::ClipSpec clip;     // applied to the scene (clip_scene) and to the cut (criteria, assembly)
