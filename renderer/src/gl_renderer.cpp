@@ -24,6 +24,7 @@ using clock_type = std::chrono::steady_clock;
 double ms_since(clock_type::time_point t) { return std::chrono::duration<double, std::milli>(clock_type::now() - t).count(); }
 
 constexpr uint32_t kSlotsPerDraw = 1u << 20;  // tets a draw call (the index buffer's size)
+constexpr uint32_t kTetsPerChunk = 1u << 16;  // tets a draw call when the frame may be stopped (RenderSettings::should_stop)
 constexpr size_t kMaxCachedIsosurfaces = 8;    // isovalue sets kept per mesh
 
 // What every pass of one frame shares.
@@ -403,13 +404,17 @@ class GlRenderer final : public Renderer {
     glDepthMask(GL_FALSE);
     glBindVertexArray(empty_vao_);
     glVertexArrayElementBuffer(empty_vao_, index_buffer_);
+    stop_ = s.should_stop ? &s.should_stop : nullptr;
+    unfinished_ = kTetsPerChunk;  // asked once before the first chunk
     uint32_t first = 0;
+    bool stopped = false;
     for (uint32_t near : visibility_.near_positions()) {
-      draw_tets(first, near, false);
-      draw_tets(near, near + 1, true);
+      if ((stopped = !draw_tets(first, near, false) || !draw_tets(near, near + 1, true))) break;
       first = near + 1;
     }
-    draw_tets(first, count, false);
+    if (!stopped) stopped = !draw_tets(first, count, false);
+    tm.interrupted = stopped;
+    stop_ = nullptr;
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
     glDisable(GL_CULL_FACE);
@@ -419,17 +424,26 @@ class GlRenderer final : public Renderer {
   // Tets at positions [first, end) of the order: front faces, or for `near` back faces with
   // no depth test (the segment from the near plane may end before an opaque surface that
   // the back face lies behind; the distance limit cuts it there).
-  void draw_tets(uint32_t first, uint32_t end, bool near) {
-    if (first >= end) return;
+  // Returns false when should_stop stopped it.
+  bool draw_tets(uint32_t first, uint32_t end, bool near) {
+    if (first >= end) return true;
     glUniform1i(glGetUniformLocation(tet_program_, "near_pass"), near);
     glCullFace(near ? GL_FRONT : GL_BACK);
     if (near) glDisable(GL_DEPTH_TEST);
     else glEnable(GL_DEPTH_TEST);
     const GLint first_slot = glGetUniformLocation(tet_program_, "first_slot");
-    for (uint32_t slot = first; slot < end; slot += kSlotsPerDraw) {
+    const uint32_t per_draw = stop_ ? kTetsPerChunk : kSlotsPerDraw;
+    for (uint32_t slot = first; slot < end; slot += per_draw) {
+      if (stop_ && unfinished_ >= kTetsPerChunk) {
+        glFinish();  // the chunk is drawn before the question, so a stop waits for one chunk at most
+        unfinished_ = 0;
+        if ((*stop_)()) return false;
+      }
       glUniform1ui(first_slot, slot);
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * std::min(kSlotsPerDraw, end - slot)), GL_UNSIGNED_INT, nullptr);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(12 * std::min(per_draw, end - slot)), GL_UNSIGNED_INT, nullptr);
+      unfinished_ += std::min(per_draw, end - slot);
     }
+    return true;
   }
 
   // The colour target through a pixel buffer, rows flipped to top first.
@@ -488,6 +502,8 @@ class GlRenderer final : public Renderer {
   PreintegrationTable table_;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
+  const std::function<bool()>* stop_ = nullptr;  // the frame's should_stop, while its volume is drawn
+  uint32_t unfinished_ = 0;                       // tets drawn since should_stop was last asked
 };
 
 }  // namespace

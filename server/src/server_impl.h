@@ -15,6 +15,7 @@
 #include <boost/beast/http.hpp>
 
 #include "datasets.h"
+#include "tetrascope/server/frame_cost.h"
 #include "jobs.h"
 #include "metrics.h"
 #include "render_pool.h"
@@ -32,6 +33,7 @@ struct Server::Impl {
   Metrics metrics;
   std::unique_ptr<DatasetRegistry> datasets;
   std::unique_ptr<RenderPool> pool;
+  FrameCostModel frame_cost;  // what a frame costs the pool's workers, fitted from every session's frames
   std::unique_ptr<JobRunner> jobs;
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   std::atomic<bool> stopped{false};

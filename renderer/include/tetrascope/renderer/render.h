@@ -19,6 +19,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -55,11 +56,15 @@ struct RenderSettings {
   double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted; without dvr only)
   bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
+  // Asked between chunks of the volume's tets (at most 65,536 a draw call); true stops the
+  // frame there: the partial image comes back with FrameTimings::interrupted. Empty: never.
+  std::function<bool()> should_stop;
 };
 
 struct FrameTimings {
   double sort_ms = 0, draw_ms = 0, readback_ms = 0, encode_ms = 0, total_ms = 0;
   uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
+  bool interrupted = false;  // should_stop said stop: the image is partial
 };
 
 // A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude
