@@ -23,7 +23,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 int run_serve(const Arguments& raw) {
   Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
                       "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
-                      "--interaction-scale", "--frame-ms", "--web"});
+                      "--interaction-scale", "--frame-ms", "--refine-growth", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
     return 2;
@@ -59,6 +59,8 @@ int run_serve(const Arguments& raw) {
   o.interaction_scale = args.positive("--interaction-scale", o.interaction_scale);
   o.frame_ms = args.positive("--frame-ms", o.frame_ms);
   if (o.frame_ms < 5 || o.frame_ms > 10000) throw std::invalid_argument("--frame-ms must be 5 to 10000 (ms of render time an interaction frame aims at)");
+  o.refine_growth = args.positive("--refine-growth", o.refine_growth);
+  if (o.refine_growth < 1.5 || o.refine_growth > 16) throw std::invalid_argument("--refine-growth must be 1.5 to 16 (how much longer each refinement step may take than the one before)");
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),

@@ -40,7 +40,7 @@ constexpr const char* kUsage =
     "  serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] [--workers N] [--cache-mb M]\n"
     "                                [--max-sessions N] [--max-message-bytes B] [--max-messages-per-second N] [--max-image-side S]\n"
     "                                [--max-upload-mb M] [--max-jobs N] [--max-fps F] [--budget TETS] [--interaction-budget TETS]\n"
-    "                                [--interaction-scale S] [--frame-ms MS] [--web DIR]\n"
+    "                                [--interaction-scale S] [--frame-ms MS] [--refine-growth G] [--web DIR]\n"
     "                                [--max-queued-jobs N (16)] [--job-memory-mb M (physical memory)] [--job-cpu-seconds S (none)] [--max-connections N (256)]\n"
     "                                [--hello-timeout S (10)] [--min-upload-rate BYTES_PER_S (4096, over 10 s windows)]\n"
     "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"

@@ -37,6 +37,7 @@ const state = {
   closeSocket: () => socket?.close(),
   opacityPoints: () => effectiveOpacity(state.view),
   composeStill: null,
+  onFrame: null,      // (header) => void, after each frame is drawn (tests)
 };
 window.tetrascope = state;
 
@@ -155,6 +156,7 @@ async function onFrame(buffer) {
   if (header.refining) state.refiningFrames += 1;
   stats.frame(header, payload.length);
   refinement.frame(header);
+  state.onFrame?.(header);  // a hook for the browser test: called once a frame is on the screen
 }
 
 // ---------- stats overlay ----------

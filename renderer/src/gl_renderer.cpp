@@ -24,7 +24,9 @@ using clock_type = std::chrono::steady_clock;
 double ms_since(clock_type::time_point t) { return std::chrono::duration<double, std::milli>(clock_type::now() - t).count(); }
 
 constexpr uint32_t kSlotsPerDraw = 1u << 20;  // tets a draw call (the index buffer's size)
-constexpr uint32_t kTetsPerChunk = 1u << 16;  // tets a draw call when the frame may be stopped (RenderSettings::should_stop)
+// tets a draw call when the frame may be stopped (RenderSettings::should_stop): about an
+// eighth of the frame, from 8,192 to 65,536
+constexpr uint32_t kMinTetsPerChunk = 1u << 13, kMaxTetsPerChunk = 1u << 16;
 constexpr size_t kMaxCachedIsosurfaces = 8;    // isovalue sets kept per mesh
 
 // What every pass of one frame shares.
@@ -405,7 +407,8 @@ class GlRenderer final : public Renderer {
     glBindVertexArray(empty_vao_);
     glVertexArrayElementBuffer(empty_vao_, index_buffer_);
     stop_ = s.should_stop ? &s.should_stop : nullptr;
-    unfinished_ = kTetsPerChunk;  // asked once before the first chunk
+    chunk_ = std::clamp(count / 8, kMinTetsPerChunk, kMaxTetsPerChunk);
+    unfinished_ = chunk_;  // asked once before the first chunk
     uint32_t first = 0;
     bool stopped = false;
     for (uint32_t near : visibility_.near_positions()) {
@@ -432,9 +435,9 @@ class GlRenderer final : public Renderer {
     if (near) glDisable(GL_DEPTH_TEST);
     else glEnable(GL_DEPTH_TEST);
     const GLint first_slot = glGetUniformLocation(tet_program_, "first_slot");
-    const uint32_t per_draw = stop_ ? kTetsPerChunk : kSlotsPerDraw;
+    const uint32_t per_draw = stop_ ? chunk_ : kSlotsPerDraw;
     for (uint32_t slot = first; slot < end; slot += per_draw) {
-      if (stop_ && unfinished_ >= kTetsPerChunk) {
+      if (stop_ && unfinished_ >= chunk_) {
         glFinish();  // the chunk is drawn before the question, so a stop waits for one chunk at most
         unfinished_ = 0;
         if ((*stop_)()) return false;
@@ -503,7 +506,7 @@ class GlRenderer final : public Renderer {
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
   const std::function<bool()>* stop_ = nullptr;  // the frame's should_stop, while its volume is drawn
-  uint32_t unfinished_ = 0;                       // tets drawn since should_stop was last asked
+  uint32_t unfinished_ = 0, chunk_ = 0;           // tets drawn since should_stop was last asked; a chunk
 };
 
 }  // namespace

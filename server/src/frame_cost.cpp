@@ -11,9 +11,10 @@ namespace tetrascope::server {
 namespace {
 
 // The terms in units that keep the normal equations well conditioned.
-constexpr double kTetUnit = 1e5, kPixelUnit = 1e6;
-// How strongly the priors hold, in frames' worth of evidence (per term, in the scaled units).
-constexpr double kPriorWeight = 0.5;
+constexpr double kTetUnit = 1e4, kPixelUnit = 1e5;
+// How strongly the priors hold (per term, in the scaled units: about a twentieth of one
+// frame's evidence), enough to keep a window of alike frames solvable.
+constexpr double kPriorWeight = 0.05;
 // A sample above this many times the model's expectation is clipped to it (see observe).
 constexpr double kMaxStep = 2.5;
 
