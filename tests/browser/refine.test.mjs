@@ -92,9 +92,10 @@ test('a drag during refinement gets frames at once and refines to its own still'
       const at = (dx) => ({ pointerId: 1, button: 0, buttons: 1, clientX: x + dx, clientY: y + dx / 2, bubbles: true, isPrimary: true, pointerType: 'mouse' });
       const before = window.tetrascope.sent.length;
       canvas.dispatchEvent(new PointerEvent('pointerdown', at(0)));
-      for (let i = 1; i <= 8; ++i) canvas.dispatchEvent(new PointerEvent('pointermove', at(12 * i)));
+      canvas.dispatchEvent(new PointerEvent('pointermove', at(12)));  // the first move now, the rest as a hand would
+      for (let i = 2; i <= 16; ++i) setTimeout(() => canvas.dispatchEvent(new PointerEvent('pointermove', at(12 * i))), 40 * i);
       window.drag = { seenBefore: window.seen.length, sentBefore: before, stillsBefore: window.tetrascope.stills };
-      setTimeout(() => canvas.dispatchEvent(new PointerEvent('pointerup', at(96))), 300);
+      setTimeout(() => { canvas.dispatchEvent(new PointerEvent('pointerup', at(192))); window.drag.up = true; }, 40 * 17);
     };
   });
   await page.keyboard.press('ArrowLeft');  // a preset move: refinement starts
@@ -105,7 +106,7 @@ test('a drag during refinement gets frames at once and refines to its own still'
     return sent.length;
   });
   assert.ok(dragIds > 0, 'the drag sent camera.set messages');
-  await page.waitForTimeout(400);  // the pointer is up
+  await page.waitForFunction(() => window.drag.up, null, { timeout: 60000 });
   await settled();
   const { seen, drag } = await page.evaluate(() => ({ seen: window.seen, drag: window.drag }));
   const after = seen.slice(drag.seenBefore);
