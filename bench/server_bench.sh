@@ -4,7 +4,7 @@
 # ~5M blades of make-large.sh and onera_m6_potential), 1024x768:
 #  - 1 client orbit: input-to-frame latency p50/p99, fps, and the frame-time model's prediction
 #    error (|measured - predicted| / measured over interaction frames, p50/p90, from /metrics);
-#  - 1 client orbit-pause (orbit 3 s, pause 4 s, ...): the first frame after each resume
+#  - 1 client orbit-pause (orbit 3 s, pause 6 s, ...): the first frame after each resume
 #    (p50/p99), release to the first refinement step and to the still; on the 5M blade the
 #    steps of one pause are kept and each compared with the still (PSNR, bench/refine_psnr.py);
 #  - 4 and 16 clients orbit: fps per client (min/median) and latency p50/p99.
@@ -86,7 +86,7 @@ for r in $(seq "$repeats"); do
     echo "${rows[-1]}"
     save=()
     if [[ $dataset == blade5m && $r == 1 ]]; then save=(--save-refinement "$out/steps-5m"); fi
-    rows+=("$(run "$frame_ms" --dataset $dataset --clients 1 --duration $((duration + 8)) --path orbit-pause --orbit 3 --pause 4 "${save[@]}" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='resume'; print(json.dumps(j))")")
+    rows+=("$(run "$frame_ms" --dataset $dataset --clients 1 --duration $((duration + 12)) --path orbit-pause --orbit 3 --pause 6 "${save[@]}" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='resume'; print(json.dumps(j))")")
     echo "${rows[-1]}"
     for clients in 4 16; do
       rows+=("$(run "$frame_ms" --dataset $dataset --clients $clients --duration "$duration" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='orbit-$clients'; print(json.dumps(j))")")

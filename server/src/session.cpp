@@ -350,8 +350,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
           pending_ = Pending::kRefine;
         }
       } else {
-        const double measured = frame.header.render_ms + frame.header.encode_ms;
-        server_.frame_cost.observe(double(frame.header.tets), frame.covered_pixels, measured, plan.refinement ? 0 : frame.predicted_ms);
+        // the model learns from interaction frames only: refinement steps (full size, better
+        // JPEG, a large cut assembled and uploaded) cost differently per tet and pixel
+        if (!plan.refinement) server_.frame_cost.observe(double(frame.header.tets), frame.covered_pixels, frame.header.render_ms + frame.header.encode_ms, frame.predicted_ms);
         if (!plan.refinement && ++cost_reports_ % kCostReportEvery == 0) {
           const auto q = server_.frame_cost.prediction_error();
           server_.metrics.cost_error_p50_pct = q.p50;
