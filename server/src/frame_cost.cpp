@@ -17,6 +17,8 @@ constexpr double kTetUnit = 1e4, kPixelUnit = 1e5;
 constexpr double kPriorWeight = 0.05;
 // A sample above this many times the model's expectation is clipped to it (see observe).
 constexpr double kMaxStep = 2.5;
+// Least-squares passes of the fit, the later ones reweighted (Huber) by the earlier residuals.
+constexpr int kRobustPasses = 3;
 
 double quantile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
@@ -64,41 +66,58 @@ void FrameCostModel::observe(double tets, double pixels, double ms, double predi
   refit();
 }
 
-// Minimises Σ (ms - c·x)^2 + w Σ_k (c_k - prior_k)^2 (x, c in the scaled units) by the 3x3
-// normal equations; a coefficient the data drives below a tenth of its prior is held there
-// (a frame never gets cheaper with more tets or pixels).
+// Minimises Σ w_i (ms_i - c·x_i)^2 + p Σ_k (c_k - prior_k)^2 (x, c in the scaled units) by the
+// 3x3 normal equations, with Huber weights from the last pass's residuals (kRobustPasses
+// passes): frames far off the fit (a context compiling its shaders, a host busy with other
+// work) count less, so the model follows the typical frame. A coefficient the data drives
+// below a tenth of its prior is held there (a frame never gets cheaper with more tets or pixels).
 void FrameCostModel::refit() {
   const std::array<double, 3> unit{1, kTetUnit, kPixelUnit};
   std::array<double, 3> prior;
   for (int k = 0; k < 3; ++k) prior[k] = kPrior[k] * unit[k];
-  double a[3][4] = {};
-  for (const Sample& s : window_) {
-    const double x[3] = {1, s.tets / kTetUnit, s.pixels / kPixelUnit};
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) a[i][j] += x[i] * x[j];
-      a[i][3] += x[i] * s.ms;
+  std::array<double, 3> scaled_fit;
+  for (int k = 0; k < 3; ++k) scaled_fit[k] = coefficients_[k] * unit[k];
+  std::vector<double> weight(window_.size(), 1.0), residual(window_.size());
+  for (int pass = 0; pass < kRobustPasses; ++pass) {
+    if (pass > 0) {  // Huber weights: residuals past 1.5x the median residual count as that
+      for (size_t i = 0; i < window_.size(); ++i) {
+        const Sample& s = window_[i];
+        residual[i] = std::abs(s.ms - (scaled_fit[0] + scaled_fit[1] * s.tets / kTetUnit + scaled_fit[2] * s.pixels / kPixelUnit));
+      }
+      std::vector<double> sorted = residual;
+      std::nth_element(sorted.begin(), sorted.begin() + long(sorted.size() / 2), sorted.end());
+      const double limit = std::max(1.5 * sorted[sorted.size() / 2], 0.5);  // ms
+      for (size_t i = 0; i < window_.size(); ++i) weight[i] = residual[i] > limit ? limit / residual[i] : 1.0;
     }
-  }
-  for (int k = 0; k < 3; ++k) {
-    a[k][k] += kPriorWeight;
-    a[k][3] += kPriorWeight * prior[k];
-  }
-  for (int col = 0; col < 3; ++col) {  // Gauss-Jordan with partial pivoting
-    int pivot = col;
-    for (int r = col + 1; r < 3; ++r)
-      if (std::abs(a[r][col]) > std::abs(a[pivot][col])) pivot = r;
-    std::swap(a[col], a[pivot]);
-    if (std::abs(a[col][col]) < 1e-12) return;  // keep the last fit
-    for (int r = 0; r < 3; ++r) {
-      if (r == col) continue;
-      const double f = a[r][col] / a[col][col];
-      for (int c = col; c < 4; ++c) a[r][c] -= f * a[col][c];
+    double a[3][4] = {};
+    for (size_t i = 0; i < window_.size(); ++i) {
+      const Sample& s = window_[i];
+      const double x[3] = {1, s.tets / kTetUnit, s.pixels / kPixelUnit};
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) a[r][c] += weight[i] * x[r] * x[c];
+        a[r][3] += weight[i] * x[r] * s.ms;
+      }
     }
+    for (int k = 0; k < 3; ++k) {
+      a[k][k] += kPriorWeight;
+      a[k][3] += kPriorWeight * prior[k];
+    }
+    for (int col = 0; col < 3; ++col) {  // Gauss-Jordan with partial pivoting
+      int pivot = col;
+      for (int r = col + 1; r < 3; ++r)
+        if (std::abs(a[r][col]) > std::abs(a[pivot][col])) pivot = r;
+      std::swap(a[col], a[pivot]);
+      if (std::abs(a[col][col]) < 1e-12) return;  // keep the last fit
+      for (int r = 0; r < 3; ++r) {
+        if (r == col) continue;
+        const double f = a[r][col] / a[col][col];
+        for (int c = col; c < 4; ++c) a[r][c] -= f * a[col][c];
+      }
+    }
+    for (int k = 0; k < 3; ++k) scaled_fit[k] = std::max(a[k][3] / a[k][k], prior[k] * 0.1);
+    if (window_.size() < 3) break;
   }
-  for (int k = 0; k < 3; ++k) {
-    const double scaled = a[k][3] / a[k][k];
-    coefficients_[k] = std::max(scaled, prior[k] * 0.1) / unit[k];
-  }
+  for (int k = 0; k < 3; ++k) coefficients_[k] = scaled_fit[k] / unit[k];
 }
 
 FrameCostModel::ErrorQuantiles FrameCostModel::prediction_error() const {

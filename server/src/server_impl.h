@@ -32,8 +32,8 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   Metrics metrics;
   std::unique_ptr<DatasetRegistry> datasets;
+  FrameCostModel frame_cost;  // what a frame costs the pool's workers, fitted from every session's frames (outlives the pool)
   std::unique_ptr<RenderPool> pool;
-  FrameCostModel frame_cost;  // what a frame costs the pool's workers, fitted from every session's frames
   std::unique_ptr<JobRunner> jobs;
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   std::atomic<bool> stopped{false};

@@ -333,8 +333,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       plan.previous_budget = refine_budget_;
     }
     if (plan.refinement) {
-      plan.should_stop = [this, epoch] {
-        return input_epoch_.load(std::memory_order_relaxed) != epoch || server_.pool->interaction_waiting();
+      // the pool by address: a server being stopped has reset its pointer while the pool's
+      // destructor waits for this turn
+      plan.should_stop = [this, epoch, pool = server_.pool.get()] {
+        return input_epoch_.load(std::memory_order_relaxed) != epoch || pool->interaction_waiting();
       };
     }
     const auto start = Clock::now();
