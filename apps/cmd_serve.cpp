@@ -23,7 +23,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 int run_serve(const Arguments& raw) {
   Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
                       "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
-                      "--interaction-scale", "--web"});
+                      "--interaction-scale", "--frame-ms", "--refine-growth", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
     return 2;
@@ -57,6 +57,10 @@ int run_serve(const Arguments& raw) {
   o.still_budget = args.number("--budget", static_cast<uint32_t>(o.still_budget));
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));
   o.interaction_scale = args.positive("--interaction-scale", o.interaction_scale);
+  o.frame_ms = args.positive("--frame-ms", o.frame_ms);
+  if (o.frame_ms < 5 || o.frame_ms > 10000) throw std::invalid_argument("--frame-ms must be 5 to 10000 (ms of render time an interaction frame aims at)");
+  o.refine_growth = args.positive("--refine-growth", o.refine_growth);
+  if (o.refine_growth < 1.5 || o.refine_growth > 16) throw std::invalid_argument("--refine-growth must be 1.5 to 16 (how much longer each refinement step may take than the one before)");
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
@@ -67,9 +71,9 @@ int run_serve(const Arguments& raw) {
 }
 
 int run_loadtest(const Arguments& raw) {
-  Args args(raw, {"--json", "--allow-remote"}, {"--url", "--dataset", "--clients", "--duration", "--path", "--rate", "--size", "--token"});
+  Args args(raw, {"--json", "--allow-remote"}, {"--url", "--dataset", "--clients", "--duration", "--path", "--rate", "--size", "--token", "--orbit", "--pause", "--save-refinement"});
   if (!args.has("--url") || !args.has("--dataset")) {
-    std::fprintf(stderr, "usage: tetrascope loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random|orbit-pause] [--orbit S] [--pause S] [--save-refinement DIR] [--json]\n");
     return 2;
   }
   server::LoadtestOptions o;
@@ -80,6 +84,9 @@ int run_loadtest(const Arguments& raw) {
   o.duration_s = args.positive("--duration", 10);
   o.path = args.get("--path", "orbit");
   o.rate_hz = args.positive("--rate", 30);
+  o.orbit_s = args.positive("--orbit", o.orbit_s);
+  o.pause_s = args.positive("--pause", o.pause_s);
+  o.save_refinement = args.get("--save-refinement", "");
   o.allow_remote = args.has("--allow-remote");
   if (args.has("--size")) {
     const ImageSize size = parse_size("--size", args.get("--size"), protocol::kMinImageSide, protocol::Limits{}.max_image_side);
@@ -100,6 +107,11 @@ int run_loadtest(const Arguments& raw) {
     std::printf("total: %.1f fps over %u clients, latency p50 %.1f p95 %.1f p99 %.1f ms, %.0f KB/s, %llu errors\n", r["total_fps"].get<double>(), o.clients,
                 r["latency_ms"]["p50"].get<double>(), r["latency_ms"]["p95"].get<double>(), r["latency_ms"]["p99"].get<double>(), r["bytes_per_s"].get<double>() / 1024,
                 static_cast<unsigned long long>(r["errors"].get<uint64_t>()));
+    if (r.contains("resume_first_frame_ms"))
+      std::printf("after a pause: first frame after resuming p50 %.1f p99 %.1f ms; release to first refinement step p50 %.1f ms, to the still p50 %.1f ms (%llu of %llu pauses reached it)\n",
+                  r["resume_first_frame_ms"]["p50"].get<double>(), r["resume_first_frame_ms"]["p99"].get<double>(), r["release_to_first_refinement_ms"]["p50"].get<double>(),
+                  r["release_to_still_ms"]["p50"].get<double>(), static_cast<unsigned long long>(r["pauses_reaching_the_still"].get<uint64_t>()),
+                  static_cast<unsigned long long>(r["pauses"].get<uint64_t>()));
   }
   return r["errors"].get<uint64_t>() == 0 && r["clients_without_frames"].get<int64_t>() == 0 ? 0 : 1;
 }

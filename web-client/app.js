@@ -29,6 +29,7 @@ const state = {
   connects: 0,
   frames: 0,
   stills: 0,
+  refiningFrames: 0,  // refinement steps shown (frames flagged refining)
   lastFrame: null,  // {header, blob}
   lastStill: null,
   lastSentId: 0,    // a still whose header carries this id shows everything asked for
@@ -39,6 +40,7 @@ const state = {
   closeSocket: () => socket?.close(),
   opacityPoints: () => effectiveOpacity(state.view),
   composeStill: null,
+  onFrame: null,      // (header) => void, after each frame is drawn (tests)
 };
 window.tetrascope = state;
 
@@ -168,7 +170,10 @@ async function onFrame(buffer) {
     state.lastStill = { header, blob };
     saveViewInHash();
   }
+  if (header.refining) state.refiningFrames += 1;
   stats.frame(header, payload.length);
+  refinement.frame(header);
+  state.onFrame?.(header);  // a hook for the browser test: called once a frame is on the screen
 }
 
 // ---------- stats overlay ----------
@@ -183,10 +188,31 @@ const stats = {
     const sent = sentAt.get(header.message_id);
     if (sent !== undefined && !header.still) this.latency = now - sent;
     $('stats').textContent =
-      `${this.times.length} fps   ${header.still ? 'still' : 'moving'}\n` +
+      `${this.times.length} fps   ${header.still ? 'still' : header.refining ? 'refining' : 'moving'}\n` +
       `latency ${this.latency.toFixed(0)} ms (input to frame)\n` +
       `${header.tets.toLocaleString()} tets, ${header.width}x${header.height}\n` +
+      `estimated error ${header.estimated_error.toPrecision(3)}\n` +
       `${(bytes / 1024).toFixed(1)} KB/frame, render ${header.render_ms.toFixed(0)} ms, encode ${header.encode_ms.toFixed(1)} ms`;
+  },
+};
+
+// ---------- refinement progress ----------
+
+// After input stops the server refines in steps (frames flagged refining) up to the still;
+// the bar shows how far, in tets of the still budget, and goes away with the still or new input.
+const refinement = {
+  frame(header) {
+    const bar = $('refine-progress');
+    if (!header.refining) {
+      bar.hidden = true;
+      bar.dataset.state = header.still ? 'still' : 'moving';
+      return;
+    }
+    const budget = state.view.budget ?? serverDefaults.budget ?? header.tets;
+    bar.hidden = false;
+    bar.dataset.state = 'refining';
+    bar.querySelector('progress').value = Math.min(1, header.tets / budget);
+    bar.querySelector('span').textContent = `refining: ${header.tets.toLocaleString()} of ${budget.toLocaleString()} tets, est. error ${header.estimated_error.toPrecision(3)}`;
   },
 };
 
@@ -417,6 +443,7 @@ function sendLod() {
   const v = state.view, body = {};
   if (v.budget) body.budget = v.budget;
   if (v.interactionBudget) body.interaction_budget = v.interactionBudget;
+  if (v.maxError !== undefined && v.maxError !== null) body.max_error = v.maxError;
   if (Object.keys(body).length) send('lod.set', body);
 }
 
@@ -782,6 +809,11 @@ for (const [id, key] of [['budget', 'budget'], ['interaction-budget', 'interacti
     saveViewInHash();
   });
 }
+$('max-error').addEventListener('change', () => {
+  const value = parseFloat($('max-error').value);
+  state.view.maxError = value > 0 ? value : 0;  // 0: refine up to the budget
+  sendLod();
+});
 for (const id of ['interaction-quality', 'still-quality', 'png-stills']) {
   $(id).addEventListener('change', () => {
     Object.assign(state.view, { interactionQuality: parseInt($('interaction-quality').value, 10), stillQuality: parseInt($('still-quality').value, 10), pngStills: $('png-stills').checked });

@@ -153,7 +153,8 @@ const checkers = {
   'lod.set'(f) {
     const budget = f.integer('budget', 1, 4000000000);
     const interaction = f.integer('interaction_budget', 1, 4000000000);
-    if (budget === undefined && interaction === undefined) f.fail('budget', 'missing (budget or interaction_budget)');
+    const maxError = f.optNumber('max_error', 0, 1e30);
+    if (budget === undefined && interaction === undefined && maxError === undefined) f.fail('budget', 'missing (budget, interaction_budget or max_error)');
   },
   'view.resize'(f, limits) {
     if (!f.integer('width', 16, limits.max_image_side)) f.fail('width', 'missing');
@@ -261,7 +262,10 @@ export function decodeFrame(buffer, limits = DEFAULT_LIMITS) {
   const codec = view.getUint8(6);
   if (codec > 1) throw new ProtocolError('bad_message', `frame: unknown codec ${codec}`);
   const flags = view.getUint8(7);
-  if (flags > 1) throw new ProtocolError('bad_message', 'frame: unknown flags');
+  if (flags > 3) throw new ProtocolError('bad_message', 'frame: unknown flags');
+  if (flags === 3) throw new ProtocolError('bad_message', 'frame: both still and refining');
+  const estimatedError = view.getFloat32(44, true);
+  if (!(estimatedError >= 0) || !Number.isFinite(estimatedError)) throw new ProtocolError('bad_message', 'frame: estimated error not a finite number >= 0');
   const header = {
     frame_number: view.getUint32(8, true),
     message_id: view.getUint32(12, true),
@@ -269,10 +273,12 @@ export function decodeFrame(buffer, limits = DEFAULT_LIMITS) {
     height: view.getUint32(20, true),
     codec: CODECS[codec],
     still: (flags & 1) === 1,
+    refining: (flags & 2) === 2,
     tets: Number(view.getBigUint64(24, true)),
     render_ms: view.getFloat32(32, true),
     encode_ms: view.getFloat32(36, true),
     payload_bytes: view.getUint32(40, true),
+    estimated_error: estimatedError,
   };
   if (header.width === 0 || header.height === 0 || header.width > limits.max_image_side || header.height > limits.max_image_side) {
     throw new ProtocolError('bad_message', `frame: image size ${header.width}x${header.height} outside 1..${limits.max_image_side}`);
@@ -289,7 +295,7 @@ export function encodeFrameHeader(h) {
   view.setUint32(0, FRAME_MAGIC, true);
   view.setUint16(4, VERSION, true);
   view.setUint8(6, CODECS.indexOf(h.codec));
-  view.setUint8(7, h.still ? 1 : 0);
+  view.setUint8(7, (h.still ? 1 : 0) | (h.refining ? 2 : 0));
   view.setUint32(8, h.frame_number, true);
   view.setUint32(12, h.message_id, true);
   view.setUint32(16, h.width, true);
@@ -298,5 +304,6 @@ export function encodeFrameHeader(h) {
   view.setFloat32(32, h.render_ms, true);
   view.setFloat32(36, h.encode_ms, true);
   view.setUint32(40, h.payload_bytes, true);
+  view.setFloat32(44, h.estimated_error ?? 0, true);
   return bytes;
 }

@@ -131,7 +131,8 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     LodSet m;
     m.budget = f.integer("budget", 1, kMaxBudget);
     m.interaction_budget = f.integer("interaction_budget", 1, kMaxBudget);
-    if (!m.budget && !m.interaction_budget) f.fail("budget", "missing (budget or interaction_budget)");
+    m.max_error = f.number("max_error", 0, 1e30);
+    if (!m.budget && !m.interaction_budget && !m.max_error) f.fail("budget", "missing (budget, interaction_budget or max_error)");
     return m;
   }
   if (type == "view.resize") {
@@ -228,13 +229,14 @@ std::string pong_reply(uint32_t id) { return nlohmann::json({{"type", "pong"}, {
 std::array<uint8_t, kFrameHeaderBytes> encode_frame_header(const FrameHeader& h) {
   std::array<uint8_t, kFrameHeaderBytes> out{};
   uint8_t* p = out.data();
-  uint32_t render_bits = 0, encode_bits = 0;
+  uint32_t render_bits = 0, encode_bits = 0, error_bits = 0;
   std::memcpy(&render_bits, &h.render_ms, 4);
   std::memcpy(&encode_bits, &h.encode_ms, 4);
+  std::memcpy(&error_bits, &h.estimated_error, 4);
   put(p + 0, kFrameMagic, 4);
   put(p + 4, kVersion, 2);
   p[6] = static_cast<uint8_t>(h.codec);
-  p[7] = h.still ? 1 : 0;
+  p[7] = static_cast<uint8_t>((h.still ? 1 : 0) | (h.refining ? 2 : 0));
   put(p + 8, h.frame_number, 4);
   put(p + 12, h.message_id, 4);
   put(p + 16, h.width, 4);
@@ -243,7 +245,7 @@ std::array<uint8_t, kFrameHeaderBytes> encode_frame_header(const FrameHeader& h)
   put(p + 32, render_bits, 4);
   put(p + 36, encode_bits, 4);
   put(p + 40, h.payload_bytes, 4);
-  put(p + 44, 0, 4);
+  put(p + 44, error_bits, 4);
   return out;
 }
 
@@ -253,10 +255,12 @@ FrameHeader decode_frame_header(std::span<const uint8_t> bytes, const Limits& li
   if (get(p, 4) != kFrameMagic) throw ProtocolError(code::kBadMessage, "frame: bad magic");
   if (get(p + 4, 2) != kVersion) throw ProtocolError(code::kUnsupportedVersion, "frame: version " + std::to_string(get(p + 4, 2)));
   if (p[6] > 1) throw ProtocolError(code::kBadMessage, "frame: unknown codec " + std::to_string(p[6]));
-  if (p[7] > 1) throw ProtocolError(code::kBadMessage, "frame: unknown flags");
+  if (p[7] > 3) throw ProtocolError(code::kBadMessage, "frame: unknown flags");
+  if (p[7] == 3) throw ProtocolError(code::kBadMessage, "frame: both still and refining");
   FrameHeader h;
   h.codec = static_cast<Codec>(p[6]);
   h.still = p[7] & 1;
+  h.refining = (p[7] & 2) != 0;
   h.frame_number = static_cast<uint32_t>(get(p + 8, 4));
   h.message_id = static_cast<uint32_t>(get(p + 12, 4));
   h.width = static_cast<uint32_t>(get(p + 16, 4));
@@ -265,6 +269,9 @@ FrameHeader decode_frame_header(std::span<const uint8_t> bytes, const Limits& li
   const uint32_t render_bits = static_cast<uint32_t>(get(p + 32, 4)), encode_bits = static_cast<uint32_t>(get(p + 36, 4));
   std::memcpy(&h.render_ms, &render_bits, 4);
   std::memcpy(&h.encode_ms, &encode_bits, 4);
+  const uint32_t error_bits = static_cast<uint32_t>(get(p + 44, 4));
+  std::memcpy(&h.estimated_error, &error_bits, 4);
+  if (!(h.estimated_error >= 0) || std::isinf(h.estimated_error)) throw ProtocolError(code::kBadMessage, "frame: estimated error not a finite number >= 0");
   h.payload_bytes = static_cast<uint32_t>(get(p + 40, 4));
   if (h.width == 0 || h.height == 0 || h.width > limits.max_image_side || h.height > limits.max_image_side)
     throw ProtocolError(code::kBadMessage, "frame: image size " + std::to_string(h.width) + "x" + std::to_string(h.height) + " outside 1.." + std::to_string(limits.max_image_side));

@@ -482,6 +482,9 @@ class GlRenderer final : public Renderer {
         if (projected) draw_projected(setup, order.subspan(slot, n), !isos.empty(), tm);
         else draw_exact(slot, n, false);
         tm.tets_drawn += n;
+        // a frame that may be stopped finishes each chunk before asking, so a stop waits for
+        // one chunk at most (llvmpipe would otherwise still hold every chunk issued so far)
+        if (s.should_stop) glFinish();
         if (stop()) return false;
       }
       return true;

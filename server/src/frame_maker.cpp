@@ -2,6 +2,7 @@
 
 #include <malloc.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -15,43 +16,101 @@ constexpr uint64_t kTrimAfterPixels = uint64_t{2048} * 2048;
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
+// The smallest share of the view an interaction frame shrinks to when even the coarsest cut
+// is over the frame time (a store built with a large coarsest level).
+constexpr double kMinFrameScale = 0.125;
+// A refinement step whose cut holds less than this share of its budget holds all the view
+// wants (a segment's refinement never wastes half a budget that doubles each step): it is the last.
+constexpr double kFullCutShare = 0.5;
+
 uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protocol::kMinImageSide, static_cast<uint32_t>(std::lround(side * scale))); }
 
 }  // namespace
 
-RenderedFrame FrameMaker::render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number) {
-  RenderedFrame frame = render_frame(state, still, worker, frame_number);
+RenderedFrame FrameMaker::render(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
+                                 uint32_t frame_number) {
+  RenderedFrame frame = render_frame(state, plan, cost, options, worker, frame_number);
   if (uint64_t{frame.header.width} * frame.header.height >= kTrimAfterPixels) ::malloc_trim(0);  // the image is freed by now
   return frame;
 }
 
-RenderedFrame FrameMaker::render_frame(const ViewState& state, bool still, Worker& worker, uint32_t frame_number) {
+void FrameMaker::open(const std::shared_ptr<Dataset>& dataset) {
+  if (dataset_ == dataset) return;
+  dataset_ = dataset;
+  pipeline_ = std::make_unique<renderer::ViewPipeline>(*dataset_->store, *dataset_->dag, *dataset_->cache);
+  coarsest_tets_ = lod::Cut(*dataset_->dag).tet_count();
+  finest_tets_ = dataset_->info.value("tets", uint64_t{0});
+}
+
+RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
+                                       uint32_t frame_number) {
   const auto start = Clock::now();
-  if (dataset_ != state.dataset) {
-    dataset_ = state.dataset;
-    pipeline_ = std::make_unique<renderer::ViewPipeline>(*dataset_->store, *dataset_->dag, *dataset_->cache);
-  }
+  open(state.dataset);
   renderer::ViewRequest request = state.view;
-  const double scale = still ? 1.0 : state.interaction_scale;
-  request.width = scaled(state.view.width, scale);
-  request.height = scaled(state.view.height, scale);
-  if (!still) request.budget = state.interaction_budget;
+  const lod::Camera camera = request.camera ? *request.camera : lod::default_camera(pipeline_->bounds());
   RenderedFrame frame;
-  const renderer::ViewFrame view = pipeline_->render(request, *worker.renderer, worker.scene_generation);
-  frame.timings = view.timings;
+  bool final_step = false;
+  if (!plan.refinement) {
+    // the most tets within frame_ms at this size; where even the coarsest cut is over, fewer pixels
+    double scale = state.interaction_scale;
+    request.width = scaled(state.view.width, scale);
+    request.height = scaled(state.view.height, scale);
+    frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
+    if (frame.covered_pixels > 0 && cost.predict(double(coarsest_tets_), frame.covered_pixels) > options.frame_ms) {
+      const double fits = cost.pixels_for(options.frame_ms, double(coarsest_tets_));
+      scale = std::max(kMinFrameScale, scale * std::sqrt(std::max(fits, 1.0) / frame.covered_pixels));
+      request.width = scaled(state.view.width, scale);
+      request.height = scaled(state.view.height, scale);
+      frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
+    }
+    request.budget = cost.tets_for(options.frame_ms, frame.covered_pixels, coarsest_tets_, state.interaction_budget);
+  } else {
+    // step k aims at frame_ms * growth^(k+1), at least twice the step before, up to the still budget
+    frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
+    const double target_ms = options.frame_ms * std::pow(options.refine_growth, plan.step + 1);
+    const uint64_t still_budget = std::max<uint64_t>(state.view.budget, 1);
+    uint64_t tets = cost.tets_for(target_ms, frame.covered_pixels, coarsest_tets_, still_budget);
+    tets = std::min(still_budget, std::max(tets, 2 * plan.previous_budget));
+    request.budget = tets;
+    final_step = tets >= still_budget;
+  }
+  frame.budget = request.budget;
+  frame.predicted_ms = cost.predict(double(std::max(request.budget, coarsest_tets_)), frame.covered_pixels);
+  renderer::RenderSettings settings = pipeline_->update(request, &frame.timings);
+  const uint64_t tets = pipeline_->scene().tets.size() / 4;
+  const double estimated_error = pipeline_->cut_estimated_error().value_or(0);
+  if (plan.refinement && !final_step) {
+    // the last step: the error bound is met, the cut holds the whole dataset, or it did not
+    // use its budget (it holds all the view wants)
+    final_step = (state.max_error > 0 && estimated_error <= state.max_error) || !pipeline_->cut() || tets >= finest_tets_ ||
+                 double(tets) < kFullCutShare * double(request.budget);
+  }
+  settings.should_stop = plan.should_stop;
+  if (plan.should_stop && plan.should_stop()) {  // input came during the cut update and assembly: no upload, no draw
+    frame.interrupted = true;
+    return frame;
+  }
+  const renderer::Image image = pipeline_->draw(settings, *worker.renderer, worker.scene_generation, &frame.timings);
+  if (frame.timings.draw.interrupted) {
+    frame.interrupted = true;
+    return frame;
+  }
   const double render_ms = ms_since(start);
 
   const auto encode_start = Clock::now();
+  const bool still = plan.refinement && final_step;
   const bool png = still && state.png_stills;
-  const std::vector<uint8_t> payload = png ? renderer::encode_png(view.image) : renderer::encode_jpeg(view.image, still ? state.still_quality : state.interaction_quality);
+  const std::vector<uint8_t> payload = png ? renderer::encode_png(image) : renderer::encode_jpeg(image, plan.refinement ? state.still_quality : state.interaction_quality);
   protocol::FrameHeader& h = frame.header;
   h.frame_number = frame_number;
   h.message_id = state.message_id;
-  h.width = view.image.width;
-  h.height = view.image.height;
+  h.width = image.width;
+  h.height = image.height;
   h.codec = png ? protocol::Codec::kPng : protocol::Codec::kJpeg;
   h.still = still;
-  h.tets = view.tets;
+  h.refining = plan.refinement && !final_step;
+  h.tets = tets;
+  h.estimated_error = static_cast<float>(estimated_error);
   h.render_ms = static_cast<float>(render_ms);
   h.encode_ms = static_cast<float>(ms_since(encode_start));
   h.payload_bytes = static_cast<uint32_t>(payload.size());

@@ -4,10 +4,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
 #include "datasets.h"
+#include "tetrascope/server/frame_cost.h"
+#include "tetrascope/server/server.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/renderer/view_frame.h"
@@ -18,6 +21,7 @@ struct ViewState {
   std::shared_ptr<Dataset> dataset;
   renderer::ViewRequest view;   // budget: of still frames; no camera: the dataset's default view
   uint64_t interaction_budget = 0;
+  double max_error = 0;         // > 0: refinement ends once the cut's estimated error is at most this
   int interaction_quality = 60, still_quality = 90;
   bool png_stills = false;
   double interaction_scale = 1;  // of the view size, for interaction frames
@@ -32,24 +36,43 @@ struct Worker {
 };
 
 struct RenderedFrame {
-  std::vector<uint8_t> bytes;  // header + image
+  std::vector<uint8_t> bytes;  // header + image; empty when the frame was interrupted
   protocol::FrameHeader header;
   renderer::ViewTimings timings;
+  bool interrupted = false;    // should_stop stopped it: nothing to send
+  double predicted_ms = 0;     // the cost model's forecast for it (0: none)
+  double covered_pixels = 0;   // of the dataset's box on screen, at the frame's size
+  uint64_t budget = 0;         // the tets it was planned with
+};
+
+// What a frame should be: an interaction frame (tets and size from the cost model, within
+// the interaction budget and scale) or refinement step `step` (full size, still quality;
+// the last one is the still).
+struct FramePlan {
+  bool refinement = false;
+  uint32_t step = 0;
+  uint64_t previous_budget = 0;        // of the step before (refinement): this one's is at least twice it
+  std::function<bool()> should_stop;   // empty: never
 };
 
 class FrameMaker {
  public:
-  // Renders the newest state (still: the full budget, quality and size, else the interaction
-  // ones) and encodes it. Throws std::invalid_argument for requests the dataset cannot satisfy.
-  RenderedFrame render(const ViewState& state, bool still, Worker& worker, uint32_t frame_number);
+  // Renders the newest state as `plan` says and encodes it. Throws std::invalid_argument for
+  // requests the dataset cannot satisfy.
+  RenderedFrame render(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
+                       uint32_t frame_number);
   // The probe.result reply (JSON) for pixel (x, y) of the still view of `state` (frame_probe.cpp).
   std::string probe(const ViewState& state, double x, double y, uint32_t id);
 
  private:
   // render() without the memory return of large frames (malloc_trim after 2048^2 pixels and up)
-  RenderedFrame render_frame(const ViewState& state, bool still, Worker& worker, uint32_t frame_number);
+  RenderedFrame render_frame(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
+                             uint32_t frame_number);
+  void open(const std::shared_ptr<Dataset>& dataset);
   std::shared_ptr<Dataset> dataset_;  // the pipeline's
   std::unique_ptr<renderer::ViewPipeline> pipeline_;
+  uint64_t coarsest_tets_ = 0;        // of the dataset's coarsest cut
+  uint64_t finest_tets_ = 0;          // of the whole dataset
 };
 
 }  // namespace tetrascope::server

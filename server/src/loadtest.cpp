@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -31,8 +34,11 @@ Vec3 rotate(const Vec3& v, const Vec3& axis, double angle) {  // Rodrigues
 }
 
 struct ClientResult {
-  uint64_t frames = 0, still_frames = 0, errors = 0, bytes = 0, interaction_bytes = 0, still_bytes = 0;
+  uint64_t frames = 0, still_frames = 0, refining_frames = 0, errors = 0, bytes = 0, interaction_bytes = 0, still_bytes = 0;
   std::vector<double> latency_ms;
+  std::vector<double> resume_ms;       // first frame after each resume (orbit-pause)
+  std::vector<double> release_to_still_ms, release_to_first_step_ms;
+  uint64_t pauses_with_still = 0, pauses = 0;
   std::string failure;
   double seconds = 0;
 };
@@ -53,11 +59,35 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
     std::map<uint32_t, Clock::time_point> sent;
     const auto start = Clock::now(), end = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));
     const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.rate_hz));
+    const bool pausing = o.path == "orbit-pause";
+    const auto orbit_for = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.orbit_s));
+    const auto pause_for = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.pause_s));
     auto next_send = start;
+    auto phase_end = start + orbit_for;  // orbit-pause: when the current orbit (or pause) ends
+    bool paused = false;
+    std::optional<uint32_t> resume_id;   // the first move after a pause, until a frame answers it
+    bool resuming = false;               // the next move is the first after a pause
+    Clock::time_point released{};        // the last move before the pause
+    bool release_saw_step = false, release_saw_still = false;
+    bool saving = !o.save_refinement.empty() && index == 0;
+    nlohmann::json saved_steps = nlohmann::json::array();
     double azimuth = 0.3 * index, elevation = 0;
     const protocol::Limits limits;
     while (Clock::now() < end) {
-      if (Clock::now() >= next_send) {
+      if (pausing && Clock::now() >= phase_end) {
+        paused = !paused;
+        phase_end += paused ? pause_for : orbit_for;
+        if (paused) {
+          ++r.pauses;
+          released = Clock::now();
+          release_saw_step = release_saw_still = false;
+        } else {
+          next_send = Clock::now();
+          resuming = true;
+          if (release_saw_still) saving = false;  // one pause's steps are enough
+        }
+      }
+      if (!paused && Clock::now() >= next_send) {
         if (o.path == "random") {
           azimuth += step(random);
           elevation = std::clamp(elevation + step(random), -1.2, 1.2);
@@ -69,9 +99,12 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
         const uint32_t id = client.send("camera.set", {{"eye", target + rotated},
                                                        {"target", target}, {"up", up}, {"fov", fov}, {"interacting", true}});
         sent[id] = Clock::now();
+        if (resuming) resume_id = id;
+        resuming = false;
         next_send += period;
       }
-      const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(std::min(next_send, end) - Clock::now());
+      const auto wake = paused ? std::min(phase_end, end) : std::min({next_send, end, pausing ? phase_end : end});
+      const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
       auto message = client.read(std::max(std::chrono::milliseconds(1), wait));
       while (message) {
         if (message->binary) {
@@ -79,11 +112,36 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
           const auto header = protocol::decode_frame_header(std::span<const uint8_t>(bytes, message->data.size()), limits);
           ++r.frames;
           r.bytes += message->data.size();
-          if (header.still) {
-            ++r.still_frames;
+          if (header.still || header.refining) {
+            header.still ? ++r.still_frames : ++r.refining_frames;
             r.still_bytes += message->data.size();
           } else {
             r.interaction_bytes += message->data.size();
+          }
+          if (pausing && paused && (header.still || header.refining)) {
+            const double since_release = std::chrono::duration<double, std::milli>(message->received - released).count();
+            if (!release_saw_step) r.release_to_first_step_ms.push_back(since_release);
+            release_saw_step = true;
+            if (header.still && !release_saw_still) {
+              r.release_to_still_ms.push_back(since_release);
+              ++r.pauses_with_still;
+              release_saw_still = true;
+            }
+            if (saving) {
+              const std::string name = (header.still ? std::string("still") : "step-" + std::to_string(saved_steps.size())) + (header.codec == protocol::Codec::kPng ? ".png" : ".jpg");
+              std::ofstream(std::filesystem::path(o.save_refinement) / name, std::ios::binary)
+                  .write(message->data.data() + protocol::kFrameHeaderBytes, static_cast<std::streamsize>(header.payload_bytes));
+              saved_steps.push_back({{"file", name}, {"ms_since_release", since_release}, {"tets", header.tets}, {"estimated_error", header.estimated_error},
+                                     {"still", header.still}, {"render_ms", header.render_ms}});
+              if (header.still) {
+                std::ofstream(std::filesystem::path(o.save_refinement) / "steps.json") << saved_steps.dump(1) << "\n";
+                saving = false;
+              }
+            }
+          }
+          if (resume_id && header.message_id >= *resume_id && !header.still && !header.refining) {
+            r.resume_ms.push_back(std::chrono::duration<double, std::milli>(message->received - sent[*resume_id]).count());
+            resume_id.reset();
           }
           auto it = sent.find(header.message_id);
           if (it != sent.end()) {
@@ -110,7 +168,10 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
 nlohmann::json run_loadtest(const LoadtestOptions& o) {
   if (o.clients < 1 || o.clients > kMaxLoadtestClients) throw std::invalid_argument("--clients must be 1 to " + std::to_string(kMaxLoadtestClients));
   if (!(o.duration_s >= 1 && o.duration_s <= kMaxLoadtestSeconds)) throw std::invalid_argument("--duration must be 1 to 600 seconds");
-  if (o.path != "orbit" && o.path != "random") throw std::invalid_argument("--path must be orbit or random");
+  if (o.path != "orbit" && o.path != "random" && o.path != "orbit-pause") throw std::invalid_argument("--path must be orbit, random or orbit-pause");
+  if (!(o.orbit_s > 0 && o.orbit_s <= kMaxLoadtestSeconds) || !(o.pause_s > 0 && o.pause_s <= kMaxLoadtestSeconds))
+    throw std::invalid_argument("--orbit and --pause must be above 0 and at most 600 seconds");
+  if (!o.save_refinement.empty()) std::filesystem::create_directories(o.save_refinement);
   if (!(o.rate_hz > 0 && o.rate_hz <= 240)) throw std::invalid_argument("--rate must be above 0 and at most 240");
   const ParsedUrl url = parse_url(o.url);
   if (!o.allow_remote && url.host != "127.0.0.1" && url.host != "localhost" && url.host != "[::1]")
@@ -132,7 +193,8 @@ nlohmann::json run_loadtest(const LoadtestOptions& o) {
   const nlohmann::json after = health();
 
   nlohmann::json per_client = nlohmann::json::array();
-  std::vector<double> all_latency, fps;
+  std::vector<double> all_latency, fps, resume, to_still, to_step;
+  uint64_t pauses = 0, pauses_with_still = 0, refining = 0;
   uint64_t frames = 0, still = 0, errors = 0, bytes = 0, interaction_bytes = 0, still_bytes = 0;
   double seconds = 0;
   for (const auto& r : results) {
@@ -142,6 +204,12 @@ nlohmann::json run_loadtest(const LoadtestOptions& o) {
                           {"latency_ms", {{"p50", percentile(r.latency_ms, 0.5)}, {"p95", percentile(r.latency_ms, 0.95)}, {"p99", percentile(r.latency_ms, 0.99)}}},
                           {"failure", r.failure.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.failure)}});
     all_latency.insert(all_latency.end(), r.latency_ms.begin(), r.latency_ms.end());
+    resume.insert(resume.end(), r.resume_ms.begin(), r.resume_ms.end());
+    to_still.insert(to_still.end(), r.release_to_still_ms.begin(), r.release_to_still_ms.end());
+    to_step.insert(to_step.end(), r.release_to_first_step_ms.begin(), r.release_to_first_step_ms.end());
+    pauses += r.pauses;
+    pauses_with_still += r.pauses_with_still;
+    refining += r.refining_frames;
     frames += r.frames;
     still += r.still_frames;
     errors += r.errors;
@@ -170,6 +238,17 @@ nlohmann::json run_loadtest(const LoadtestOptions& o) {
       {"errors", errors},
       {"clients_without_frames", std::count_if(results.begin(), results.end(), [](const ClientResult& r) { return r.frames == 0; })},
       {"per_client", per_client}};
+  out["refining_frames"] = refining;
+  if (o.path == "orbit-pause") {
+    auto quantiles = [](const std::vector<double>& v) {
+      return nlohmann::json{{"p50", percentile(v, 0.5)}, {"p99", percentile(v, 0.99)}, {"max", v.empty() ? 0.0 : *std::max_element(v.begin(), v.end())}, {"samples", v.size()}};
+    };
+    out["resume_first_frame_ms"] = quantiles(resume);
+    out["release_to_first_refinement_ms"] = quantiles(to_step);
+    out["release_to_still_ms"] = quantiles(to_still);
+    out["pauses"] = pauses;
+    out["pauses_reaching_the_still"] = pauses_with_still;
+  }
   if (before.is_object() && after.is_object()) {
     out["server_rss_mb_before"] = before.value("rss_bytes", 0.0) / 1048576.0;
     out["server_rss_mb_after"] = after.value("rss_bytes", 0.0) / 1048576.0;

@@ -51,7 +51,7 @@ std::map<std::pair<std::string, unsigned>, uint64_t> Metrics::http_errors() cons
 std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extras) {
   std::string out;
   auto single = [&](const char* name, const char* type, const char* help, double value) {
-    char line[256];
+    char line[512];
     std::snprintf(line, sizeof line, "# HELP %s %s\n# TYPE %s %s\n%s %.17g\n", name, help, name, type, name, value);
     out += line;
   };
@@ -62,7 +62,10 @@ std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extra
   single("tetrascope_sessions_active", "gauge", "WebSocket sessions open", double(m.sessions_active.load()));
   single("tetrascope_sessions_total", "counter", "WebSocket sessions accepted", double(m.sessions_total.load()));
   single("tetrascope_sessions_refused_total", "counter", "sessions refused at the session limit", double(m.sessions_refused.load()));
-  labelled("tetrascope_frames_total", "counter", "frames rendered", "kind", {{"interaction", m.frames_interaction.load()}, {"still", m.frames_still.load()}});
+  labelled("tetrascope_frames_total", "counter", "frames rendered", "kind", {{"interaction", m.frames_interaction.load()}, {"refining", m.frames_refining.load()}, {"still", m.frames_still.load()}});
+  single("tetrascope_frames_interrupted_total", "counter", "refinement steps stopped by input before they were done (not sent)", double(m.frames_interrupted.load()));
+  single("tetrascope_frame_cost_error_p50_percent", "gauge", "frame-time model: median of |measured - predicted| / measured over recent interaction frames", m.cost_error_p50_pct.load());
+  single("tetrascope_frame_cost_error_p90_percent", "gauge", "frame-time model: 90th percentile of |measured - predicted| / measured", m.cost_error_p90_pct.load());
   single("tetrascope_frames_dropped_total", "counter", "frames replaced by a newer one before a slow client took them", double(m.frames_dropped.load()));
   single("tetrascope_frame_bytes_total", "counter", "bytes of frames rendered", double(m.frame_bytes.load()));
   single("tetrascope_messages_total", "counter", "WebSocket messages received", double(m.messages.load()));

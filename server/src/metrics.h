@@ -28,6 +28,10 @@ struct Metrics {
   std::atomic<int64_t> sessions_active{0};
   std::atomic<uint64_t> sessions_total{0}, sessions_refused{0};
   std::atomic<uint64_t> frames_interaction{0}, frames_still{0}, frames_dropped{0}, frame_bytes{0};
+  std::atomic<uint64_t> frames_refining{0};     // refinement steps sent before the still
+  std::atomic<uint64_t> frames_interrupted{0};  // refinement steps stopped by input (not sent)
+  // the frame-time model's error on interaction frames, |measured - predicted| / measured (frame_cost.h)
+  std::atomic<double> cost_error_p50_pct{0}, cost_error_p90_pct{0};
   std::atomic<uint64_t> messages{0}, http_requests{0};
   Histogram render_ms, encode_ms, cut_ms, assemble_ms, upload_ms, draw_ms;
   void count_error(const std::string& code);

@@ -24,17 +24,22 @@ RenderPool::~RenderPool() {
   for (auto& t : threads_) t.join();
 }
 
-void RenderPool::submit(Task task) {
+void RenderPool::submit(Task task, Priority priority) {
   {
     std::lock_guard lock(mutex_);
-    tasks_.push_back(std::move(task));
+    if (priority == Priority::kInteraction) {
+      tasks_.push_back(std::move(task));
+      ++interaction_queued_;
+    } else {
+      refinement_tasks_.push_back(std::move(task));
+    }
   }
   wake_.notify_one();
 }
 
 size_t RenderPool::queued() const {
   std::lock_guard lock(mutex_);
-  return tasks_.size();
+  return tasks_.size() + refinement_tasks_.size();
 }
 
 void RenderPool::run(size_t index) {
@@ -55,10 +60,12 @@ void RenderPool::run(size_t index) {
     Task task;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || !tasks_.empty(); });
+      wake_.wait(lock, [&] { return stopping_ || !tasks_.empty() || !refinement_tasks_.empty(); });
       if (stopping_) break;
-      task = std::move(tasks_.front());
-      tasks_.pop_front();
+      std::deque<Task>& from = tasks_.empty() ? refinement_tasks_ : tasks_;
+      if (&from == &tasks_) --interaction_queued_;
+      task = std::move(from.front());
+      from.pop_front();
     }
     task(worker);  // tasks catch their own errors
   }

@@ -15,6 +15,7 @@
 #include <boost/beast/http.hpp>
 
 #include "datasets.h"
+#include "tetrascope/server/frame_cost.h"
 #include "jobs.h"
 #include "metrics.h"
 #include "render_pool.h"
@@ -31,6 +32,7 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   Metrics metrics;
   std::unique_ptr<DatasetRegistry> datasets;
+  FrameCostModel frame_cost;  // what a frame costs the pool's workers, fitted from every session's frames (outlives the pool)
   std::unique_ptr<RenderPool> pool;
   std::unique_ptr<JobRunner> jobs;
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();

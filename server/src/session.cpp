@@ -2,12 +2,19 @@
 //
 // Network work runs on the session's strand; renders run on the pool. What the two share
 // (the view state, what is pending) sits under `mutex_`. Scheduling:
-//  - a control message updates the state and asks for a frame (interaction or still);
+//  - a control message updates the state and asks for a frame (interaction or refinement);
 //  - a session has at most one pool task queued or running (`busy_`); the task renders the
 //    newest state when it starts, so a burst of camera moves renders once;
-//  - frames start no faster than max_fps;
-//  - still_delay after the last interacting message, a still frame (full budget, quality,
-//    size) follows;
+//  - interaction frames start no faster than max_fps and go to the pool's interaction
+//    queue; their tets come from the frame-time model (frame_maker.cpp);
+//  - still_delay after the last interacting message (at once after other changes),
+//    refinement: steps of growing budget, each a frame flagged refining, the last the still
+//    (full budget, quality, size); the steps go to the pool's refinement queue, which runs
+//    only when no interaction frame waits;
+//  - any input stops a running step between chunks of its draw (should_stop: the input
+//    epoch moved) and the frame is dropped; so does another session's interaction frame
+//    waiting for a worker (the step is queued again); a refinement task still queued when
+//    input comes is overtaken by an interaction task;
 //  - outgoing: replies in order; frames latest-wins, one in flight and one waiting.
 #include <chrono>
 #include <cmath>
@@ -30,7 +37,7 @@ namespace http = beast::http;
 namespace websocket = beast::websocket;
 using Clock = std::chrono::steady_clock;
 
-enum class Pending { kNone, kInteraction, kStill };
+enum class Pending { kNone, kInteraction, kRefine };
 
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
@@ -41,6 +48,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     const auto& o = server_.options;
     state_.view.budget = o.still_budget;
     state_.interaction_budget = o.interaction_budget;
+    state_.max_error = 0;
     state_.interaction_quality = o.interaction_quality;
     state_.still_quality = o.still_quality;
     state_.interaction_scale = o.interaction_scale;
@@ -121,8 +129,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     return state_.dataset;
   }
 
-  // What a message asks for once applied: nothing more (a reply was sent), a still frame, or
-  // an interaction frame with a still after still_delay.
+  // What a message asks for once applied: nothing more (a reply was sent), refinement up to a
+  // still, or an interaction frame with refinement after still_delay.
   enum class Then { kReplied, kStill, kInteraction };
 
   void apply(const protocol::Envelope& envelope) {
@@ -131,10 +139,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     if (then == Then::kInteraction) {
       still_timer_.expires_after(server_.options.still_delay);
       still_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
-        if (!ec) self->schedule(Pending::kStill);
+        if (!ec) self->schedule(Pending::kRefine);
       });
     }
-    schedule(then == Then::kInteraction ? Pending::kInteraction : Pending::kStill);
+    schedule(then == Then::kInteraction ? Pending::kInteraction : Pending::kRefine);
   }
 
   // Updates the shared view state under the lock and records the message as the newest applied.
@@ -143,6 +151,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     std::lock_guard lock(mutex_);
     change(state_);
     state_.message_id = id;
+    ++input_epoch_;  // a refinement step under way stops at its next chunk
   }
 
   Then on_message(const protocol::Hello& m, uint32_t id) {
@@ -178,7 +187,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       if (auto self = weak.lock()) net::post(self->ws_.get_executor(), [self, raw, name] { self->on_dataset_deleted(raw, name); });
     });
     send_text(dataset_info_reply(*dataset, lod::default_camera(dataset->store->manifest().bounds), id));
-    schedule(Pending::kStill);
+    schedule(Pending::kRefine);
     return Then::kReplied;
   }
 
@@ -239,6 +248,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     change_state(id, [&](ViewState& s) {
       if (m.budget) s.view.budget = *m.budget;
       if (m.interaction_budget) s.interaction_budget = *m.interaction_budget;
+      if (m.max_error) s.max_error = *m.max_error;
     });
     return Then::kStill;
   }
@@ -323,34 +333,56 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     std::unique_lock lock(mutex_);
     if (!state_.dataset || closed_) return;
     pending_ = kind;
-    if (busy_) return;  // the queued or running turn takes the newest state
+    refine_step_ = 0;  // new input: refinement starts over
+    refine_budget_ = 0;
+    if (busy_) {
+      // a refinement task still queued would wait behind other sessions' refinement: an
+      // interaction task overtakes it (the queued one finds itself stale and returns)
+      if (kind == Pending::kInteraction && queued_refinement_) {
+        queued_refinement_ = false;
+        const uint64_t ticket = ++ticket_;
+        lock.unlock();
+        submit_paced(ticket, Pending::kInteraction);
+      }
+      return;  // the queued or running turn takes the newest state
+    }
     busy_ = true;
+    queued_refinement_ = kind == Pending::kRefine;
+    const uint64_t ticket = ++ticket_;
     lock.unlock();
-    submit_paced();
+    submit_paced(ticket, kind);
   }
 
-  // Any thread; busy_ is set.
-  void submit_paced() {
-    const auto delay = next_allowed_.load() - Clock::now();
-    if (delay <= Clock::duration::zero()) {
-      server_.pool->submit([self = shared_from_this()](Worker& worker) { self->render_turn(worker); });
+  // Any thread; busy_ is set. Interaction frames are paced to max_fps; refinement steps
+  // follow at once, behind every interaction frame waiting.
+  void submit_paced(uint64_t ticket, Pending kind) {
+    auto task = [self = shared_from_this(), ticket](Worker& worker) { self->render_turn(worker, ticket); };
+    if (kind == Pending::kRefine) {
+      server_.pool->submit(std::move(task), RenderPool::Priority::kRefinement);
       return;
     }
-    net::post(ws_.get_executor(), [self = shared_from_this(), delay] {
+    const auto delay = next_allowed_.load() - Clock::now();
+    if (delay <= Clock::duration::zero()) {
+      server_.pool->submit(std::move(task));
+      return;
+    }
+    net::post(ws_.get_executor(), [self = shared_from_this(), delay, task = std::move(task)]() mutable {
       self->pace_timer_.expires_after(delay);
-      self->pace_timer_.async_wait([self](beast::error_code) {
-        self->server_.pool->submit([self](Worker& worker) { self->render_turn(worker); });
-      });
+      self->pace_timer_.async_wait([self, task = std::move(task)](beast::error_code) mutable { self->server_.pool->submit(std::move(task)); });
     });
   }
 
   // On a pool worker.
-  void render_turn(Worker& worker) {
+  void render_turn(Worker& worker, uint64_t ticket) {
     Pending kind;
     ViewState snapshot;
     uint32_t number;
+    FramePlan plan;
+    uint64_t epoch;
     {
       std::lock_guard lock(mutex_);
+      if (ticket != ticket_) return;  // overtaken by an interaction task, which owns busy_ now
+      queued_refinement_ = false;
       kind = pending_;
       pending_ = Pending::kNone;
       if (kind == Pending::kNone || closed_) {
@@ -359,22 +391,59 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       }
       snapshot = state_;
       number = ++frame_number_;
+      epoch = input_epoch_;
+      plan.refinement = kind == Pending::kRefine;
+      plan.step = refine_step_;
+      plan.previous_budget = refine_budget_;
+    }
+    if (plan.refinement) {
+      // the pool by address: a server being stopped has reset its pointer while the pool's
+      // destructor waits for this turn
+      plan.should_stop = [this, epoch, pool = server_.pool.get()] {
+        return input_epoch_.load(std::memory_order_relaxed) != epoch || pool->interaction_waiting();
+      };
     }
     const auto start = Clock::now();
-    next_allowed_ = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / std::max(0.1, server_.options.max_fps)));
+    if (!plan.refinement)
+      next_allowed_ = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / std::max(0.1, server_.options.max_fps)));
     try {
       std::unique_lock frames(frames_mutex_);  // a probe may be using the pipeline
-      RenderedFrame frame = frames_.render(snapshot, kind == Pending::kStill, worker, number);
+      RenderedFrame frame = frames_.render(snapshot, plan, server_.frame_cost, server_.options, worker, number);
       frames.unlock();
-      server_.metrics.render_ms.observe(frame.header.render_ms);
-      server_.metrics.encode_ms.observe(frame.header.encode_ms);
-      server_.metrics.cut_ms.observe(frame.timings.cut_ms);
-      server_.metrics.assemble_ms.observe(frame.timings.assemble_ms);
-      server_.metrics.upload_ms.observe(frame.timings.upload_ms);
-      server_.metrics.draw_ms.observe(frame.timings.draw_ms);
-      ++(kind == Pending::kStill ? server_.metrics.frames_still : server_.metrics.frames_interaction);
-      server_.metrics.frame_bytes += frame.bytes.size();
-      net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(frame.bytes)]() mutable { self->send_frame(std::move(bytes)); });
+      if (frame.interrupted) {
+        ++server_.metrics.frames_interrupted;
+        std::lock_guard lock(mutex_);
+        // stopped for another session's interaction frame: this step again, once a worker is idle
+        if (pending_ == Pending::kNone && input_epoch_ == epoch) {
+          pending_ = Pending::kRefine;
+        }
+      } else {
+        // the model learns from interaction frames only: refinement steps (full size, better
+        // JPEG, a large cut assembled and uploaded) cost differently per tet and pixel
+        if (!plan.refinement) server_.frame_cost.observe(double(frame.header.tets), frame.covered_pixels, frame.header.render_ms + frame.header.encode_ms, frame.predicted_ms);
+        if (!plan.refinement && ++cost_reports_ % kCostReportEvery == 0) {
+          const auto q = server_.frame_cost.prediction_error();
+          server_.metrics.cost_error_p50_pct = q.p50;
+          server_.metrics.cost_error_p90_pct = q.p90;
+        }
+        server_.metrics.render_ms.observe(frame.header.render_ms);
+        server_.metrics.encode_ms.observe(frame.header.encode_ms);
+        server_.metrics.cut_ms.observe(frame.timings.cut_ms);
+        server_.metrics.assemble_ms.observe(frame.timings.assemble_ms);
+        server_.metrics.upload_ms.observe(frame.timings.upload_ms);
+        server_.metrics.draw_ms.observe(frame.timings.draw_ms);
+        ++(frame.header.still ? server_.metrics.frames_still : frame.header.refining ? server_.metrics.frames_refining : server_.metrics.frames_interaction);
+        server_.metrics.frame_bytes += frame.bytes.size();
+        if (frame.header.refining) {
+          std::lock_guard lock(mutex_);
+          if (pending_ == Pending::kNone && input_epoch_ == epoch) {  // no input since: the next step
+            pending_ = Pending::kRefine;
+            refine_step_ = plan.step + 1;
+            refine_budget_ = frame.budget;
+            }
+        }
+        net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(frame.bytes)]() mutable { self->send_frame(std::move(bytes)); });
+      }
     } catch (const std::invalid_argument& e) {
       const std::string reply = protocol::error_reply(protocol::code::kBadField, e.what(), snapshot.message_id);
       server_.metrics.count_error(protocol::code::kBadField);
@@ -384,14 +453,19 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       server_.metrics.count_error(protocol::code::kInternal);
       net::post(ws_.get_executor(), [self = shared_from_this(), reply] { self->send_text(reply); });
     }
+    Pending next;
+    uint64_t next_ticket;
     {
       std::lock_guard lock(mutex_);
       if (pending_ == Pending::kNone || closed_) {
         busy_ = false;
         return;
       }
+      next = pending_;
+      queued_refinement_ = next == Pending::kRefine;
+      next_ticket = ++ticket_;
     }
-    submit_paced();
+    submit_paced(next_ticket, next);
   }
 
   // Strand.
@@ -457,7 +531,14 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   ViewState state_;
   Pending pending_ = Pending::kNone;
   bool busy_ = false, closed_ = false;
+  bool queued_refinement_ = false;  // busy_ with a refinement task not yet started
+  uint64_t ticket_ = 0;             // of the one task that may run the next turn (older ones are stale)
+  uint32_t refine_step_ = 0;        // of the next refinement step
+  uint64_t refine_budget_ = 0;      // tet budget of the step before
   uint32_t frame_number_ = 0;
+  std::atomic<uint64_t> input_epoch_{0};  // moves with every change of state_
+  static constexpr uint64_t kCostReportEvery = 16;  // interaction frames between updates of the prediction-error gauges
+  uint64_t cost_reports_ = 0;       // render turns only
   std::atomic<Clock::time_point> next_allowed_{Clock::time_point{}};
   // render turn and probes, one at a time
   std::mutex frames_mutex_;

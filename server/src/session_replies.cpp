@@ -47,7 +47,8 @@ std::string hello_ok_reply(const ServerOptions& o, const std::string& renderer, 
                            {"interaction_quality", o.interaction_quality},
                            {"still_quality", o.still_quality},
                            {"max_fps", o.max_fps},
-                           {"still_delay_ms", o.still_delay.count()}}}})
+                           {"still_delay_ms", o.still_delay.count()},
+                           {"frame_ms", o.frame_ms}}}})
       .dump();
 }
 

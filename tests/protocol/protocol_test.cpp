@@ -94,6 +94,10 @@ TEST(ProtocolVectors, ParsedFieldsCarryTheValuesSent) {
   const auto lod = std::get<LodSet>(parse_message(R"({"type":"lod.set","id":6,"interaction_budget":20000})", limits).message);
   EXPECT_FALSE(lod.budget.has_value());
   EXPECT_EQ(lod.interaction_budget, 20000u);
+  EXPECT_FALSE(lod.max_error.has_value());
+  const auto bound = std::get<LodSet>(parse_message(R"({"type":"lod.set","id":7,"max_error":0.25})", limits).message);
+  EXPECT_FALSE(bound.budget.has_value());
+  EXPECT_DOUBLE_EQ(*bound.max_error, 0.25);
 }
 
 TEST(ProtocolVectors, LinesAndPointsMessagesCarryTheirFields) {
@@ -165,6 +169,8 @@ TEST(ProtocolVectors, FrameHeadersDecodeAndEncodeToTheSameBytes) {
     EXPECT_FLOAT_EQ(h.render_ms, want["render_ms"].get<float>());
     EXPECT_FLOAT_EQ(h.encode_ms, want["encode_ms"].get<float>());
     EXPECT_EQ(h.payload_bytes, want["payload_bytes"].get<uint32_t>());
+    EXPECT_EQ(h.refining, want["refining"].get<bool>());
+    EXPECT_FLOAT_EQ(h.estimated_error, want["estimated_error"].get<float>());
     const auto encoded = encode_frame_header(h);
     EXPECT_TRUE(std::equal(encoded.begin(), encoded.end(), bytes.begin()));
   }

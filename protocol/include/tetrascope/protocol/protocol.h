@@ -122,6 +122,9 @@ struct IsoSet {
 };
 struct LodSet {
   std::optional<uint64_t> budget, interaction_budget;  // tets
+  // Refine stills until the cut's estimated error (FrameHeader::estimated_error) is at most
+  // this, instead of up to the still budget (which stays the upper limit); 0: by budget.
+  std::optional<double> max_error;
 };
 struct ViewResize {
   uint32_t width = 0, height = 0;
@@ -177,14 +180,16 @@ struct FrameHeader {
   uint32_t message_id = 0;  // id of the last control message applied to this frame
   uint32_t width = 0, height = 0;
   Codec codec = Codec::kJpeg;
-  bool still = false;       // the refined frame after interaction stops
+  bool still = false;       // the refined frame after interaction stops (the last refinement step)
+  bool refining = false;    // a refinement step towards the still (more follow unless input comes)
   uint64_t tets = 0;        // tets rendered
   float render_ms = 0, encode_ms = 0;
   uint32_t payload_bytes = 0;
+  float estimated_error = 0;  // the cut's estimated error (lod::CutChanges::estimated_error); 0 for a whole mesh
 };
-// Layout (little-endian): u32 magic, u16 version, u8 codec, u8 flags (bit 0: still),
-// u32 frame_number, u32 message_id, u32 width, u32 height, u64 tets, f32 render_ms,
-// f32 encode_ms, u32 payload_bytes, u32 reserved (0).
+// Layout (little-endian): u32 magic, u16 version, u8 codec, u8 flags (bit 0: still, bit 1:
+// refining), u32 frame_number, u32 message_id, u32 width, u32 height, u64 tets, f32 render_ms,
+// f32 encode_ms, u32 payload_bytes, f32 estimated_error.
 std::array<uint8_t, kFrameHeaderBytes> encode_frame_header(const FrameHeader& header);
 // Checks magic, version, codec, sizes against `bytes` (header + payload). Throws ProtocolError.
 FrameHeader decode_frame_header(std::span<const uint8_t> bytes, const Limits& limits);

@@ -14,7 +14,12 @@ struct LoadtestOptions {
   std::string token;
   unsigned clients = 1;      // 1..kMaxLoadtestClients
   double duration_s = 10;    // 1..kMaxLoadtestSeconds
-  std::string path = "orbit";  // orbit | random
+  std::string path = "orbit";  // orbit | random | orbit-pause
+  // orbit-pause: orbit for orbit_s, stop for pause_s (long enough for refinement to start),
+  // orbit again, ...; reports the latency of the first frame after each resume, and for each
+  // pause the time from the last move to each refinement step and to the still.
+  double orbit_s = 2, pause_s = 1.5;
+  std::string save_refinement;  // a folder: client 0's refinement steps of its first pause, as received (step-K.jpg, still.*, steps.json)
   double rate_hz = 30;       // camera messages a second per client
   uint32_t width = 1024, height = 768;
   bool allow_remote = false; // else loopback hosts only

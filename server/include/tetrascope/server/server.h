@@ -5,8 +5,9 @@
 // viewing one dataset share its segment cache (each open dataset has its own, of
 // ServerOptions::cache_bytes). A session has at most one render queued or running; camera
 // moves are latest-wins, so a burst renders once. Interaction frames use a smaller tet
-// budget and JPEG quality; ~150 ms after input stops the session sends a still frame at
-// full budget, quality and size. A slow client never makes frames pile up: one frame is in
+// budget (chosen by time, see frame_ms) and JPEG quality; ~150 ms after input stops the
+// session refines in steps up to a still frame at full budget, quality and size, each step
+// interruptible by new input. A slow client never makes frames pile up: one frame is in
 // flight and only the newest waits behind it.
 #pragma once
 
@@ -57,7 +58,15 @@ struct ServerOptions {
   uint32_t job_cpu_seconds = 0;        // CPU time (RLIMIT_CPU) of each job; 0: no limit
   uint64_t cache_bytes = 2ull << 30;   // segment cache of each open dataset (each has its own of this size)
   double max_fps = 30;
-  uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
+  uint64_t interaction_budget = 15000; // tets: the upper limit of interaction frames (their budget comes from frame_ms)
+  // Interaction frames aim at this many ms of render-worker time (cut, draw, encode): their
+  // tets (and, where even the coarsest cut is over, their pixels) come from a cost model
+  // fitted to the frames just drawn (tetrascope/server/frame_cost.h). Default: bench/server_bench.sh.
+  double frame_ms = 60;
+  // Refinement after input stops: step k aims at frame_ms * refine_growth^(k+1) ms (at least
+  // twice the tets of the step before), up to still_budget (or the error bound); each step a
+  // frame flagged refining, the last flagged still. Input stops a step between chunks.
+  double refine_growth = 4;
   uint64_t still_budget = 500000;
   int interaction_quality = 60, still_quality = 90;
   double interaction_scale = 0.375;    // of the view size, for interaction frames (fragments dominate on llvmpipe; bench/server_bench.sh)
