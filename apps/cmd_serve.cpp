@@ -21,7 +21,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 }  // namespace
 
 int run_serve(const Arguments& raw) {
-  Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
+  Args args(raw, {"--read-only"}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
                       "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
@@ -58,6 +58,7 @@ int run_serve(const Arguments& raw) {
   o.interaction_budget = args.number("--interaction-budget", static_cast<uint32_t>(o.interaction_budget));
   o.interaction_scale = args.positive("--interaction-scale", o.interaction_scale);
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
+  o.read_only = args.has("--read-only");
   server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
               o.data_dir.c_str(), o.render_workers, o.token.empty() ? "" : ", token required");

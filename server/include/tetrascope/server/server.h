@@ -64,6 +64,7 @@ struct ServerOptions {
   std::chrono::milliseconds still_delay{150};
   std::chrono::milliseconds hello_timeout{10000};  // a WebSocket that has not sent hello by then is closed (its session slot freed)
   std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
+  bool read_only = false;              // a replica beside a writer on one data folder: no uploads, jobs or deletes, .jobs untouched
 };
 
 class Server {
