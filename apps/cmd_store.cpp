@@ -121,9 +121,9 @@ int run_verify(const Arguments& raw) {
 }
 
 int run_segment(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--leaf-vertices", "--segment-tets", "--segments", "--seed", "--progress"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--leaf-vertices", "--segment-tets", "--segments", "--seed", "--progress", "--max-inflate-ratio"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S] [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::SegmentationOptions options;
@@ -132,8 +132,11 @@ int run_segment(const Arguments& raw) {
   options.segments = args.number("--segments", 0);
   options.seed = static_cast<int>(args.number("--seed", 1));
   options.replace = args.has("--force");
+  if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
+  if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
   storage::Progress progress(progress_mode(args), {{"read vertices", 0.15}, {"partition", 0.05}, {"assign tets", 0.3}, {"match faces", 0.2}, {"write segments", 0.3}});
   auto report = lod::segment_mesh(args.positionals()[0], args.get("--output"), options, &progress);
+  lod::require_sound_store(args.get("--output"));  // as preprocess: a store that fails verify's checks is removed, never reported as written
   if (args.has("--json")) {
     std::cout << report.to_json().dump(2) << "\n";
   } else {
@@ -161,7 +164,9 @@ int run_preprocess(const Arguments& raw) {
   options.replace = args.has("--force");
   if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
   if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
-  storage::Progress progress(progress_mode(args), {{"read", 0.1}, {"partition", 0.05}, {"simplify", 0.75}, {"write", 0.1}});
+  // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
+  // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them
+  storage::Progress progress(progress_mode(args), {{"read", 0.03}, {"partition", 0.01}, {"simplify", 0.86}, {"write", 0.10}});
   auto report = lod::preprocess(args.positionals()[0], args.get("--output"), options, &progress);
   lod::require_sound_store(args.get("--output"));  // a store that fails verify's checks is removed, never reported as written
   if (args.has("--json")) {

@@ -126,6 +126,7 @@ function onText(text) {
         const first = firstReady(lastDatasets);
         if (first && first !== state.view.dataset) openDataset(first);
       }
+      if (message.code === 'dataset_deleted') datasetDeleted(message.message);
       break;
     default:
       break;
@@ -193,6 +194,28 @@ async function loadDatasets() {
   );
   if (current) select.value = current;
   return datasets;
+}
+
+// The dataset shown was deleted (here or elsewhere): say so and open another.
+async function datasetDeleted(text) {
+  const gone = state.view.dataset;
+  state.dataset = null;
+  const datasets = await loadDatasets();
+  const next = datasets.find((d) => d.state === 'ready' && d.name !== gone)?.name;
+  openDataset(next);
+  $('dataset-summary').textContent = text + (next ? `\nNow showing ${next}.` : '');
+}
+
+async function deleteDataset() {
+  const name = $('dataset').value;
+  if (!name || !window.confirm(`Delete the dataset '${name}' from the server? Sessions viewing it are closed.`)) return;
+  const response = await fetch(`/api/v1/datasets/${encodeURIComponent(name)}`, { method: 'DELETE', headers: authHeaders });
+  const body = await response.json().catch(() => ({}));
+  if (!response.ok) {
+    $('dataset-summary').textContent = `Not deleted: ${body.error?.message ?? response.status}`;
+    return;
+  }
+  if (name !== state.view.dataset) await loadDatasets();  // else the server's dataset_deleted follows
 }
 
 function openDataset(name) {
@@ -686,6 +709,7 @@ frameCanvas.addEventListener(
 
 const number = (id) => parseFloat($(id).value);
 $('dataset').addEventListener('change', () => openDataset($('dataset').value));
+$('dataset-delete').addEventListener('click', deleteDataset);
 $('attribute').addEventListener('change', onAttribute);
 $('colormap').addEventListener('change', onPreset);
 $('range-min').addEventListener('change', onRange);

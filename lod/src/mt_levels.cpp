@@ -9,9 +9,11 @@
 // it), so that each ceiling's error histograms (mt_histograms.cpp) are measured at the
 // original vertices it covers.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <mutex>
 #include <numeric>
 
 #include "mt_stages.h"
@@ -119,9 +121,14 @@ class LevelBuilder {
     partition_level0();
     out_.partition_seconds = std::chrono::duration<double>(clock::now() - partition_start).count();
     out_.level_first = {0, static_cast<uint32_t>(out_.nodes.size())};
+    // the levels to come and their work, predicted, for simplify's progress
+    for (double t = double(mesh_.input_tets); t > double(options_.base_tets) && work_total_ < 1e300; t *= options_.level_ratio) {
+      work_total_ += level_work(t);
+      if (options_.level_ratio >= 1) break;
+    }
     for (uint32_t level = 0;; ++level) {
       const uint64_t tets = out_.level_tets(level);
-      stage_("simplify", std::min(0.99, 1.0 - double(tets) / double(mesh_.input_tets) + 0.01));
+      stage_("simplify", simplify_fraction(work_done_));
       // A level of one segment goes on: its ceiling is the whole mesh, with nothing locked
       // but what the simplifier keeps on the mesh boundary, until the base is met or it stalls.
       if (tets <= options_.base_tets || level + 1 >= options_.max_levels) break;
@@ -194,8 +201,16 @@ class LevelBuilder {
     const std::vector<std::vector<uint32_t>> ceiling_vertices = follow_vertices(first, regions, region);
     lock_ceiling_borders(ceiling_patches);
     std::vector<CeilingResult> results(regions);
-    parallel_for(regions, options_.threads,
-                 [&](size_t k, unsigned) { results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k]); });
+    const double work_before = work_done_, work = level_work(double(tets));
+    std::atomic<uint32_t> simplified_ceilings{0};
+    std::mutex reporting;
+    parallel_for(regions, options_.threads, [&](size_t k, unsigned) {
+      results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k]);
+      const uint32_t done = ++simplified_ceilings;
+      std::unique_lock report(reporting, std::try_to_lock);  // a ceiling's end is reported by one worker at a time
+      if (report) stage_("simplify", simplify_fraction(work_before + work * done / regions));
+    });
+    work_done_ = work_before + work;
     add_ceilings(level + 1, results, ceiling_vertices);
     std::fill(vertex_region_.begin(), vertex_region_.end(), kNone);  // reset the border marks
   }
@@ -362,9 +377,16 @@ class LevelBuilder {
     }
   }
 
+  // A level's share of simplify's time grows as its tets^0.8 (the coarser levels' small
+  // ceilings cost more a tet; measured on bluntfin, oxygen post and disk: bench/job_progress.py),
+  // so progress moves with the time spent instead of jumping after the first level.
+  static double level_work(double tets) { return std::pow(std::max(1.0, tets), 0.8); }
+  double simplify_fraction(double work) const { return work_total_ > 0 ? std::clamp(0.01 + 0.98 * work / work_total_, 0.01, 0.99) : 0.01; }
+
   IngestedMesh& mesh_;
   const PreprocessOptions& options_;
   const StageProgress& stage_;
+  double work_total_ = 0, work_done_ = 0;  // simplify's work, predicted and done
   Hierarchy out_;
   std::vector<uint32_t> local_of_;                          // scratch of partition_level
   std::vector<uint32_t> located_node_, located_tet_;        // where every original vertex is: node, tet in it

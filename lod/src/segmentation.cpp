@@ -128,7 +128,7 @@ struct Segmentation {
   // Pass 1: the vertices (kept in memory) and every attribute's range.
   void read_vertices() {
     report_progress("read vertices", 0);
-    stream = storage::MeshStream::open(mesh_path);
+    stream = storage::MeshStream::open(mesh_path, options.read_limits);
     header = stream->header();
     vertex_count = header.vertex_count;
     if (vertex_count == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no vertices");
@@ -166,7 +166,7 @@ struct Segmentation {
     // METIS balance tets as well as vertices: near the mesh boundary a vertex has fewer tets.
     std::vector<float> tets_per_vertex(vertex_count, 0.0f);
     {
-      auto count_stream = storage::MeshStream::open(mesh_path);
+      auto count_stream = storage::MeshStream::open(mesh_path, options.read_limits);
       storage::TetChunk counted;
       while (count_stream->next_tets(counted)) {
         for (uint32_t v : counted.tets) tets_per_vertex[v] += 0.25f;

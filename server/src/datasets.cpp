@@ -1,6 +1,10 @@
 #include "datasets.h"
 
+#include <stdlib.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 
 #include "tetrascope/lod/cut.h"
 
@@ -30,6 +34,49 @@ std::optional<fs::path> resolve_inside(const fs::path& root, const std::string& 
   for (; b != base.end(); ++b, ++f)
     if (f == full.end() || *f != *b) return std::nullopt;
   return full;
+}
+
+std::string without_server_paths(std::string message, const fs::path& data_dir) {
+  const std::string folder = data_dir.string();
+  if (folder.empty() || folder == "/") return message;
+  for (const std::string& from : {folder + "/", folder}) {
+    const std::string to = from.back() == '/' ? "" : ".";
+    for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size())) message.replace(at, from.size(), to);
+  }
+  return message;
+}
+
+size_t sweep_data_leftovers(const fs::path& data_dir) {
+  std::error_code ec;
+  std::vector<fs::path> leftovers;
+  for (const auto& entry : fs::directory_iterator(data_dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(".trash-", 0) == 0 || (name.size() > 4 && name.ends_with(".tmp"))) leftovers.push_back(entry.path());
+  }
+  for (const auto& path : leftovers) fs::remove_all(path, ec);
+  return leftovers.size();
+}
+
+void Dataset::watch(std::weak_ptr<void> owner, std::function<void()> on_deleted) {
+  std::lock_guard lock(watch_mutex_);
+  std::erase_if(watchers_, [](const auto& w) { return w.first.expired(); });
+  if (!deleted_) watchers_.emplace_back(std::move(owner), std::move(on_deleted));
+}
+
+size_t Dataset::notify_deleted() {
+  decltype(watchers_) watchers;
+  {
+    std::lock_guard lock(watch_mutex_);
+    deleted_ = true;
+    watchers.swap(watchers_);
+  }
+  size_t told = 0;
+  for (auto& [owner, callback] : watchers)
+    if (!owner.expired()) {
+      callback();
+      ++told;
+    }
+  return told;
 }
 
 namespace {
@@ -68,7 +115,7 @@ nlohmann::json DatasetRegistry::list() const {
       if (!fs::exists(folder / "dag.bin")) summary["state"] = "single-level store: run tetrascope preprocess to view it";
       out.push_back(std::move(summary));
     } catch (const std::exception& e) {
-      out.push_back({{"name", name}, {"state", std::string("unreadable: ") + e.what()}});
+      out.push_back({{"name", name}, {"state", "unreadable: " + without_server_paths(e.what(), data_dir_)}});
     }
   }
   return out;
@@ -82,8 +129,12 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   if (name == "uploads" || !fs::exists(folder / "manifest.json")) throw NotFound("no dataset named '" + name + "'");
   auto d = std::make_shared<Dataset>();
   d->name = name;
-  d->store = storage::Store::open(folder);
-  d->dag = lod::open_dag(*d->store);
+  try {
+    d->store = storage::Store::open(folder);
+    d->dag = lod::open_dag(*d->store);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(without_server_paths(e.what(), data_dir_));
+  }
   if (!d->dag) throw std::runtime_error(name + " is a single-level store: run tetrascope preprocess to view it");
   d->cache = std::make_unique<storage::SegmentCache>(*d->store, cache_bytes_);
   d->info = store_summary(name, *d->store);
@@ -113,6 +164,32 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   }
   open_[name] = d;
   return d;
+}
+
+size_t DatasetRegistry::remove(const std::string& name) {
+  if (!valid_name(name) || name == "uploads") throw NotFound("no dataset named '" + name + "'");
+  std::shared_ptr<Dataset> open;
+  std::string trash = (data_dir_ / (".trash-" + name + "-XXXXXX")).string();
+  {
+    std::lock_guard lock(mutex_);  // no open() of the name between the check and the rename
+    const fs::path folder = data_dir_ / name;
+    std::error_code ec;
+    if (fs::is_symlink(folder, ec) || !fs::is_directory(folder, ec) || !fs::exists(folder / "manifest.json", ec)) throw NotFound("no dataset named '" + name + "'");
+    if (::mkdtemp(trash.data()) == nullptr) throw std::runtime_error("cannot delete '" + name + "': " + std::strerror(errno));
+    fs::rename(folder, trash, ec);  // over the empty folder mkdtemp made: one step, nothing half deleted
+    if (ec) {
+      fs::remove(trash, ec);
+      throw std::runtime_error("cannot delete '" + name + "': " + ec.message());
+    }
+    if (auto it = open_.find(name); it != open_.end()) {
+      open = it->second;
+      open_.erase(it);
+    }
+  }
+  const size_t sessions = open ? open->notify_deleted() : 0;
+  std::error_code ec;
+  fs::remove_all(trash, ec);  // sessions still rendering hold mapped segments: unlinked files stay readable
+  return sessions;
 }
 
 void DatasetRegistry::cache_stats(uint64_t& hits, uint64_t& misses, uint64_t& resident_bytes) const {

@@ -3,12 +3,14 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -24,6 +26,15 @@ bool valid_name(const std::string& name);
 // or when the existing part of the path leads outside `root` through a symlink.
 std::optional<std::filesystem::path> resolve_inside(const std::filesystem::path& root, const std::string& relative);
 
+// `message` with every mention of the data folder's absolute path made relative to it: no
+// reply a client sees names a path on the server (issue 17).
+std::string without_server_paths(std::string message, const std::filesystem::path& data_dir);
+
+// What a killed server, a killed CLI writing into --data or an interrupted delete left, swept
+// at start: DATA/.trash-* (a deleted dataset not yet removed) and DATA/*.tmp (a store being
+// written, StoreWriter's NAME.tmp). Returns how many entries were removed.
+size_t sweep_data_leftovers(const std::filesystem::path& data_dir);
+
 class NotFound : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -35,6 +46,17 @@ struct Dataset {
   std::unique_ptr<lod::Dag> dag;
   std::unique_ptr<storage::SegmentCache> cache;
   nlohmann::json info;  // name, counts, levels, bounds, attributes (range, 64-bin histogram of the coarsest level)
+
+  // Sessions viewing the dataset register here; deleting it calls each callback once (from
+  // the deleting thread: a callback posts to its session's executor). `owner` expires with
+  // its session, and its callback is dropped then.
+  void watch(std::weak_ptr<void> owner, std::function<void()> on_deleted);
+  size_t notify_deleted();  // how many live watchers were told
+
+ private:
+  std::mutex watch_mutex_;
+  bool deleted_ = false;
+  std::vector<std::pair<std::weak_ptr<void>, std::function<void()>>> watchers_;
 };
 
 class DatasetRegistry {
@@ -47,6 +69,10 @@ class DatasetRegistry {
   // store cannot be viewed.
   std::shared_ptr<Dataset> open(const std::string& name);
   void cache_stats(uint64_t& hits, uint64_t& misses, uint64_t& resident_bytes) const;
+  // Deletes dataset `name`: its folder is renamed to DATA/.trash-NAME-XXXXXX (one atomic
+  // step: it is never half deleted), sessions viewing it are told, then the trash is removed.
+  // Returns how many sessions were viewing it. Throws NotFound.
+  size_t remove(const std::string& name);
 
  private:
   std::filesystem::path data_dir_;

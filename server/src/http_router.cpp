@@ -20,7 +20,9 @@ constexpr std::array kRoutes{
     Route{http::verb::get, "/api/v1/openapi.yaml", false, get_openapi},
     Route{http::verb::get, "/api/v1/datasets", false, list_datasets},
     Route{http::verb::get, "/api/v1/datasets/", true, get_dataset},
+    Route{http::verb::delete_, "/api/v1/datasets/", true, delete_dataset},
     Route{http::verb::get, "/api/v1/uploads", false, list_uploads},
+    Route{http::verb::delete_, "/api/v1/uploads/", true, delete_upload},
     Route{http::verb::get, "/api/v1/jobs", false, list_jobs},
     Route{http::verb::post, "/api/v1/jobs", false, submit_job},
     Route{http::verb::get, "/api/v1/jobs/", true, get_job},
@@ -45,9 +47,19 @@ Response route(Server::Impl& server, const Target& target, const StringRequest& 
 
 }  // namespace
 
+<<<<<<< HEAD
 Response read_only_refusal(ReplyTo to) {
   return error_response(to, http::status::forbidden, "read_only",
                         "this server is a read-only replica: uploads, jobs and deletes go to the writer (docs/deploy.md)");
+=======
+std::string route_class(const std::string& path) {
+  for (const char* name : {"health", "openapi", "datasets", "uploads", "jobs", "session"}) {
+    const std::string prefix = std::string("/api/v1/") + name;
+    if (path.rfind(prefix, 0) == 0 && (path.size() == prefix.size() || path[prefix.size()] == '/' || path[prefix.size()] == '.')) return name;
+  }
+  if (path == "/metrics") return "metrics";
+  return is_api(path) ? "api_other" : "static";
+>>>>>>> h2-ops
 }
 
 Response handle_request(Server::Impl& server, const Target& target, const StringRequest& request) {
@@ -55,8 +67,8 @@ Response handle_request(Server::Impl& server, const Target& target, const String
     return route(server, target, request);
   } catch (const BadRequest& e) {
     return error_response(request, static_cast<http::status>(e.status()), e.code(), e.what());
-  } catch (const std::exception& e) {
-    return error_response(request, http::status::internal_server_error, "internal", e.what());
+  } catch (const std::exception& e) {  // a filesystem_error names paths: none reaches the client
+    return error_response(request, http::status::internal_server_error, "internal", without_server_paths(e.what(), server.options.data_dir));
   }
 }
 

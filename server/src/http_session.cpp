@@ -53,6 +53,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     ++server_.metrics.http_requests;
     const auto& request = parser_->get();
     const Target target = parse_target(request.target());
+    route_ = route_class(target.path);
     const bool api = target.path.rfind("/api/", 0) == 0 || target.path == "/metrics";
     if (server_.options.token.empty()) {
       if (auto refusal = check_same_origin(request, api)) return reply_then_close(error_response(request, refusal->status, refusal->code, refusal->message));
@@ -100,6 +101,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return shutdown();  // a connection closed or timed out: nobody to answer
     }
     Response response = error_response(ReplyTo{11, false}, status, "bad_http", message);
+    route_ = "malformed";
     reply_then_close(std::move(response));
   }
 
@@ -209,6 +211,16 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   }
 
   void reply(Response response) {
+    const unsigned status = response.result_int();
+    if (status >= 400) {
+      server_.metrics.count_http_error(route_, status);
+      // error messages may quote a library's exception: none may name a path on the server
+      const std::string body = without_server_paths(response.body(), server_.options.data_dir);
+      if (body.size() != response.body().size() || body != response.body()) {
+        response.body() = body;
+        response.prepare_payload();
+      }
+    }
     auto shared = std::make_shared<Response>(std::move(response));
     stream_.expires_after(kHeaderTimeout);
     http::async_write(stream_, *shared, [self = shared_from_this(), shared](beast::error_code ec, size_t) {
@@ -235,6 +247,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::optional<http::request_parser<http::string_body>> body_parser_;
   std::optional<http::request_parser<http::file_body>> upload_parser_;
   UploadPaths upload_;
+  std::string route_ = "static";  // route_class of the request being answered
   net::steady_timer upload_timer_;
   uint64_t upload_checked_bytes_ = 0;
   bool upload_too_slow_ = false;
@@ -256,6 +269,7 @@ void Server::Impl::accept() {
       socket.write_some(net::buffer(kBusy), ignored);
       socket.close(ignored);
       ++metrics.http_requests;
+      metrics.count_http_error("connection", 503);
     } else {
       std::make_shared<HttpSession>(*this, std::move(socket))->start();
     }

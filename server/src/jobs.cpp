@@ -136,7 +136,8 @@ nlohmann::json JobRunner::submit(const nlohmann::json& body) {
   if (!path) throw BadRequest(403, "forbidden", "source: '" + source + "' is not inside the data folder");
   std::error_code ec;
   if (!fs::is_regular_file(*path, ec)) throw BadRequest(404, "not_found", "source: no file '" + source + "' in the data folder");
-  if (!valid_name(name) || name == "uploads") throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.'");
+  if (!valid_name(name) || name == "uploads" || name.ends_with(".tmp"))  // DATA/*.tmp are swept at start
+    throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.' nor ending with '.tmp'");
   if (fs::exists(data_dir_ / name, ec)) throw BadRequest(409, "exists", "a dataset named '" + name + "' exists");
   nlohmann::json options = nlohmann::json::object();
   if (body.contains("options")) {
@@ -187,8 +188,15 @@ nlohmann::json JobRunner::list() const {
   return out;
 }
 
-std::optional<nlohmann::json> JobRunner::cancel(const std::string& id) {
+std::optional<std::string> JobRunner::job_reading(const std::string& source) const {
   std::lock_guard lock(mutex_);
+  for (const auto& [id, job] : jobs_)
+    if (job->source == source && (job->state == "queued" || job->state == "running")) return id;
+  return std::nullopt;
+}
+
+std::optional<nlohmann::json> JobRunner::cancel(const std::string& id) {
+  std::unique_lock lock(mutex_);
   auto it = jobs_.find(id);
   if (it == jobs_.end()) return std::nullopt;
   Job& job = *it->second;
@@ -200,6 +208,7 @@ std::optional<nlohmann::json> JobRunner::cancel(const std::string& id) {
   } else if (job.state == "running") {
     job.cancel_requested = true;
     if (job.pid > 0) ::kill(-job.pid, SIGKILL);  // the run thread reports it cancelled and cleans up
+    ended_.wait_for(lock, kCancelWait, [&job] { return job.state != "running"; });
   }
   return to_json(job);
 }
@@ -295,7 +304,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
           job->eta_s = progress.value("eta_s", -1.0);
           job->elapsed_s = progress.value("elapsed_s", 0.0);
         } else if (!line.empty()) {
-          job->log_tail.push_back(line.substr(0, 500));
+          job->log_tail.push_back(without_server_paths(line, data_dir_).substr(0, 500));  // no server path reaches a client
           if (job->log_tail.size() > kLogTailLines) job->log_tail.pop_front();
         }
       }
@@ -356,6 +365,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
   remove_job_output(folder);  // after a rename, out/ is gone already; otherwise nothing is kept
   save(*job);
   --running_;
+  ended_.notify_all();
   schedule();
 }
 

@@ -15,6 +15,7 @@
 
 #include <sys/types.h>
 
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <filesystem>
@@ -63,7 +64,12 @@ class JobRunner {
   nlohmann::json submit(const nlohmann::json& body);
   std::optional<nlohmann::json> get(const std::string& id) const;
   nlohmann::json list() const;
+  // A running job is killed and waited for (at most kCancelWait): the answer holds its final
+  // state (cancelled, or done/failed when it ended first), not "running".
   std::optional<nlohmann::json> cancel(const std::string& id);
+  static constexpr std::chrono::seconds kCancelWait{10};
+  // The id of a queued or running job whose source is `source` (a path inside the data folder).
+  std::optional<std::string> job_reading(const std::string& source) const;
   std::map<std::string, uint64_t> count_by_state() const;
 
  private:
@@ -78,6 +84,7 @@ class JobRunner {
   unsigned max_running_;
   JobLimits limits_;
   mutable std::mutex mutex_;
+  std::condition_variable ended_;  // a job's run ended (its state is final)
   std::map<std::string, std::shared_ptr<Job>> jobs_;
   std::deque<std::string> queue_;
   unsigned running_ = 0;

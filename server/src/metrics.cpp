@@ -38,6 +38,16 @@ std::map<std::string, uint64_t> Metrics::errors() const {
   return errors_;
 }
 
+void Metrics::count_http_error(const std::string& route, unsigned status) {
+  std::lock_guard lock(mutex_);
+  ++http_errors_[{route, status}];
+}
+
+std::map<std::pair<std::string, unsigned>, uint64_t> Metrics::http_errors() const {
+  std::lock_guard lock(mutex_);
+  return http_errors_;
+}
+
 std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extras) {
   std::string out;
   auto single = [&](const char* name, const char* type, const char* help, double value) {
@@ -58,6 +68,9 @@ std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extra
   single("tetrascope_messages_total", "counter", "WebSocket messages received", double(m.messages.load()));
   single("tetrascope_http_requests_total", "counter", "HTTP requests", double(m.http_requests.load()));
   labelled("tetrascope_errors_total", "counter", "error replies by code", "code", m.errors());
+  out += "# HELP tetrascope_http_errors_total HTTP answers of 400 and up, by route class and status\n# TYPE tetrascope_http_errors_total counter\n";
+  for (const auto& [key, count] : m.http_errors())
+    out += "tetrascope_http_errors_total{route=\"" + key.first + "\",status=\"" + std::to_string(key.second) + "\"} " + std::to_string(count) + "\n";
   m.render_ms.write(out, "tetrascope_render_ms", "cut update, assembly and drawing of a frame, ms");
   m.encode_ms.write(out, "tetrascope_encode_ms", "JPEG/PNG encoding of a frame, ms");
   m.cut_ms.write(out, "tetrascope_cut_update_ms", "cut update of a frame, ms");

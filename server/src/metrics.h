@@ -32,10 +32,15 @@ struct Metrics {
   Histogram render_ms, encode_ms, cut_ms, assemble_ms, upload_ms, draw_ms;
   void count_error(const std::string& code);
   std::map<std::string, uint64_t> errors() const;
+  // An HTTP answer of 400 and up, by route class (rest.h's route_class, or "malformed" or
+  // "connection" before a request was read) and status.
+  void count_http_error(const std::string& route, unsigned status);
+  std::map<std::pair<std::string, unsigned>, uint64_t> http_errors() const;
 
  private:
   mutable std::mutex mutex_;
   std::map<std::string, uint64_t> errors_;
+  std::map<std::pair<std::string, unsigned>, uint64_t> http_errors_;
 };
 
 // Figures that live outside Metrics, read when /metrics is asked for.

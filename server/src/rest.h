@@ -33,6 +33,9 @@ Response get_metrics(const RestRequest& r);
 // rest_datasets.cpp
 Response list_datasets(const RestRequest& r);
 Response get_dataset(const RestRequest& r);
+// Renamed aside in one step, sessions viewing it told (`dataset_deleted`), then removed:
+// 200 {deleted, sessions_closed}, or 404.
+Response delete_dataset(const RestRequest& r);
 
 // rest_jobs.cpp
 Response list_jobs(const RestRequest& r);
@@ -42,6 +45,9 @@ Response cancel_job(const RestRequest& r);
 
 // rest_uploads.cpp: the listing; the upload itself streams to disk in HttpSession.
 Response list_uploads(const RestRequest& r);
+// DELETE /api/v1/uploads/NAME: 200 {deleted}; 404 when there is no such upload; 409 while it
+// streams in or a queued or running job reads it.
+Response delete_upload(const RestRequest& r);
 struct UploadPaths {
   std::filesystem::path final_path;  // uploads/NAME
   std::filesystem::path temp_path;   // uploads/.NAME.XXXXXX.part, unique to this request, while the body streams in
@@ -54,6 +60,9 @@ struct UploadPaths {
 UploadPaths upload_paths(Server::Impl& server, const Target& target);
 // Removes uploads/.*.part and uploads/*.tmp: what uploads cut off by a killed server left.
 void sweep_stale_uploads(const std::filesystem::path& data_dir);
+// The route class of a path, for counting error answers in /metrics: health, metrics,
+// openapi, datasets, uploads, jobs, session, static.
+std::string route_class(const std::string& path);
 // Moves a complete upload into place: 201 {path, bytes}, or 500 when it cannot.
 Response finish_upload(ReplyTo to, const UploadPaths& paths);
 

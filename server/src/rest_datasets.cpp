@@ -1,4 +1,4 @@
-// GET /api/v1/datasets and GET /api/v1/datasets/NAME.
+// GET /api/v1/datasets, GET and DELETE /api/v1/datasets/NAME.
 #include "rest.h"
 
 namespace tetrascope::server {
@@ -12,6 +12,15 @@ Response get_dataset(const RestRequest& r) {
     return error_response(r.request, http::status::not_found, "not_found", e.what());
   } catch (const std::exception& e) {
     return error_response(r.request, http::status::conflict, "not_viewable", e.what());
+  }
+}
+
+Response delete_dataset(const RestRequest& r) {
+  try {
+    const size_t sessions = r.server.datasets->remove(r.tail);
+    return json_response(r.request, http::status::ok, {{"deleted", r.tail}, {"sessions_closed", sessions}});
+  } catch (const NotFound& e) {
+    return error_response(r.request, http::status::not_found, "not_found", e.what());
   }
 }
 

@@ -1,4 +1,4 @@
-// GET /api/v1/uploads, and where POST /api/v1/uploads?name=FILE puts its body: streamed into
+// GET /api/v1/uploads, DELETE /api/v1/uploads/NAME, and where POST /api/v1/uploads?name=FILE puts its body: streamed into
 // uploads/.FILE.part by HttpSession (never held in memory), renamed to uploads/FILE when
 // complete, so a half upload never appears under its name.
 #include <fcntl.h>
@@ -21,6 +21,22 @@ Response list_uploads(const RestRequest& r) {
     if (!entry.is_symlink(ec) && entry.is_regular_file(ec) && valid_name(entry.path().filename().string()))
       out.push_back({{"path", "uploads/" + entry.path().filename().string()}, {"bytes", entry.file_size()}});
   return json_response(r.request, http::status::ok, {{"uploads", out}});
+}
+
+Response delete_upload(const RestRequest& r) {
+  const std::string& name = r.tail;
+  const fs::path path = r.server.options.data_dir / "uploads" / name;
+  std::error_code ec;
+  if (!valid_name(name) || fs::is_symlink(path, ec) || !fs::is_regular_file(path, ec))
+    return error_response(r.request, http::status::not_found, "not_found", "no upload named '" + name + "'");
+  std::lock_guard lock(r.server.uploads_mutex);  // held until removed: a new upload of the name renames in after
+  if (r.server.uploads_in_progress.count(name))
+    return error_response(r.request, http::status::conflict, "upload_in_progress", "an upload of '" + name + "' is streaming in; try again when it has finished");
+  if (auto job = r.server.jobs->job_reading("uploads/" + name))
+    return error_response(r.request, http::status::conflict, "in_use", "job " + *job + " reads uploads/" + name + "; cancel it or wait until it ends");
+  fs::remove(path, ec);
+  if (ec) return error_response(r.request, http::status::internal_server_error, "internal", "cannot delete uploads/" + name + ": " + ec.message());
+  return json_response(r.request, http::status::ok, {{"deleted", "uploads/" + name}});
 }
 
 UploadPaths upload_paths(Server::Impl& server, const Target& target) {

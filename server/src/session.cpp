@@ -169,9 +169,24 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       s.view.isovalues.clear();
       s.view.iso_color_attribute.clear();
     });
+    // DELETE /api/v1/datasets/NAME closes the dataset for its sessions: this one is told
+    dataset->watch(weak_from_this(), [weak = weak_from_this(), raw = dataset.get(), name = dataset->name] {
+      if (auto self = weak.lock()) net::post(self->ws_.get_executor(), [self, raw, name] { self->on_dataset_deleted(raw, name); });
+    });
     send_text(dataset_info_reply(*dataset, lod::default_camera(dataset->store->manifest().bounds), id));
     schedule(Pending::kStill);
     return Then::kReplied;
+  }
+
+  // Strand. The dataset shown was deleted: no more frames of it, and the client hears why.
+  void on_dataset_deleted(const Dataset* deleted, const std::string& name) {
+    {
+      std::lock_guard lock(mutex_);
+      if (state_.dataset.get() != deleted) return;  // another dataset is open by now
+      state_.dataset.reset();
+      pending_ = Pending::kNone;
+    }
+    send_text(protocol::error_reply(protocol::code::kDatasetDeleted, "the dataset '" + name + "' was deleted; open another", std::nullopt));
   }
 
   Then on_message(const protocol::CameraSet& m, uint32_t id) {

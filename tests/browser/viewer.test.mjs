@@ -3,12 +3,12 @@
 // editor (opacity and colour points, presets, overall opacity) changes the image, keys and
 // presets move the camera, the whole view survives a reconnect and a link, a still is saved
 // at a chosen size with its legend, the panel collapses on a phone, and an upload +
-// preprocess job survives a reload and opens its dataset.
+// preprocess job survives a reload and opens its dataset, and a dataset can be deleted.
 //   node --test tests/browser/viewer.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
-import { mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdtempSync, readdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -441,4 +441,36 @@ test('upload and preprocess: the job survives a reload, reaches 100% and the dat
   assert.ok(options.includes('uploaded-disk'));
   await page.waitForFunction(() => document.querySelector('#jobs li[data-state="done"]')?.textContent.includes('uploaded-disk'), null, { timeout: 30000 });
   await shot('uploaded');
+});
+
+test('a dataset can be deleted from the list: the viewer opens another, and another viewer of it is told', async () => {
+  const other = await browser.newPage({ viewport: { width: 600, height: 400 } });
+  try {
+    await other.goto(url);
+    await settled(other);
+    await other.selectOption('#dataset', 'uploaded-disk');
+    await other.waitForFunction(() => window.tetrascope.dataset?.name === 'uploaded-disk', null, { timeout: 30000 });
+    await page.selectOption('#dataset', 'uploaded-disk');
+    await page.waitForFunction(() => window.tetrascope.dataset?.name === 'uploaded-disk', null, { timeout: 30000 });
+    // asked first: a "no" deletes nothing
+    page.once('dialog', (dialog) => dialog.dismiss());
+    await page.click('#dataset-delete');
+    await page.waitForTimeout(300);
+    assert.ok(existsSync(join(data, 'uploaded-disk', 'manifest.json')), 'kept after a "no"');
+    page.once('dialog', (dialog) => dialog.accept());
+    await page.click('#dataset-delete');
+    // this viewer and the other one move to the dataset left, and say why
+    for (const p of [page, other]) {
+      await p.waitForFunction(() => window.tetrascope.dataset?.name === 'disk', null, { timeout: 30000 });
+      assert.match(await p.textContent('#dataset-summary'), /uploaded-disk' was deleted/);
+      const options = await p.$$eval('#dataset option', (o) => o.map((x) => x.value));
+      assert.ok(!options.includes('uploaded-disk'), `still listed: ${options}`);
+    }
+    await settled(other);
+    await shot('deleted', other);
+    assert.ok(!existsSync(join(data, 'uploaded-disk')), 'the store is gone');
+    assert.deepEqual(readdirSync(data).filter((f) => f.startsWith('.trash-')), [], 'nothing left aside');
+  } finally {
+    await other.close();
+  }
 });

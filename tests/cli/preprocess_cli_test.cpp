@@ -120,16 +120,38 @@ TEST(PreprocessCli, InfoOnAFifoDoesNotBlock) {
   EXPECT_NE(r.out.find("not a regular file"), std::string::npos) << r.out;
 }
 
+// A 100 KB VTU that inflates to 96 MB (8M unused points): written once for the tests below.
+const std::filesystem::path& decompression_bomb() {
+  static const std::filesystem::path bomb = [] {
+    const auto path = run_scratch_dir("bomb") / "bomb.vtu";
+    write_vtu(path, one_tet_and_unused_points(8'000'000), {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 1 << 20});
+    return path;
+  }();
+  return bomb;
+}
+
 TEST(PreprocessCli, DecompressionBombIsRefusedWithTheOptionToRaiseIt) {
-  const size_t points = 8'000'000;
-  const CellMesh m = one_tet_and_unused_points(points);
   auto dir = scratch_dir("pre_bomb");
-  write_vtu(dir / "bomb.vtu", m, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 1 << 20});
+  std::filesystem::copy_file(decompression_bomb(), dir / "bomb.vtu");
   Result r = run("preprocess " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --progress none");
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_NE(r.out.find("--max-inflate-ratio"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir / "s"));
   Result bad = run("preprocess " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --max-inflate-ratio 0");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("--max-inflate-ratio must be at least 1"), std::string::npos) << bad.out;
+}
+
+TEST(SegmentCli, DecompressionBombIsRefusedWithTheOptionToRaiseIt) {
+  // segment reads through the same limits as preprocess (it used to inflate the bomb in full)
+  auto dir = scratch_dir("seg_bomb");
+  std::filesystem::copy_file(decompression_bomb(), dir / "bomb.vtu");
+  Result r = run("segment " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --progress none");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("--max-inflate-ratio"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "s.tmp"));
+  Result bad = run("segment " + (dir / "bomb.vtu").string() + " -o " + (dir / "s").string() + " --max-inflate-ratio 0");
   EXPECT_NE(bad.status, 0);
   EXPECT_NE(bad.out.find("--max-inflate-ratio must be at least 1"), std::string::npos) << bad.out;
 }

@@ -17,7 +17,7 @@ const Built& built(const std::string& name) {
   if (it != cache.end()) return it->second;
   const std::filesystem::path mesh = name == "sample" ? sample_mesh() : shared_data() / name;
   Built b;
-  b.store = scratch_dir("multires-" + std::filesystem::path(name).stem().string()) / "store";
+  b.store = run_scratch_dir("multires-" + std::filesystem::path(name).stem().string()) / "store";
   lod::PreprocessOptions options;
   options.segment_tets = 2000;
   options.base_tets = 3000;

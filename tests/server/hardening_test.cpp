@@ -294,6 +294,26 @@ TEST_F(HardeningTest, PartFilesOfAServerKilledMidUploadAreSweptOnStart) {
   EXPECT_TRUE(fs::exists(data_dir() / "uploads" / "kept.vtk"));
 }
 
+TEST_F(HardeningTest, StoresHalfWrittenAndDeletesCutOffInTheDataFolderAreSweptOnStart) {
+  // what a preprocess or segment killed while writing into --data leaves (StoreWriter's
+  // NAME.tmp/, with or without its manifest), a stray *.tmp file, and a delete cut off
+  // between its rename and its removal (.trash-NAME-XXXXXX/)
+  fs::create_directories(data_dir() / "half.tmp");
+  std::ofstream(data_dir() / "half.tmp" / "segments.bin") << "partial";
+  std::ofstream(data_dir() / "half.tmp" / "manifest.json") << "{}";
+  std::ofstream(data_dir() / "index.json.tmp") << "{";
+  fs::create_directories(data_dir() / ".trash-old-Ab12Cd");
+  std::ofstream(data_dir() / ".trash-old-Ab12Cd" / "manifest.json") << "{}";
+  fs::create_directories(data_dir() / "kept");
+  std::ofstream(data_dir() / "kept" / "notes.txt") << "a user's folder";
+  start();
+  EXPECT_FALSE(fs::exists(data_dir() / "half.tmp"));
+  EXPECT_FALSE(fs::exists(data_dir() / "index.json.tmp"));
+  EXPECT_FALSE(fs::exists(data_dir() / ".trash-old-Ab12Cd"));
+  EXPECT_TRUE(fs::exists(data_dir() / "kept" / "notes.txt"));
+  for (const auto& d : get_json("/api/v1/datasets")["datasets"]) EXPECT_NE(d["name"], "half.tmp") << d.dump();
+}
+
 TEST_F(HardeningTest, ASymlinkInUploadsDoesNotListItsTargetsSize) {
   fs::create_directories(data_dir() / "uploads");
   fs::create_symlink("/etc/passwd", data_dir() / "uploads" / "passwd.vtk");

@@ -147,21 +147,22 @@ struct VtuArray {
   std::string ascii;  // text values
 };
 
-VtuArray real_array(const std::string& name, uint32_t components, const std::vector<float>& v, bool doubles) {
+// `ascii`: also the text form (formatting millions of values is what makes a large fixture slow)
+VtuArray real_array(const std::string& name, uint32_t components, const std::vector<float>& v, bool doubles, bool ascii) {
   VtuArray a{name, doubles ? "Float64" : "Float32", components, "", ""};
   for (float f : v) {
     doubles ? append(a.raw, static_cast<double>(f), false) : append(a.raw, f, false);
-    a.ascii += fmt(f) + " ";
+    if (ascii) a.ascii += fmt(f) + " ";
   }
   return a;
 }
 
 template <typename T>
-VtuArray int_array(const std::string& name, const std::string& type, const std::vector<T>& v) {
+VtuArray int_array(const std::string& name, const std::string& type, const std::vector<T>& v, bool ascii) {
   VtuArray a{name, type, 1, "", ""};
   for (T x : v) {
     append(a.raw, x, false);
-    a.ascii += std::to_string(static_cast<int64_t>(x)) + " ";
+    if (ascii) a.ascii += std::to_string(static_cast<int64_t>(x)) + " ";
   }
   return a;
 }
@@ -196,15 +197,16 @@ std::pair<std::string, std::string> encode_binary(const std::string& raw, const 
 }  // namespace
 
 void write_vtu(const std::filesystem::path& path, const CellMesh& m, const VtuOptions& o) {
+  const bool ascii = o.encoding == VtuEncoding::kAscii;
   std::vector<VtuArray> point_data;
-  for (const auto& a : m.attributes) point_data.push_back(real_array(a.info.name, a.info.components, a.values, o.doubles));
+  for (const auto& a : m.attributes) point_data.push_back(real_array(a.info.name, a.info.components, a.values, o.doubles, ascii));
   std::vector<float> xyz;
   for (size_t i = 0; i < m.x.size(); ++i) xyz.insert(xyz.end(), {m.x[i], m.y[i], m.z[i]});
-  VtuArray points = real_array("Points", 3, xyz, o.doubles);
+  VtuArray points = real_array("Points", 3, xyz, o.doubles, ascii);
   std::vector<int64_t> connectivity(m.connectivity.begin(), m.connectivity.end());
   std::vector<int64_t> offsets(m.offsets.begin() + 1, m.offsets.end());
-  VtuArray cells[3] = {int_array("connectivity", "Int64", connectivity), int_array("offsets", "Int64", offsets),
-                       int_array("types", "UInt8", m.types)};
+  VtuArray cells[3] = {int_array("connectivity", "Int64", connectivity, ascii), int_array("offsets", "Int64", offsets, ascii),
+                       int_array("types", "UInt8", m.types, ascii)};
   std::string appended;
   auto element = [&](const VtuArray& a) {
     std::string head = "<DataArray type=\"" + a.type + "\" Name=\"" + a.name + "\" NumberOfComponents=\"" + std::to_string(a.components) + "\"";

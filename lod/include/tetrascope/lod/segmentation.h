@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/progress.h"
 
 namespace tetrascope::lod {
@@ -17,6 +18,7 @@ struct SegmentationOptions {
   uint32_t segments = 0;           // or the segment count itself (0: from segment_tets)
   int seed = 1;                    // METIS seed: same input and options, same store
   bool replace = false;            // overwrite an existing store
+  storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio), as preprocess
 };
 
 // Limits on options, checked before any work.

@@ -60,6 +60,7 @@ constexpr const char* kHelloFirst = "hello_first";        // a message before `h
 constexpr const char* kUnauthorized = "unauthorized";
 constexpr const char* kNoDataset = "no_dataset";          // needs dataset.open first
 constexpr const char* kNotFound = "not_found";            // no such dataset or attribute
+constexpr const char* kDatasetDeleted = "dataset_deleted";  // (no id) the open dataset was deleted; open another
 constexpr const char* kRateLimited = "rate_limited";
 constexpr const char* kBinaryMessage = "binary_message";  // clients send text frames only
 constexpr const char* kInternal = "internal";
