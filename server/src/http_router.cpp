@@ -47,11 +47,11 @@ Response route(Server::Impl& server, const Target& target, const StringRequest& 
 
 }  // namespace
 
-<<<<<<< HEAD
 Response read_only_refusal(ReplyTo to) {
   return error_response(to, http::status::forbidden, "read_only",
                         "this server is a read-only replica: uploads, jobs and deletes go to the writer (docs/deploy.md)");
-=======
+}
+
 std::string route_class(const std::string& path) {
   for (const char* name : {"health", "openapi", "datasets", "uploads", "jobs", "session"}) {
     const std::string prefix = std::string("/api/v1/") + name;
@@ -59,7 +59,6 @@ std::string route_class(const std::string& path) {
   }
   if (path == "/metrics") return "metrics";
   return is_api(path) ? "api_other" : "static";
->>>>>>> h2-ops
 }
 
 Response handle_request(Server::Impl& server, const Target& target, const StringRequest& request) {

@@ -28,7 +28,9 @@ Response get_health(const RestRequest& r) {
 
 Response get_metrics(const RestRequest& r) {
   MetricsSnapshotExtras extras;
-  r.server.datasets->cache_stats(extras.cache_hits, extras.cache_misses, extras.cache_resident_bytes);
+  extras.cache = r.server.datasets->cache_totals();
+  extras.cache_budget_bytes = r.server.datasets->cache_budget();
+  extras.cache_by_dataset = r.server.datasets->cache_by_dataset();
   if (r.server.jobs) extras.jobs_by_state = r.server.jobs->count_by_state();
   return make_response(r.request, http::status::ok, prometheus_text(r.server.metrics, extras), "text/plain; version=0.0.4");
 }

@@ -1,9 +1,9 @@
 // `tetrascope serve`: one port for the web client (static files), the REST API under
 // /api/v1/ and WebSocket viewing sessions at /api/v1/session (Boost.Asio + Boost.Beast).
 //
-// Sessions share one pool of render workers (each with its own EGL context); the sessions
-// viewing one dataset share its segment cache (each open dataset has its own, of
-// ServerOptions::cache_bytes). A session has at most one render queued or running; camera
+// Sessions share one pool of render workers (each with its own EGL context) and one segment
+// cache budget (ServerOptions::cache_bytes) that every open dataset's segments compete for,
+// least recently used released first. A session has at most one render queued or running; camera
 // moves are latest-wins, so a burst renders once. Interaction frames use a smaller tet
 // budget and JPEG quality; ~150 ms after input stops the session sends a still frame at
 // full budget, quality and size. A slow client never makes frames pile up: one frame is in
@@ -55,7 +55,7 @@ struct ServerOptions {
   unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
   uint64_t job_memory_bytes = 0;       // address space (RLIMIT_AS) of each job; 0: the machine's physical memory
   uint32_t job_cpu_seconds = 0;        // CPU time (RLIMIT_CPU) of each job; 0: no limit
-  uint64_t cache_bytes = 2ull << 30;   // segment cache of each open dataset (each has its own of this size)
+  uint64_t cache_bytes = 2ull << 30;   // the segment cache: one budget every open dataset shares
   double max_fps = 30;
   uint64_t interaction_budget = 15000; // tets; ~100 ms frames on a 2-core llvmpipe host
   uint64_t still_budget = 500000;
