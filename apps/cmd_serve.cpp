@@ -21,7 +21,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 }  // namespace
 
 int run_serve(const Arguments& raw) {
-  Args args(raw, {}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
+  Args args(raw, {"--read-only"}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
                       "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--frame-ms", "--refine-growth", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
@@ -62,6 +62,7 @@ int run_serve(const Arguments& raw) {
   o.refine_growth = args.positive("--refine-growth", o.refine_growth);
   if (o.refine_growth < 1.5 || o.refine_growth > 16) throw std::invalid_argument("--refine-growth must be 1.5 to 16 (how much longer each refinement step may take than the one before)");
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
+  o.read_only = args.has("--read-only");
   server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
               o.data_dir.c_str(), o.render_workers, o.token.empty() ? "" : ", token required");

@@ -136,7 +136,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     throw std::runtime_error(without_server_paths(e.what(), data_dir_));
   }
   if (!d->dag) throw std::runtime_error(name + " is a single-level store: run tetrascope preprocess to view it");
-  d->cache = std::make_unique<storage::SegmentCache>(*d->store, cache_bytes_);
+  d->cache = std::make_unique<storage::SegmentCache>(*d->store, pool_);
   d->info = store_summary(name, *d->store);
   d->info["levels"] = d->dag->level_count();
   // value histograms of the coarsest level, for the transfer-function editor
@@ -192,15 +192,11 @@ size_t DatasetRegistry::remove(const std::string& name) {
   return sessions;
 }
 
-void DatasetRegistry::cache_stats(uint64_t& hits, uint64_t& misses, uint64_t& resident_bytes) const {
+std::map<std::string, storage::SegmentCache::Stats> DatasetRegistry::cache_by_dataset() const {
   std::lock_guard lock(mutex_);
-  hits = misses = resident_bytes = 0;
-  for (const auto& [name, d] : open_) {
-    const auto s = d->cache->stats();
-    hits += s.hits;
-    misses += s.misses;
-    resident_bytes += s.resident_bytes;
-  }
+  std::map<std::string, storage::SegmentCache::Stats> stats;
+  for (const auto& [name, d] : open_) stats[name] = d->cache->stats();
+  return stats;
 }
 
 }  // namespace tetrascope::server

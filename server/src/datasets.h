@@ -61,14 +61,18 @@ struct Dataset {
 
 class DatasetRegistry {
  public:
-  DatasetRegistry(std::filesystem::path data_dir, uint64_t cache_bytes) : data_dir_(std::move(data_dir)), cache_bytes_(cache_bytes) {}
+  // Every dataset's segments share one cache budget of `cache_bytes` (serve --cache-mb).
+  DatasetRegistry(std::filesystem::path data_dir, uint64_t cache_bytes)
+      : data_dir_(std::move(data_dir)), pool_(std::make_shared<storage::SegmentPool>(cache_bytes)) {}
   // Every store folder: name, state ("ready", or why it cannot be viewed) and, when ready,
   // counts, attributes with ranges and bounds.
   nlohmann::json list() const;
   // Opens (once) and returns a dataset. Throws NotFound, or std::runtime_error saying why the
   // store cannot be viewed.
   std::shared_ptr<Dataset> open(const std::string& name);
-  void cache_stats(uint64_t& hits, uint64_t& misses, uint64_t& resident_bytes) const;
+  storage::SegmentPool::Stats cache_totals() const { return pool_->stats(); }
+  uint64_t cache_budget() const { return pool_->budget(); }
+  std::map<std::string, storage::SegmentCache::Stats> cache_by_dataset() const;  // the open datasets
   // Deletes dataset `name`: its folder is renamed to DATA/.trash-NAME-XXXXXX (one atomic
   // step: it is never half deleted), sessions viewing it are told, then the trash is removed.
   // Returns how many sessions were viewing it. Throws NotFound.
@@ -76,7 +80,7 @@ class DatasetRegistry {
 
  private:
   std::filesystem::path data_dir_;
-  uint64_t cache_bytes_;
+  std::shared_ptr<storage::SegmentPool> pool_;
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Dataset>> open_;
 };

@@ -33,6 +33,7 @@ bool is_api(const std::string& path) { return path.rfind("/api/", 0) == 0; }
 
 Response route(Server::Impl& server, const Target& target, const StringRequest& request) {
   const std::string& path = target.path;
+  if (server.options.read_only && is_api(path) && request.method() != http::verb::get && request.method() != http::verb::head) return read_only_refusal(reply_to(request));
   for (const Route& r : kRoutes) {
     if (r.method != request.method()) continue;
     if (r.prefix ? path.rfind(r.path, 0) == 0 : path == r.path) return r.handler({server, target, request, path.substr(r.prefix ? r.path.size() : path.size())});
@@ -45,6 +46,11 @@ Response route(Server::Impl& server, const Target& target, const StringRequest& 
 }
 
 }  // namespace
+
+Response read_only_refusal(ReplyTo to) {
+  return error_response(to, http::status::forbidden, "read_only",
+                        "this server is a read-only replica: uploads, jobs and deletes go to the writer (docs/deploy.md)");
+}
 
 std::string route_class(const std::string& path) {
   for (const char* name : {"health", "openapi", "datasets", "uploads", "jobs", "session"}) {

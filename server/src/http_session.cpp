@@ -149,6 +149,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   // POST /api/v1/uploads?name=FILE (rest_uploads.cpp says where the body goes).
   void start_upload(const Target& target) {
+    if (server_.options.read_only) return reply_then_close(read_only_refusal(reply_to(parser_->get())));
     try {
       upload_ = upload_paths(server_, target);
     } catch (const BadRequest& e) {

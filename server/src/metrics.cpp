@@ -80,9 +80,20 @@ std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extra
   m.assemble_ms.write(out, "tetrascope_assemble_ms", "assembly of a changed cut's mesh and scene, ms (0: unchanged)");
   m.upload_ms.write(out, "tetrascope_upload_ms", "scene upload to a render context, ms (0: the context held it)");
   m.draw_ms.write(out, "tetrascope_draw_ms", "drawing and readback of a frame, ms");
-  single("tetrascope_cache_hits_total", "counter", "segment cache hits", double(extras.cache_hits));
-  single("tetrascope_cache_misses_total", "counter", "segment cache misses (segments mapped)", double(extras.cache_misses));
-  single("tetrascope_cache_resident_bytes", "gauge", "bytes of segments mapped", double(extras.cache_resident_bytes));
+  single("tetrascope_cache_hits_total", "counter", "segment cache hits, all datasets", double(extras.cache.hits));
+  single("tetrascope_cache_misses_total", "counter", "segment cache misses (segments mapped), all datasets", double(extras.cache.misses));
+  single("tetrascope_cache_evictions_total", "counter", "segments released to keep the shared budget, all datasets", double(extras.cache.evictions));
+  single("tetrascope_cache_resident_bytes", "gauge", "bytes of segments mapped, all datasets", double(extras.cache.resident_bytes));
+  single("tetrascope_cache_budget_bytes", "gauge", "the segment cache budget every dataset shares (--cache-mb)", double(extras.cache_budget_bytes));
+  auto per_dataset = [&](const char* name, const char* type, const char* help, uint64_t storage::SegmentCache::Stats::*field) {
+    std::map<std::string, uint64_t> values;
+    for (const auto& [dataset, stats] : extras.cache_by_dataset) values[dataset] = stats.*field;
+    labelled(name, type, help, "dataset", values);
+  };
+  per_dataset("tetrascope_dataset_cache_hits_total", "counter", "segment cache hits by open dataset", &storage::SegmentCache::Stats::hits);
+  per_dataset("tetrascope_dataset_cache_misses_total", "counter", "segment cache misses by open dataset", &storage::SegmentCache::Stats::misses);
+  per_dataset("tetrascope_dataset_cache_evictions_total", "counter", "segments of the dataset released for the shared budget", &storage::SegmentCache::Stats::evictions);
+  per_dataset("tetrascope_dataset_cache_resident_bytes", "gauge", "bytes of the dataset's segments mapped", &storage::SegmentCache::Stats::resident_bytes);
   labelled("tetrascope_jobs", "gauge", "jobs by state", "state", extras.jobs_by_state);
   return out;
 }

@@ -9,6 +9,8 @@
 #include <mutex>
 #include <string>
 
+#include "tetrascope/storage/store.h"
+
 namespace tetrascope::server {
 
 class Histogram {
@@ -49,7 +51,9 @@ struct Metrics {
 
 // Figures that live outside Metrics, read when /metrics is asked for.
 struct MetricsSnapshotExtras {
-  uint64_t cache_hits = 0, cache_misses = 0, cache_resident_bytes = 0;  // all datasets' segment caches together
+  storage::SegmentPool::Stats cache;  // the one segment cache budget every dataset shares
+  uint64_t cache_budget_bytes = 0;
+  std::map<std::string, storage::SegmentCache::Stats> cache_by_dataset;  // the open datasets
   std::map<std::string, uint64_t> jobs_by_state;
 };
 

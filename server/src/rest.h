@@ -23,6 +23,8 @@ struct RestRequest {
 // Picks the handler for a request with a body read in full (all but uploads and WebSocket
 // upgrades). Never throws: errors become JSON error responses.
 Response handle_request(Server::Impl& server, const Target& target, const StringRequest& request);
+// 403 read_only: what a --read-only replica answers to uploads, jobs and deletes.
+Response read_only_refusal(ReplyTo to);
 
 // rest_status.cpp
 Response get_health(const RestRequest& r);

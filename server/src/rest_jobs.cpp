@@ -11,7 +11,9 @@ Response job_or_404(const RestRequest& r, const std::optional<nlohmann::json>& j
 
 }  // namespace
 
-Response list_jobs(const RestRequest& r) { return json_response(r.request, http::status::ok, {{"jobs", r.server.jobs->list()}}); }
+Response list_jobs(const RestRequest& r) {
+  return json_response(r.request, http::status::ok, {{"jobs", r.server.jobs ? r.server.jobs->list() : nlohmann::json::array()}});
+}
 
 Response submit_job(const RestRequest& r) {
   const nlohmann::json body = nlohmann::json::parse(r.request.body(), nullptr, false);
@@ -19,7 +21,7 @@ Response submit_job(const RestRequest& r) {
   return json_response(r.request, http::status::accepted, r.server.jobs->submit(body));
 }
 
-Response get_job(const RestRequest& r) { return job_or_404(r, r.server.jobs->get(r.tail)); }
+Response get_job(const RestRequest& r) { return job_or_404(r, r.server.jobs ? r.server.jobs->get(r.tail) : std::nullopt); }
 
 Response cancel_job(const RestRequest& r) { return job_or_404(r, r.server.jobs->cancel(r.tail)); }
 

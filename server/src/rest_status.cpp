@@ -23,13 +23,15 @@ Response get_health(const RestRequest& r) {
   return json_response(r.request, http::status::ok,
                        {{"status", "ok"}, {"version", "0.1.0"}, {"protocol", protocol::kVersion}, {"renderer", s.pool->description()},
                         {"uptime_s", uptime}, {"sessions", s.metrics.sessions_active.load()}, {"render_workers", s.options.render_workers},
-                        {"rss_bytes", memory_bytes("VmRSS:")}, {"peak_rss_bytes", memory_bytes("VmHWM:")}});
+                        {"read_only", s.options.read_only}, {"rss_bytes", memory_bytes("VmRSS:")}, {"peak_rss_bytes", memory_bytes("VmHWM:")}});
 }
 
 Response get_metrics(const RestRequest& r) {
   MetricsSnapshotExtras extras;
-  r.server.datasets->cache_stats(extras.cache_hits, extras.cache_misses, extras.cache_resident_bytes);
-  extras.jobs_by_state = r.server.jobs->count_by_state();
+  extras.cache = r.server.datasets->cache_totals();
+  extras.cache_budget_bytes = r.server.datasets->cache_budget();
+  extras.cache_by_dataset = r.server.datasets->cache_by_dataset();
+  if (r.server.jobs) extras.jobs_by_state = r.server.jobs->count_by_state();
   return make_response(r.request, http::status::ok, prometheus_text(r.server.metrics, extras), "text/plain; version=0.0.4");
 }
 

@@ -29,9 +29,13 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   job_limits.memory_bytes = s.options.job_memory_bytes > 0 ? s.options.job_memory_bytes : (kAddressSpaceLimitWorks ? physical_memory_bytes() : 0);
   job_limits.cpu_seconds = s.options.job_cpu_seconds;
   job_limits.max_queued = s.options.max_queued_jobs;
-  s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs, job_limits);
-  sweep_stale_uploads(s.options.data_dir);   // no upload runs yet: every .part is a leftover
-  sweep_data_leftovers(s.options.data_dir);  // DATA/*.tmp and .trash-*: stores half written, deletes cut off
+  // a read-only replica neither runs jobs nor sweeps: the writer beside it owns .jobs, uploads
+  // and the stores it is writing
+  if (!s.options.read_only) {
+    s.jobs = std::make_unique<JobRunner>(s.options.data_dir, s.options.job_binary, s.options.max_running_jobs, job_limits);
+    sweep_stale_uploads(s.options.data_dir);   // no upload runs yet: every .part is a leftover
+    sweep_data_leftovers(s.options.data_dir);  // DATA/*.tmp and .trash-*: stores half written, deletes cut off
+  }
   s.pool = std::make_unique<RenderPool>(s.options.render_workers);
   s.acceptor = std::make_unique<net::ip::tcp::acceptor>(s.io);
   s.accept_pause = std::make_unique<net::steady_timer>(s.io);

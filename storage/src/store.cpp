@@ -246,44 +246,4 @@ std::shared_ptr<const MappedSegment> Store::map_segment(uint32_t segment) const 
 
 namespace tetrascope::storage {
 
-std::shared_ptr<const MappedSegment> SegmentCache::get(uint32_t segment) {
-  {
-    std::lock_guard lock(mutex_);
-    auto it = entries_.find(segment);
-    if (it != entries_.end()) {
-      ++stats_.hits;
-      lru_.splice(lru_.begin(), lru_, it->second.position);
-      return it->second.segment;
-    }
-    ++stats_.misses;
-  }
-  // Map and validate outside the lock; two threads may race to map the same segment, and
-  // the first to insert wins.
-  std::shared_ptr<const MappedSegment> mapped = store_.map_segment(segment);
-  std::lock_guard lock(mutex_);
-  auto it = entries_.find(segment);
-  if (it != entries_.end()) return it->second.segment;
-  lru_.push_front(segment);
-  entries_[segment] = {mapped, lru_.begin()};
-  stats_.resident_bytes += mapped->mapped_bytes();
-  // evict least recently used segments nobody holds until the budget fits
-  for (auto victim = std::prev(lru_.end()); stats_.resident_bytes > budget_ && victim != lru_.begin();) {
-    auto entry = entries_.find(*victim);
-    auto previous = std::prev(victim);
-    if (entry->second.segment.use_count() == 1) {
-      stats_.resident_bytes -= entry->second.segment->mapped_bytes();
-      ++stats_.evictions;
-      entries_.erase(entry);
-      lru_.erase(victim);
-    }
-    victim = previous;
-  }
-  return mapped;
-}
-
-SegmentCache::Stats SegmentCache::stats() const {
-  std::lock_guard lock(mutex_);
-  return stats_;
-}
-
 }  // namespace tetrascope::storage

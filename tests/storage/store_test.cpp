@@ -133,5 +133,33 @@ TEST(SegmentCache, KeepsItsBudgetAndCounts) {
   EXPECT_EQ(after.hits + after.misses, uint64_t{store->segment_count()} * 2 + 1 + 800);
 }
 
+TEST(SegmentCache, OnePoolEvictsAcrossDatasets) {
+  // two datasets (two stores) sharing one budget that holds three segments
+  auto a = storage::Store::open(make_store("pool-a"));
+  auto b = storage::Store::open(make_store("pool-b"));
+  ASSERT_GE(a->segment_count(), 4u);
+  uint64_t largest = 0;
+  for (uint32_t s = 0; s < a->segment_count(); ++s) largest = std::max(largest, a->record(s).bytes);
+  auto pool = std::make_shared<storage::SegmentPool>(3 * largest);
+  storage::SegmentCache cache_a(*a, pool), cache_b(*b, pool);
+  for (uint32_t s = 0; s < 3; ++s) cache_a.get(s);
+  EXPECT_EQ(cache_a.stats().evictions, 0u);
+  // dataset b's reads push dataset a's least recently used segments out of the shared budget
+  for (uint32_t s = 0; s < 3; ++s) cache_b.get(s);
+  EXPECT_GT(cache_a.stats().evictions, 0u);
+  EXPECT_EQ(cache_b.stats().evictions, 0u);
+  EXPECT_LE(pool->stats().resident_bytes, pool->budget() + largest);
+  EXPECT_EQ(pool->stats().resident_bytes, cache_a.stats().resident_bytes + cache_b.stats().resident_bytes);
+  // same segment number, different store: never confused
+  EXPECT_NE(cache_a.get(0).get(), cache_b.get(0).get());
+  // a closed dataset gives its bytes back to the pool
+  {
+    storage::SegmentCache cache_c(*b, pool);
+    cache_c.get(3);
+    EXPECT_GT(cache_c.stats().resident_bytes, 0u);
+  }
+  EXPECT_EQ(pool->stats().resident_bytes, cache_a.stats().resident_bytes + cache_b.stats().resident_bytes);
+}
+
 }  // namespace
 }  // namespace tetrascope::testing

@@ -1,9 +1,9 @@
 // `tetrascope serve`: one port for the web client (static files), the REST API under
 // /api/v1/ and WebSocket viewing sessions at /api/v1/session (Boost.Asio + Boost.Beast).
 //
-// Sessions share one pool of render workers (each with its own EGL context); the sessions
-// viewing one dataset share its segment cache (each open dataset has its own, of
-// ServerOptions::cache_bytes). A session has at most one render queued or running; camera
+// Sessions share one pool of render workers (each with its own EGL context) and one segment
+// cache budget (ServerOptions::cache_bytes) that every open dataset's segments compete for,
+// least recently used released first. A session has at most one render queued or running; camera
 // moves are latest-wins, so a burst renders once. Interaction frames use a smaller tet
 // budget (chosen by time, see frame_ms) and JPEG quality; ~150 ms after input stops the
 // session refines in steps up to a still frame at full budget, quality and size, each step
@@ -56,7 +56,7 @@ struct ServerOptions {
   unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
   uint64_t job_memory_bytes = 0;       // address space (RLIMIT_AS) of each job; 0: the machine's physical memory
   uint32_t job_cpu_seconds = 0;        // CPU time (RLIMIT_CPU) of each job; 0: no limit
-  uint64_t cache_bytes = 2ull << 30;   // segment cache of each open dataset (each has its own of this size)
+  uint64_t cache_bytes = 2ull << 30;   // the segment cache: one budget every open dataset shares
   double max_fps = 30;
   uint64_t interaction_budget = 15000; // tets: the upper limit of interaction frames (their budget comes from frame_ms)
   // Interaction frames aim at this many ms of render-worker time (cut, draw, encode): their
@@ -73,6 +73,7 @@ struct ServerOptions {
   std::chrono::milliseconds still_delay{150};
   std::chrono::milliseconds hello_timeout{10000};  // a WebSocket that has not sent hello by then is closed (its session slot freed)
   std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
+  bool read_only = false;              // a replica beside a writer on one data folder: no uploads, jobs or deletes, .jobs untouched
 };
 
 class Server {

@@ -102,28 +102,60 @@ class Store {
   std::vector<uint32_t> neighbours_;
 };
 
-// Segments shared by many readers: mapped on demand, kept while their bytes fit the budget,
-// least recently used released first (a segment in use stays mapped). Thread-safe.
-class SegmentCache {
+class SegmentCache;
+
+// The byte budget and least-recently-used order that segment caches share: a server gives one
+// pool to every open dataset, so all datasets' segments compete for one budget (`serve
+// --cache-mb`). Thread-safe.
+class SegmentPool {
  public:
   struct Stats {
     uint64_t hits = 0, misses = 0, evictions = 0, resident_bytes = 0;
   };
-  SegmentCache(const Store& store, uint64_t budget_bytes) : store_(store), budget_(budget_bytes) {}
+  explicit SegmentPool(uint64_t budget_bytes) : budget_(budget_bytes) {}
+  uint64_t budget() const { return budget_; }
+  Stats stats() const;  // all caches together
+
+ private:
+  friend class SegmentCache;
+  using Key = uint64_t;  // cache id << 32 | segment
+  struct Entry {
+    std::shared_ptr<const MappedSegment> segment;
+    std::list<Key>::iterator position;
+  };
+  uint64_t add_cache();
+  void remove_cache(uint64_t id);  // unmaps (drops) the cache's entries nobody holds
+  std::shared_ptr<const MappedSegment> find(uint64_t id, uint32_t segment);
+  std::shared_ptr<const MappedSegment> insert(uint64_t id, uint32_t segment, std::shared_ptr<const MappedSegment> mapped);
+  Stats cache_stats(uint64_t id) const;
+
+  const uint64_t budget_;
+  mutable std::mutex mutex_;
+  uint64_t next_id_ = 1;
+  std::list<Key> lru_;  // most recent first
+  std::unordered_map<Key, Entry> entries_;
+  std::unordered_map<uint64_t, Stats> per_cache_;
+  Stats total_;
+};
+
+// One store's segments: mapped on demand, kept while their bytes fit the pool's budget, least
+// recently used released first, across every cache of the pool (a segment in use stays
+// mapped). Thread-safe.
+class SegmentCache {
+ public:
+  using Stats = SegmentPool::Stats;
+  SegmentCache(const Store& store, uint64_t budget_bytes);           // a pool of its own
+  SegmentCache(const Store& store, std::shared_ptr<SegmentPool> pool);  // shares `pool`'s budget
+  ~SegmentCache();
+  SegmentCache(const SegmentCache&) = delete;
+  SegmentCache& operator=(const SegmentCache&) = delete;
   std::shared_ptr<const MappedSegment> get(uint32_t segment);
-  Stats stats() const;
+  Stats stats() const;  // this store's segments: hits, misses, evictions, resident bytes
 
  private:
   const Store& store_;
-  const uint64_t budget_;
-  mutable std::mutex mutex_;
-  std::list<uint32_t> lru_;  // most recent first
-  struct Entry {
-    std::shared_ptr<const MappedSegment> segment;
-    std::list<uint32_t>::iterator position;
-  };
-  std::unordered_map<uint32_t, Entry> entries_;
-  Stats stats_;
+  std::shared_ptr<SegmentPool> pool_;
+  uint64_t id_;
 };
 
 // CRC-32 (zlib's polynomial) of a byte range.
