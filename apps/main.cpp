@@ -49,7 +49,7 @@ constexpr const char* kUsage =
     "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"
     "  loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random|orbit-pause]\n"
     "                                [--orbit S] [--pause S] [--save-refinement DIR]\n"
-    "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--json]\n"
+    "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--no-reconnect] [--json]\n"
     "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors\n"
     "  streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both] [--max-steps S]\n"
     "                                [--max-length L] [--tolerance T] [--max-points P] [--json]   stream lines as VTK polylines (docs/streamlines.md)"

@@ -289,7 +289,8 @@ class LevelBuilder {
   // the level's tets (level_ratio of `tets`) go where the costs are highest (level_targets.h).
   std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets) const {
     std::vector<uint64_t> targets(ceiling_patches.size(), 0);
-    if (!options_.common_error || ceiling_patches.size() < 2) return targets;
+    // the common error is that of QEM's collapse costs: the sampler's levels keep the ratio
+    if (!options_.common_error || options_.simplifier == SimplifyMethod::kSample || ceiling_patches.size() < 2) return targets;
     std::vector<CeilingTrace> traces(ceiling_patches.size());
     parallel_for(traces.size(), options_.threads, [&](size_t k, unsigned) {
       CeilingMesh c = gather_ceiling(ceiling_patches[k]);

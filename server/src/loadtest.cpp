@@ -39,18 +39,42 @@ struct ClientResult {
   std::vector<double> resume_ms;       // first frame after each resume (orbit-pause)
   std::vector<double> release_to_still_ms, release_to_first_step_ms;
   uint64_t pauses_with_still = 0, pauses = 0;
+  uint64_t reconnects = 0;              // sessions lost and opened again
   std::string failure;
   double seconds = 0;
 };
 
+// A session: connected, greeted, the view sized and the dataset open; its dataset.info.
+nlohmann::json open_session(const LoadtestOptions& o, std::unique_ptr<SessionClient>& client) {
+  client = std::make_unique<SessionClient>(o.url, o.token);
+  client->send("hello", {{"version", protocol::kVersion}, {"token", o.token}});
+  client->expect("hello.ok");
+  client->send("view.resize", {{"width", o.width}, {"height", o.height}});
+  client->send("dataset.open", {{"name", o.dataset}});
+  return client->expect("dataset.info", std::chrono::seconds(60));
+}
+
+// A session lost under the client (its server went away: a replica killed behind a load
+// balancer) is opened again, through the same URL, until the run's end; false when that
+// never succeeded.
+bool reopen_session(const LoadtestOptions& o, std::unique_ptr<SessionClient>& client, Clock::time_point end) {
+  client.reset();
+  while (Clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    try {
+      open_session(o, client);
+      return true;
+    } catch (const std::exception&) {
+      client.reset();
+    }
+  }
+  return false;
+}
+
 void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
   try {
-    SessionClient client(o.url, o.token);
-    client.send("hello", {{"version", protocol::kVersion}, {"token", o.token}});
-    client.expect("hello.ok");
-    client.send("view.resize", {{"width", o.width}, {"height", o.height}});
-    client.send("dataset.open", {{"name", o.dataset}});
-    const nlohmann::json info = client.expect("dataset.info", std::chrono::seconds(60));
+    std::unique_ptr<SessionClient> client;
+    const nlohmann::json info = open_session(o, client);
     const Vec3 eye = info["camera"]["eye"], target = info["camera"]["target"], up = info["camera"]["up"];
     const Vec3 offset = eye - target;
     const double fov = info["camera"]["fov"];
@@ -74,6 +98,7 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
     double azimuth = 0.3 * index, elevation = 0;
     const protocol::Limits limits;
     while (Clock::now() < end) {
+     try {
       if (pausing && Clock::now() >= phase_end) {
         paused = !paused;
         phase_end += paused ? pause_for : orbit_for;
@@ -96,7 +121,7 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
         }
         const Vec3 side = cross(offset, up);
         const Vec3 rotated = rotate(rotate(offset, side, elevation), up, azimuth);
-        const uint32_t id = client.send("camera.set", {{"eye", target + rotated},
+        const uint32_t id = client->send("camera.set", {{"eye", target + rotated},
                                                        {"target", target}, {"up", up}, {"fov", fov}, {"interacting", true}});
         sent[id] = Clock::now();
         if (resuming) resume_id = id;
@@ -105,7 +130,7 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
       }
       const auto wake = paused ? std::min(phase_end, end) : std::min({next_send, end, pausing ? phase_end : end});
       const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
-      auto message = client.read(std::max(std::chrono::milliseconds(1), wait));
+      auto message = client->read(std::max(std::chrono::milliseconds(1), wait));
       while (message) {
         if (message->binary) {
           const auto* bytes = reinterpret_cast<const uint8_t*>(message->data.data());
@@ -152,11 +177,19 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
           const nlohmann::json j = nlohmann::json::parse(message->data, nullptr, false);
           if (j.is_object() && j.value("type", "") == "error") ++r.errors;
         }
-        message = client.read(std::chrono::milliseconds(0));
+        message = client->read(std::chrono::milliseconds(0));
       }
+     } catch (const std::runtime_error& e) {
+      // the connection went away (read says closed; send fails): open the session again
+      if (!(client->closed() || std::string_view(e.what()).starts_with("send:")) || !o.reconnect) throw;
+      ++r.reconnects;
+      sent.clear();
+      resume_id.reset();
+      if (!reopen_session(o, client, end)) throw std::runtime_error(std::string("lost the session and could not open it again: ") + e.what());
+     }
     }
     r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    client.close();
+    client->close();
   } catch (const std::exception& e) {
     r.failure = e.what();
     ++r.errors;
@@ -195,12 +228,12 @@ nlohmann::json run_loadtest(const LoadtestOptions& o) {
   nlohmann::json per_client = nlohmann::json::array();
   std::vector<double> all_latency, fps, resume, to_still, to_step;
   uint64_t pauses = 0, pauses_with_still = 0, refining = 0;
-  uint64_t frames = 0, still = 0, errors = 0, bytes = 0, interaction_bytes = 0, still_bytes = 0;
+  uint64_t frames = 0, still = 0, errors = 0, bytes = 0, interaction_bytes = 0, still_bytes = 0, reconnects = 0;
   double seconds = 0;
   for (const auto& r : results) {
     const double f = r.seconds > 0 ? r.frames / r.seconds : 0;
     fps.push_back(f);
-    per_client.push_back({{"frames", r.frames}, {"still_frames", r.still_frames}, {"fps", f}, {"errors", r.errors}, {"bytes", r.bytes},
+    per_client.push_back({{"frames", r.frames}, {"still_frames", r.still_frames}, {"fps", f}, {"errors", r.errors}, {"reconnects", r.reconnects}, {"bytes", r.bytes},
                           {"latency_ms", {{"p50", percentile(r.latency_ms, 0.5)}, {"p95", percentile(r.latency_ms, 0.95)}, {"p99", percentile(r.latency_ms, 0.99)}}},
                           {"failure", r.failure.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.failure)}});
     all_latency.insert(all_latency.end(), r.latency_ms.begin(), r.latency_ms.end());
@@ -213,6 +246,7 @@ nlohmann::json run_loadtest(const LoadtestOptions& o) {
     frames += r.frames;
     still += r.still_frames;
     errors += r.errors;
+    reconnects += r.reconnects;
     bytes += r.bytes;
     interaction_bytes += r.interaction_bytes;
     still_bytes += r.still_bytes;
@@ -236,6 +270,7 @@ nlohmann::json run_loadtest(const LoadtestOptions& o) {
       {"kb_per_interaction_frame", frames > still ? interaction_bytes / 1024.0 / (frames - still) : 0},
       {"kb_per_still_frame", still ? still_bytes / 1024.0 / still : 0},
       {"errors", errors},
+      {"reconnects", reconnects},
       {"clients_without_frames", std::count_if(results.begin(), results.end(), [](const ClientResult& r) { return r.frames == 0; })},
       {"per_client", per_client}};
   out["refining_frames"] = refining;

@@ -156,6 +156,7 @@ test('a pan follows the cursor on both axes', async () => {
 
 test('the transfer-function editor changes the image', async () => {
   const before = await frameImage();
+  await page.locator('#tf-editor').scrollIntoViewIfNeeded();  // below the vector and plane panels
   const box = await page.locator('#tf-editor').boundingBox();
   // drag the right end point of the opacity curve down to ~0.1 of its height
   const [, alpha] = await page.evaluate(() => window.tetrascope.opacityPoints().at(-1));
@@ -184,6 +185,7 @@ test('colormap presets and colour points are sent as user colours', async () => 
   assert.deepEqual(jet.colors[0], [range[0], 0, 0, 0.5625]);
   assert.equal(jet.colors.at(-1)[0], range[1]);
   // click the strip at 3/4 to add a colour point, then recolour it pure green
+  await page.locator('#tf-editor').scrollIntoViewIfNeeded();  // below the vector and plane panels
   const box = await page.locator('#tf-editor').boundingBox();
   await page.mouse.click(box.x + box.width * 0.75, box.y + box.height - 4);
   await page.fill('#tf-color', '#00ff00');

@@ -66,13 +66,6 @@ TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
   const auto dir = scratch_dir("render-cli-lines");
   const std::string out = (dir / "lines.png").string();
   const std::string mesh = sample_mesh().string();
-#if defined(__SANITIZE_ADDRESS__)
-  constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-  constexpr bool kSanitized = __has_feature(address_sanitizer);
-#else
-  constexpr bool kSanitized = false;
-#endif
   // under ASan the three renders take minutes (30 s in release on the shared machine): the
   // release run covers them; the refusals below come before any rendering and run in both
   if (!kSanitized) render_lines_and_points(mesh, out, dir);

@@ -117,13 +117,6 @@ TEST(MtBuild, EverySharedDatasetPreprocessesAndVerifies) {
     meshes.push_back(shared_data() / f);
   std::sort(meshes.begin(), meshes.end());
   ASSERT_GE(meshes.size(), 11u);
-#if defined(__SANITIZE_ADDRESS__)
-  constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-  constexpr bool kSanitized = __has_feature(address_sanitizer);
-#else
-  constexpr bool kSanitized = false;
-#endif
   if (kSanitized) {  // under ASan the larger sets take over ten minutes; the release run covers them
     std::erase_if(meshes, [](const std::filesystem::path& m) { return std::filesystem::file_size(m) > 2000000; });
     std::printf("sanitizer build: the %zu shared meshes under 2 MB only\n", meshes.size());

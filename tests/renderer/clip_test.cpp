@@ -19,14 +19,6 @@
 namespace tetrascope::testing {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-constexpr bool kSanitized = __has_feature(address_sanitizer);
-#else
-constexpr bool kSanitized = false;
-#endif
-
 renderer::Renderer& gl() {
   static renderer::Renderer* r = renderer::Renderer::create().release();  // kept until exit (Mesa)
   return *r;

@@ -21,14 +21,6 @@ namespace {
 
 using renderer::VolumeMethod;
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-constexpr bool kSanitized = __has_feature(address_sanitizer);
-#else
-constexpr bool kSanitized = false;
-#endif
-
 renderer::Renderer& gl() {
   // kept until exit: Mesa's driver frees some of its memory only while loaded
   static renderer::Renderer* r = renderer::Renderer::create().release();

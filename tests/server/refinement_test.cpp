@@ -20,14 +20,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
+using tetrascope::testing::kSanitized;
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-constexpr bool kSanitized = __has_feature(address_sanitizer);
-#else
-constexpr bool kSanitized = false;
-#endif
 using tetrascope::testing::scratch_dir;
 using tetrascope::testing::source_dir;
 using tetrascope::testing::tetrascope_binary;

@@ -23,6 +23,7 @@ struct LoadtestOptions {
   double rate_hz = 30;       // camera messages a second per client
   uint32_t width = 1024, height = 768;
   bool allow_remote = false; // else loopback hosts only
+  bool reconnect = true;     // a session lost mid-run (a replica gone) is opened again and counted, not a failure
 };
 constexpr unsigned kMaxLoadtestClients = 64;
 constexpr double kMaxLoadtestSeconds = 600;
