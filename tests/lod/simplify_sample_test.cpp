@@ -225,7 +225,10 @@ storage::TetMesh schoenhardt_prism(double twist_degrees) {
     uint32_t tet[4] = {f[0], f[2], f[1], centre};
     m.tets.insert(m.tets.end(), tet, tet + 4);
   }
-  m.attributes = {{{"f", 1}, std::vector<float>(m.x.begin(), m.x.end())}};
+  storage::Attribute f;  // f = x
+  f.info.name = "f";
+  f.values.assign(m.x.begin(), m.x.end());
+  m.attributes.push_back(std::move(f));
   return m;
 }
 
