@@ -124,7 +124,9 @@ renderer::SceneMesh grid_scene(uint32_t n) {
 }
 
 TEST(InterruptibleDraw, ShouldStopStopsTheVolumeBetweenChunksAndSaysSo) {
-  std::unique_ptr<renderer::Renderer> r = renderer::Renderer::create();
+  // kept until exit, as every renderer test does: Mesa's context teardown leaves allocations
+  // LeakSanitizer reports
+  static renderer::Renderer* const r = renderer::Renderer::create().release();
   const renderer::SceneMesh scene = grid_scene(28);  // 131,712 tets: three chunks of at most 65,536
   ASSERT_GT(scene.tets.size() / 4, 2u * 65536);
   r->set_mesh(scene);
