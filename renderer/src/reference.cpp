@@ -59,25 +59,9 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
     for (int k = 0; k < 3; ++k) g[k] = ((s[1] - s[0]) * c23[k] + (s[2] - s[0]) * c31[k] + (s[3] - s[0]) * c12[k]) / det;
     const double c0 = s[0] - dot(g, p[0]);
     // pixel box of the projection
-    double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
-    bool behind = false;
-    for (const Vec3& q : p) {
-      double px, py;
-      if (!project(frame, q, &px, &py)) behind = true;
-      x0 = std::min(x0, px);
-      x1 = std::max(x1, px);
-      y0 = std::min(y0, py);
-      y1 = std::max(y1, py);
-    }
-    int ix0 = 0, ix1 = static_cast<int>(W) - 1, iy0 = 0, iy1 = static_cast<int>(H) - 1;
-    if (!behind) {
-      ix0 = std::max(ix0, static_cast<int>(std::floor(x0)) - 1);
-      ix1 = std::min(ix1, static_cast<int>(std::ceil(x1)) + 1);
-      iy0 = std::max(iy0, static_cast<int>(std::floor(y0)) - 1);
-      iy1 = std::min(iy1, static_cast<int>(std::ceil(y1)) + 1);
-    }
-    for (int y = iy0; y <= iy1; ++y)
-      for (int x = ix0; x <= ix1; ++x) {
+    const PixelBox box = pixel_box(frame, p);
+    for (int y = box.y0; y <= box.y1; ++y)
+      for (int x = box.x0; x <= box.x1; ++x) {
         Vec3 o, dir;
         ray(frame, x, y, &o, &dir);
         double t_in = 0, t_out = 1e300;
