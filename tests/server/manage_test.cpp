@@ -36,17 +36,7 @@ const fs::path& sample_store() {
 
 class ManageTest : public ::testing::Test {
  protected:
-  ServerOptions options() {
-    ServerOptions o;
-    o.data_dir = data_dir();
-    o.web_root = source_dir() / "web-client";
-    o.protocol_root = source_dir() / "protocol";
-    o.port = 0;
-    o.render_workers = 1;
-    o.job_binary = tetrascope_binary();
-    o.cache_bytes = 64ull << 20;
-    return o;
-  }
+  ServerOptions options() { return testing::test_server_options(data_dir()); }
   void start(const ServerOptions& o) {
     server_ = std::make_unique<Server>(o);
     base_ = "http://127.0.0.1:" + std::to_string(server_->port());

@@ -15,18 +15,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using tetrascope::testing::scratch_dir;
-using tetrascope::testing::source_dir;
-using tetrascope::testing::tetrascope_binary;
 
 ServerOptions replica_options(const fs::path& data) {
-  ServerOptions o;
-  o.data_dir = data;
-  o.web_root = source_dir() / "web-client";
-  o.protocol_root = source_dir() / "protocol";
-  o.port = 0;
-  o.render_workers = 1;
-  o.job_binary = tetrascope_binary();
-  o.cache_bytes = 64ull << 20;
+  ServerOptions o = testing::test_server_options(data);
   o.read_only = true;
   return o;
 }

@@ -15,8 +15,24 @@
 #include <nlohmann/json.hpp>
 
 #include "tetrascope/server/client.h"
+#include "tetrascope/server/server.h"
+#include "test_paths.h"
 
 namespace tetrascope::testing {
+
+// A test server's options: `data`, the source tree's web client and protocol files, any free
+// loopback port, one render worker, jobs run by the tetrascope binary, a 64 MiB cache.
+inline server::ServerOptions test_server_options(const std::filesystem::path& data) {
+  server::ServerOptions o;
+  o.data_dir = data;
+  o.web_root = source_dir() / "web-client";
+  o.protocol_root = source_dir() / "protocol";
+  o.port = 0;
+  o.render_workers = 1;
+  o.job_binary = tetrascope_binary();
+  o.cache_bytes = 64ull << 20;
+  return o;
+}
 
 // GET `path`, expecting 200 and a JSON body.
 inline nlohmann::json get_json(const std::string& base, const std::string& path, const std::string& token = "") {
