@@ -54,6 +54,8 @@ TEST(Cut, RandomCutsAreConforming) {
   // boundary encloses - the curvilinear hexes' 5-tet split overlaps itself)
   for (const char* name : {"sample", "fea_bracket.vtk", "freefem_leman.vtk"}) {
     if (std::string(name) != "sample" && shared_data().empty()) continue;
+    // under a sanitizer the lake's preprocess alone takes about 20 s: the release run covers it
+    if (kSanitized && std::string(name) == "freefem_leman.vtk") continue;
     const Built& b = built(name);
     auto store = storage::Store::open(b.store);
     auto dag = lod::open_dag(*store);
