@@ -108,6 +108,8 @@ int run_simplify(const Arguments& raw) {
     j["steiner_points"] = report.steiner_points;
     j["refused_intersection"] = report.refused_intersection;
     j["tetrahedralizations"] = report.tetrahedralizations;
+    j["fell_back_to_qem"] = report.fell_back_to_qem;
+    if (report.fell_back_to_qem) std::fprintf(stderr, "tetrascope simplify: the border encloses a cavity the sampler cannot keep: simplified by quadric collapses instead\n");
     j["phase_seconds"] = {{"border", report.border_seconds}, {"sample", report.sample_seconds}, {"tetrahedralize", report.tetrahedralize_seconds},
                           {"output", report.output_seconds}};
   }

@@ -511,6 +511,16 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
     uint32_t* v = &out.tets[4 * t];
     if (storage::signed_volume(out, v[0], v[1], v[2], v[3]) < 0) std::swap(v[2], v[3]);
   }
+  // TetGen fills a cavity that the border encloses (no hole point marks it): the output's
+  // border then lacks those facets. The mesh is left to the quadric simplifier instead.
+  if (border_triangles(out).size() != facets.size()) {
+    SimplifyOptions qem = options;
+    qem.method = SimplifyMethod::kQem;
+    SimplifyReport fallback = simplify(mesh, qem, locked);
+    fallback.fell_back_to_qem = true;
+    fallback.border_before = report.border_before;
+    return fallback;
+  }
   mesh = std::move(out);
   lap(report.output_seconds);
   report.tets_after = mesh.tet_count();

@@ -260,6 +260,31 @@ TEST(SimplifySample, SteinerPointsCarryInterpolatedValues) {
   EXPECT_EQ(steiner, report.steiner_points);
 }
 
+TEST(SimplifySample, ABorderEnclosingACavityFallsBackToQuadrics) {
+  // a box with its central cube removed: TetGen would fill the cavity, so the mesh goes to
+  // the quadric simplifier and the cavity stays
+  storage::TetMesh box = kuhn_box(4, 0, [](float x, float, float) { return x; });
+  storage::TetMesh hollow = box;
+  hollow.tets.clear();
+  for (size_t t = 0; t < box.tet_count(); ++t) {
+    double c[3] = {0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+      c[0] += box.x[box.tets[4 * t + k]] / 4;
+      c[1] += box.y[box.tets[4 * t + k]] / 4;
+      c[2] += box.z[box.tets[4 * t + k]] / 4;
+    }
+    const bool inside = c[0] > 0.25 && c[0] < 0.75 && c[1] > 0.25 && c[1] < 0.75 && c[2] > 0.25 && c[2] < 0.75;
+    if (!inside) hollow.tets.insert(hollow.tets.end(), box.tets.begin() + 4 * t, box.tets.begin() + 4 * t + 4);
+  }
+  storage::drop_unused_vertices(hollow);
+  lod::SimplifyOptions options;
+  options.target_tets = hollow.tet_count() / 2;
+  const auto report = lod::simplify_sampled(hollow, options);
+  EXPECT_TRUE(report.fell_back_to_qem);
+  EXPECT_NEAR(check_mesh(hollow).volume, 1.0 - 0.125, 1e-3) << "the cavity stays empty";
+  EXPECT_EQ(check_mesh(hollow).nonpositive, 0u);
+}
+
 TEST(SimplifySample, BadThresholdsAreRefused) {
   const storage::TetMesh box = kuhn_box(3, 0, [](float x, float, float) { return x; });
   auto refused = [&](auto set, const std::string& expected) {
