@@ -11,7 +11,7 @@
 #      PREPROCESS_ARGS (extra options for `tetrascope preprocess`, to compare builds),
 #      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after"; the store is built
 #      once per tag and options), TETRASCOPE (a tetrascope binary to use instead of building one),
-#      BLADE_1M (the 1M blade, default /work/bigdata/blade-1m.vtk).
+#      BLADE_1M, BLADE_5M (the blades of make-large.sh, default /work/bigdata/blade-1m.vtk, blade-5m.vtk).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [[ -n "${TETRASCOPE:-}" ]]; then
@@ -28,6 +28,7 @@ tag=${FIDELITY_TAG:-current}
 py=/usr/bin/python3
 data=../shared/data
 blade1m=${BLADE_1M:-/work/bigdata/blade-1m.vtk}
+blade5m=${BLADE_5M:-/work/bigdata/blade-5m.vtk}
 
 # name | mesh | camera | mode | unit distance | transfer function (JSON) or isovalue
 cases=(
@@ -40,6 +41,8 @@ cases=(
   "bracket-inside|$data/fea_bracket.vtk|eye=0,-1.2,1.6,target=0,2,1.6,up=0,0,1,fov=70|dvr|0|{\"attribute\":\"von_mises_stress_psi\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[4,0],[21,0.6]]}"
   "blade1m-outside|$blade1m|azimuth=30,elevation=20|dvr|0|"
   "blade1m-inside|$blade1m|azimuth=30,elevation=20,distance=0.25|dvr|0|"
+  "blade5m-outside|$blade5m|azimuth=30,elevation=20|dvr|0|"
+  "blade5m-inside|$blade5m|azimuth=30,elevation=20,distance=0.25|dvr|0|"
 )
 
 psnr() { "$py" bench/psnr.py "$1" "$2"; }
@@ -76,14 +79,16 @@ for spec in "${cases[@]}"; do
   for pct in coarsest $budgets; do
     budget=$coarsest
     [[ "$pct" != coarsest ]] && budget=$((input_tets * pct / 100))
-    tets=$(image "$store" "$out/$name.cut$pct" --budget "$budget" | tets_of)
+    cut_json=$(image "$store" "$out/$name.cut$pct" --budget "$budget" | tail -1)
+    tets=$(tets_of <<< "$cut_json")
+    est=$("$py" -c 'import json,sys; print(json.loads(sys.stdin.read()).get("cut_estimated_error", "null"))' <<< "$cut_json")
     cut_db=$(psnr "$full" "$(shown "$out/$name.cut$pct")")
     dec="$out/$base.dec$tets.vtk"
     [[ -s "$dec" ]] || "$bin" simplify "$mesh" -o "$dec" --tets "$tets" > /dev/null
     dec_tets=$("$bin" info --json "$dec" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
     image "$dec" "$out/$name.dec$pct" > /dev/null
     dec_db=$(psnr "$full" "$(shown "$out/$name.dec$pct")")
-    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db}"
+    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db}"
     echo "$row"
     rows+=("$row")
   done

@@ -43,10 +43,16 @@ PY
   echo "${rows[-1]}"
 done
 python3 - "$name" "${rows[@]}" <<'PY'
-import json, sys, datetime
+import json, os, sys, datetime
 name, rows = sys.argv[1], [json.loads(r) for r in sys.argv[2:]]
-json.dump({"date": datetime.date.today().isoformat(), "mesh": name,
-           "machine": "2 cores shared with six other helpers' builds and benchmarks (load average ~17): wall times inflated; user CPU seconds steadier",
-           "note": "preprocess --threads 2, default options; coarsest level: render --budget 1 at 512x512 against the full-resolution mesh's render, PSNR by bench/psnr.py",
-           "rows": rows}, open("bench/results/preprocess_sample.json", "w"), indent=2)
+path = "bench/results/preprocess_sample.json"
+meshes = []
+if os.path.exists(path):  # one entry per mesh; other meshes' entries from earlier runs stay
+    old = json.load(open(path))
+    meshes = [m for m in old.get("meshes", [old] if "mesh" in old else []) if m["mesh"] != name]
+meshes.append({"date": datetime.date.today().isoformat(), "mesh": name,
+               "machine": os.environ.get("BENCH_MACHINE", "2 cores shared with other builds and benchmarks: wall times inflated; user CPU seconds steadier"),
+               "rows": rows})
+json.dump({"note": "preprocess --threads 2, default options; coarsest level: render --budget 1 at 512x512 against the full-resolution mesh's render, PSNR by bench/psnr.py",
+           "meshes": meshes}, open(path, "w"), indent=2)
 PY

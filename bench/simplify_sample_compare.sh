@@ -78,7 +78,10 @@ path = "bench/results/simplify_sample.json"
 if os.path.exists(path):  # rows of other datasets from earlier runs stay
     mine = {r["mesh"] for r in rows}
     rows = [r for r in json.load(open(path))["rows"] if r["mesh"] not in mine] + rows
-json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores shared with six other helpers' builds and benchmarks (load average ~17 during the runs): wall times are inflated several-fold; user CPU seconds are the steadier figure",
+machine = os.environ.get("BENCH_MACHINE", "2 cores shared with other builds and benchmarks: wall times are inflated; user CPU seconds are the steadier figure")
+for r in rows:
+    r.setdefault("machine", machine)
+json.dump({"date": datetime.date.today().isoformat(), "machine": "per row (rows measured on different days and loads)",
            "note": "sample: simplify --method sample --ratio 0.1 (default thresholds, border error 0.2% of the diagonal), one thread; qem at the sample's tet count, --threads 1 and the default (both cores); VTK: vtkUnstructuredGridQuadricDecimation at the same ratio on the one scalar; errors by tetrascope error (all attributes; RMS normalised), isosurfaces by bench/iso_compare.py at 25/50/75% of the scalar's range (distances in % of the original isosurface's box diagonal)",
            "rows": rows}, open("bench/results/simplify_sample.json", "w"), indent=2)
 for r in rows:
