@@ -93,6 +93,7 @@ class BorderSimplifier {
     used_.assign(nv, 0);
     fixed_.assign(nv, 0);
     version_.assign(nv, 0);
+    refused_.assign(nv, {});
     quadric_.assign(nv, Quadric{});
     regions_.assign(nv, Box3{});
     mark_.assign(triangles.size(), 0);
@@ -144,8 +145,12 @@ class BorderSimplifier {
       if (version_[e.q] != e.version_q || version_[e.p] != e.version_p || !used_[e.q] || !used_[e.p]) continue;
       if (collapse(e.q, e.p)) {
         ++result_.collapses;
-        // p's edges have new costs; the ring's edges new neighbourhoods (a refused one may
-        // pass now): all of them again, the old entries stale by version
+        // p's edges have new costs: all of them again, the old entries stale by version. The
+        // ring's other edges keep their costs (their quadrics and values did not change), so
+        // their entries stay valid; only the ones refused before are pushed again, since the
+        // ring's new neighbourhood may let them pass now. (Bumping the ring's versions and
+        // pushing every edge again gives the same collapses in the same order, with several
+        // times the queue traffic: the queue's pops were half of this phase.)
         ring_of_p_.clear();
         for (uint32_t t : star_[e.p])
           for (uint32_t w : triangles_[t])
@@ -153,9 +158,13 @@ class BorderSimplifier {
         std::sort(ring_of_p_.begin(), ring_of_p_.end());
         ring_of_p_.erase(std::unique(ring_of_p_.begin(), ring_of_p_.end()), ring_of_p_.end());
         ++version_[e.p];
-        for (uint32_t w : ring_of_p_) ++version_[w];
+        refused_[e.p].clear();
+        refused_[e.q].clear();
         push_edges(e.p, false, kNoVertex);
-        for (uint32_t w : ring_of_p_) push_edges(w, false, e.p);
+        for (uint32_t w : ring_of_p_) retry_refused(w);
+      } else {
+        refused_[e.q].push_back(e.p);
+        refused_[e.p].push_back(e.q);
       }
     }
     for (uint32_t t = 0; t < triangles_.size(); ++t)
@@ -176,18 +185,41 @@ class BorderSimplifier {
     std::sort(ring_.begin(), ring_.end());
     ring_.erase(std::unique(ring_.begin(), ring_.end()), ring_.end());
     for (uint32_t w : ring_)
-      for (auto [q, p] : {std::pair{v, w}, std::pair{w, v}}) {
-        if (fixed_[q]) continue;
-        Quadric sum = quadric_[q];
-        for (int i = 0; i < 10; ++i) sum[i] += quadric_[p][i];
-        const double distance = std::max(0.0, evaluate(sum, positions_[p]));
-        double change = 0;  // q's values are dropped for p's
-        for (size_t c = 0; c < field_.channels; ++c) {
-          const double d = double(field_.values[size_t{q} * field_.channels + c]) - field_.values[size_t{p} * field_.channels + c];
-          change += d * d;
-        }
-        queue_.push({distance + field_.weight * field_.weight * change, distance, q, p, version_[q], version_[p]});
-      }
+      for (auto [q, p] : {std::pair{v, w}, std::pair{w, v}}) push_edge(q, p);
+  }
+
+  // the refused collapses of the edges at v, pushed again (both directions: the old code's
+  // order; an entry whose edge is gone or whose other end moved is skipped)
+  void retry_refused(uint32_t v) {
+    retry_.swap(refused_[v]);
+    refused_[v].clear();
+    std::sort(retry_.begin(), retry_.end());
+    retry_.erase(std::unique(retry_.begin(), retry_.end()), retry_.end());
+    for (uint32_t w : retry_) {
+      if (!used_[w] || !used_[v] || !adjacent(v, w)) continue;
+      for (auto [q, p] : {std::pair{v, w}, std::pair{w, v}}) push_edge(q, p);
+    }
+    retry_.clear();
+  }
+
+  bool adjacent(uint32_t v, uint32_t w) const {
+    for (uint32_t t : star_[v])
+      for (uint32_t x : triangles_[t])
+        if (x == w) return true;
+    return false;
+  }
+
+  void push_edge(uint32_t q, uint32_t p) {
+    if (fixed_[q]) return;
+    Quadric sum = quadric_[q];
+    for (int i = 0; i < 10; ++i) sum[i] += quadric_[p][i];
+    const double distance = std::max(0.0, evaluate(sum, positions_[p]));
+    double change = 0;  // q's values are dropped for p's
+    for (size_t c = 0; c < field_.channels; ++c) {
+      const double d = double(field_.values[size_t{q} * field_.channels + c]) - field_.values[size_t{p} * field_.channels + c];
+      change += d * d;
+    }
+    queue_.push({distance + field_.weight * field_.weight * change, distance, q, p, version_[q], version_[p]});
   }
 
   bool collapse(uint32_t q, uint32_t p) {
@@ -290,6 +322,7 @@ class BorderSimplifier {
   const std::vector<uint8_t>& locked_;
   const BorderField& field_;
   std::vector<std::vector<uint32_t>> star_;
+  std::vector<std::vector<uint32_t>> refused_;  // per vertex: the other ends of its refused collapses since its last change
   std::vector<uint8_t> alive_, used_, fixed_;
   std::vector<uint32_t> version_, mark_;
   uint32_t stamp_ = 0;
@@ -298,7 +331,7 @@ class BorderSimplifier {
   RegionOctree octree_;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue_;
   static constexpr uint32_t kNoVertex = 0xFFFFFFFFu;
-  std::vector<uint32_t> shared_, changed_, ring_q_, ring_, ring_of_p_;
+  std::vector<uint32_t> shared_, changed_, ring_q_, ring_, ring_of_p_, retry_;
   std::vector<std::array<uint32_t, 3>> new_;
   std::vector<Box3> new_box_;
   uint64_t alive_count_ = 0;
