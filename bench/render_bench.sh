@@ -46,9 +46,19 @@ for n in $meshes; do
   pv_frames=$frames
   [[ $n == 5m ]] && pv_frames=$(( frames < 6 ? frames : 6 ))
   ceiling=$(build/release/bench/triangle_ceiling "$mesh" 1024x768 "$frames" 2>/dev/null | tail -1)
-  # xvfb-run -a can lose a race for a display with other runs on a shared machine: one retry
-  pv=$(xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch bench/paraview_render.py "$mesh" "$attribute" 1024 768 "$pv_frames" 2>/dev/null | tail -1) ||
-    pv=$(xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch bench/paraview_render.py "$mesh" "$attribute" 1024 768 "$pv_frames" 2>/dev/null | tail -1)
+  # xvfb-run -a can lose a race for a display with other runs on a shared machine: up to 3
+  # tries, each on a display number of its own (-n); a mesh whose ParaView run still fails is
+  # left out with a message
+  pv=""
+  for try in 1 2 3; do
+    pv=$(xvfb-run -n $(( 200 + RANDOM % 500 )) -s "-screen 0 1280x1024x24" pvbatch bench/paraview_render.py "$mesh" "$attribute" 1024 768 "$pv_frames" 2>bench/out/paraview-$n.log | tail -1) && break
+    pv=""
+    sleep 5
+  done
+  if [[ -z $pv ]]; then
+    echo "ParaView failed on $mesh three times (bench/out/paraview-$n.log); left out" >&2
+    continue
+  fi
   rows+=("$(python3 - "$(mesh_name "$n")" "$dvr" "$iso" "$pv" "$exact" "$ceiling" <<'PY'
 import json, sys
 n, dvr, iso, pv, exact, ceiling = sys.argv[1], *map(json.loads, sys.argv[2:7])
@@ -65,6 +75,7 @@ print(json.dumps({"mesh": n, "tets": dvr["tets"], "dvr": dvr, "dvr_exact": exact
 PY
 )")
   echo "${rows[-1]}" | cut -c1-160
+  printf '%s\n' "${rows[@]}" > "$out.partial"
 done
 load_after=$(cut -d' ' -f1-3 /proc/loadavg)
 python3 - "$out" "$frames" "$load_before" "$load_after" "${rows[@]}" <<'PY'
