@@ -2,7 +2,9 @@
 # Volume rendering with the camera inside each shared dataset: PSNR of `tetrascope render`
 # (GL) against its own exact CPU integrator (`--reference`), one broad transfer function
 # (opacity 0.05 at the attribute's minimum to 0.6 at its maximum). The eyes are tet centroids
-# (so inside the mesh), found once with a nearest-centroid search.
+# (so inside the mesh), found once with a nearest-centroid search. Both methods: `--volume
+# exact` (the default; writes the reference image) and `--volume projected` (compared with
+# that reference image through --compare).
 #   bench/render_inside.sh TETRASCOPE_BINARY [WxH]    prints one JSON object
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,10 +34,14 @@ for mesh, attribute, camera in cases:
     json.dump({"attribute": attribute, "colormap": "viridis", "opacity": [[a["min"], 0.05], [a["max"], 0.6]]}, open(tf, "w"))
     start = time.time()
     r = subprocess.run([binary, "render", path, "-o", f"bench/out/inside-{mesh}.png", "--tf", tf, "--camera", camera, "--size", size,
-                        "--reference", "--json"], check=True, capture_output=True, text=True)
+                        "--volume", "exact", "--reference", "--json"], check=True, capture_output=True, text=True)
     j = json.loads(r.stdout.strip().splitlines()[-1])
+    seconds = round(time.time() - start, 1)
+    r = subprocess.run([binary, "render", path, "-o", f"bench/out/inside-projected-{mesh}.png", "--tf", tf, "--camera", camera, "--size", size,
+                        "--volume", "projected", "--compare", f"bench/out/inside-{mesh}.reference.png", "--json"], check=True, capture_output=True, text=True)
+    p = json.loads(r.stdout.strip().splitlines()[-1])
     row = {"mesh": mesh, "tets": j["tets"], "attribute": attribute, "camera": camera, "psnr_db": round(j["reference_psnr_db"], 2),
-           "seconds_with_reference": round(time.time() - start, 1)}
+           "psnr_db_projected": round(p["compare_psnr_db"], 2), "seconds_with_reference": seconds}
     print(json.dumps(row), file=sys.stderr)
     out["meshes"].append(row)
 print(json.dumps(out))
