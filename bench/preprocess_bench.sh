@@ -7,7 +7,7 @@
 # tets (`tetrascope cut` + `tetrascope error`; on the 1M and 5M meshes - measuring the 20M
 # one takes longer than the preprocessing). Writes bench/results/preprocess.json.
 #   bench/preprocess_bench.sh [MESH...]
-#   bench/preprocess_bench.sh --sample [MESH [REPEATS]]   --simplifier sample against qem (issue 20),
+#   bench/preprocess_bench.sh --sample [MESH [REPEATS]]  (METHODS="sample": only that one)   --simplifier sample against qem (issue 20),
 #                                                      bench/preprocess_sample_compare.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."

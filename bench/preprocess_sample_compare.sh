@@ -4,6 +4,7 @@
 # and the coarsest level rendered (--budget 1, 512x512, DVR of the first attribute) against the
 # full-resolution mesh's image: PSNR in dB of each store. Writes bench/results/preprocess_sample.json.
 set -euo pipefail
+trap 'echo "preprocess_sample_compare.sh: failed at line $LINENO (exit $?)" >&2' ERR
 cd "$(dirname "$0")/.."
 mesh=${1:-/work/bigdata/blade-1m.vtk}
 repeats=${2:-1}
@@ -14,7 +15,7 @@ name=$(basename "${mesh%.vtk}")
 $bin info --json "$mesh" | python3 -c 'import json,sys; a=json.load(sys.stdin)["attributes"][0]; lo,hi=(a["min"],a["max"]) if a["components"]==1 else (0,a["max"]); print(json.dumps({"attribute":a["name"],"colormap":"viridis","opacity":[[lo,0],[hi,0.3]]}))' > "$out/tf.json"
 $bin render "$mesh" -o "$out/full.png" --tf "$out/tf.json" --size 512x512 > /dev/null
 rows=()
-for method in qem sample; do
+for method in ${METHODS:-qem sample}; do
   runs=()
   for ((r = 0; r < repeats; ++r)); do
     log=$(mktemp)
@@ -49,10 +50,16 @@ path = "bench/results/preprocess_sample.json"
 meshes = []
 if os.path.exists(path):  # one entry per mesh; other meshes' entries from earlier runs stay
     old = json.load(open(path))
-    meshes = [m for m in old.get("meshes", [old] if "mesh" in old else []) if m["mesh"] != name]
-meshes.append({"date": datetime.date.today().isoformat(), "mesh": name,
-               "machine": os.environ.get("BENCH_MACHINE", "2 cores shared with other builds and benchmarks: wall times inflated; user CPU seconds steadier"),
-               "rows": rows})
+    meshes = old.get("meshes", [old] if "mesh" in old else [])
+machine = os.environ.get("BENCH_MACHINE", "2 cores shared with other builds and benchmarks: wall times inflated; user CPU seconds steadier")
+for r in rows:
+    r["machine"] = machine
+# rows of methods not run this time (METHODS) stay in the mesh's entry
+earlier = [m for m in meshes if m["mesh"] == name]
+done = {r["simplifier"] for r in rows}
+kept = [dict(r, machine=r.get("machine", e.get("machine"))) for e in earlier for r in e["rows"] if r["simplifier"] not in done]
+meshes = [m for m in meshes if m["mesh"] != name]
+meshes.append({"date": datetime.date.today().isoformat(), "mesh": name, "rows": kept + rows})
 json.dump({"note": "preprocess --threads 2, default options; coarsest level: render --budget 1 at 512x512 against the full-resolution mesh's render, PSNR by bench/psnr.py",
            "meshes": meshes}, open(path, "w"), indent=2)
 PY
