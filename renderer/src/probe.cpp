@@ -79,6 +79,9 @@ ProbeHit probe(const SceneMesh& scene, const RenderSettings& settings, double x,
       for (size_t i = 0; i + 3 <= xyz.size(); i += 3) tris.insert(tris.end(), {xyz[i], xyz[i + 1], xyz[i + 2], static_cast<float>(iso)});
       test_triangles(tris, "isosurface");
     }
+  // the boundary is a surface the eye sees only in surface mode: otherwise (the volume) a
+  // slice or isosurface inside it is what the click means
+  if (!best.surface.empty() && !settings.surface) return best;
   const bool iso_color = scene.iso_color_value.size() == scene.value.size() && !scene.iso_color_attribute.empty();
   for (const auto& f : scene.boundary) {
     Vec3 p[3];

@@ -177,6 +177,11 @@ TEST(Probe, EveryPointAttributeAtThePickedPointOnASliceTheBoundaryAndThroughACli
     ASSERT_EQ(on_slice.surface, "slice");
     EXPECT_NEAR(on_slice.position[2], 0.4, 1e-5);
     check(renderer::values_at(scene, on_slice.position), on_slice.position);
+    // from outside, the slice inside the volume, unless the boundary is drawn as a surface
+    EXPECT_EQ(renderer::probe(scene, s, x, y).surface, "slice");
+    renderer::RenderSettings surface = s;
+    surface.surface = true;
+    EXPECT_EQ(renderer::probe(scene, surface, x, y).surface, "boundary");
     // on the boundary z = 1 (no slice), seen from outside
     renderer::RenderSettings bare = s;
     bare.slices.planes.clear();

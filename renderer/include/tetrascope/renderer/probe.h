@@ -1,6 +1,7 @@
 // The hover probe (ParaView's): the point under a pixel of a view and the field there - the
 // nearest hit of the pixel's ray with a slice, an isosurface (in iso mode) or the boundary of
-// the scene drawn (clipped, when a clip is set), with the attribute interpolated linearly -
+// the scene drawn (clipped, when a clip is set; the boundary in front of a slice or
+// isosurface counts only in surface mode), with the attribute interpolated linearly -
 // and every point attribute of the mesh at that point (values_at).
 #pragma once
 
