@@ -95,7 +95,7 @@ TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
 
 TEST(RenderCli, ASliceIsLitUnlessSliceFlat) {
   const auto dir = scratch_dir("render-cli-slice");
-  auto read = [](const std::filesystem::path& p) {
+  auto bytes = [](const std::filesystem::path& p) {
     std::ifstream in(p, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
   };
@@ -104,7 +104,7 @@ TEST(RenderCli, ASliceIsLitUnlessSliceFlat) {
   ASSERT_EQ(lit.status, 0) << lit.out;
   Result flat = run(base + " --slice-flat -o " + (dir / "flat.png").string());
   ASSERT_EQ(flat.status, 0) << flat.out;
-  EXPECT_NE(read(dir / "lit.png"), read(dir / "flat.png")) << "the oblique slice is shaded when lit";
+  EXPECT_NE(bytes(dir / "lit.png"), bytes(dir / "flat.png")) << "the oblique slice is shaded when lit";
 }
 
 TEST(RenderCli, ImageSidesAreLimited) {
