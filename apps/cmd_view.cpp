@@ -51,7 +51,7 @@ OpenedStore open_multires(const std::string& path, const std::string& single_lev
 }
 
 // --clip nx,ny,nz,d (repeatable, "!" in front or ",invert" after inverts), --clip-box
-// x0,y0,z0,x1,y1,z1, --crinkle, --slice nx,ny,nz,d (repeatable), --slice-edges: taken out of
+// x0,y0,z0,x1,y1,z1, --crinkle, --slice nx,ny,nz,d (repeatable), --slice-edges, --slice-flat: taken out of
 // the arguments before Args (which keeps one value an option) sees them.
 Arguments take_plane_options(const Arguments& raw, protocol::ClipSpec& clip, protocol::SliceSpec* slices) {
   Arguments rest;
@@ -84,6 +84,8 @@ Arguments take_plane_options(const Arguments& raw, protocol::ClipSpec& clip, pro
       }
     } else if (slices && a == "--slice-edges") {
       slices->edges = true;
+    } else if (slices && a == "--slice-flat") {
+      slices->lit = false;
     } else {
       rest.push_back(a);
     }
@@ -310,7 +312,7 @@ int run_render(const Arguments& all) {
              "--point-target", "--compare", "--volume"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
-                 "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges]\n"
+                 "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
     return 2;

@@ -1,8 +1,8 @@
 // Clip and slice planes in the viewer: add and remove planes, pick a normal (±X, ±Y, ±Z or
 // the view direction), drag a plane along its normal with its slider, invert a clip, show
-// the tets' edges on slices. The planes live in the view (view.clips, view.slices,
-// view.sliceEdges), travel in the URL (clip=, slice=, sedges=) and go to the server as
-// clip.set and slice.set (protocol/js/planes.js checks them).
+// the tets' edges on slices, slices lit or flat. The planes live in the view (view.clips,
+// view.slices, view.sliceEdges, view.sliceFlat), travel in the URL (clip=, slice=, sedges=,
+// sflat=) and go to the server as clip.set and slice.set (protocol/js/planes.js checks them).
 
 // protocol/js/planes.js's limits (not imported: view-state.js, which imports this module,
 // also runs under node, where /protocol/ does not resolve)
@@ -22,6 +22,7 @@ export function planesToHash(view) {
   if (view.clips?.length) p.push(`clip=${view.clips.map(plane).join(',')}`);
   if (view.slices?.length) p.push(`slice=${view.slices.map(plane).join(',')}`);
   if (view.sliceEdges) p.push('sedges=1');
+  if (view.sliceFlat) p.push('sflat=1');
   return p;
 }
 
@@ -39,11 +40,11 @@ export function planesFromHash(h) {
     }
     return out.slice(0, max);
   };
-  return { clips: parse(h.get('clip'), true, MAX_CLIP_PLANES), slices: parse(h.get('slice'), false, MAX_SLICE_PLANES), sliceEdges: h.get('sedges') === '1' };
+  return { clips: parse(h.get('clip'), true, MAX_CLIP_PLANES), slices: parse(h.get('slice'), false, MAX_SLICE_PLANES), sliceEdges: h.get('sedges') === '1', sliceFlat: h.get('sflat') === '1' };
 }
 
 export const clipBody = (view) => ({ planes: (view.clips ?? []).map(({ normal, offset, invert }) => ({ normal, offset, invert: !!invert })) });
-export const sliceBody = (view) => ({ planes: (view.slices ?? []).map(({ normal, offset }) => ({ normal, offset })), edges: !!view.sliceEdges });
+export const sliceBody = (view) => ({ planes: (view.slices ?? []).map(({ normal, offset }) => ({ normal, offset })), edges: !!view.sliceEdges, lit: !view.sliceFlat });
 
 // ---------- the panel ----------
 
@@ -57,6 +58,11 @@ export class PlanesPanel {
     root.querySelector('[data-add=slice]').addEventListener('click', () => this.add('slices'));
     root.querySelector('#slice-edges').addEventListener('change', (e) => {
       this.host.view().sliceEdges = e.target.checked;
+      this.sendSlices();
+      this.host.saved();
+    });
+    root.querySelector('#slice-lit').addEventListener('change', (e) => {
+      this.host.view().sliceFlat = !e.target.checked;
       this.sendSlices();
       this.host.saved();
     });
@@ -103,6 +109,7 @@ export class PlanesPanel {
   show() {
     const view = this.host.view();
     this.root.querySelector('#slice-edges').checked = !!view.sliceEdges;
+    this.root.querySelector('#slice-lit').checked = !view.sliceFlat;
     const rows = this.root.querySelector('.plane-rows');
     rows.replaceChildren();
     for (const kind of ['clips', 'slices'])
@@ -190,6 +197,6 @@ export class PlanesPanel {
   sendAll() {
     const view = this.host.view();
     if (view.clips?.length) this.sendClips();
-    if (view.slices?.length || view.sliceEdges) this.sendSlices();
+    if (view.slices?.length || view.sliceEdges || view.sliceFlat) this.sendSlices();
   }
 }

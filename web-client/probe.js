@@ -1,5 +1,8 @@
 // The probe: a click on the image (a press and release without moving) asks the server for
-// the field under the cursor (probe -> probe.result) and shows it beside the cursor.
+// the field under the cursor (probe -> probe.result) and shows it beside the cursor: every
+// point attribute there (vectors as components and magnitude), the one shown first.
+import { probeRows } from '/protocol/js/planes.js';
+
 const kClickSlop = 3;  // px a click may move
 
 export class Probe {
@@ -33,10 +36,12 @@ export class Probe {
   show(message) {
     this.last = message;
     if (!this.asked || message.id !== this.asked.id) return;
-    const fmt = (v) => (Math.abs(v) >= 1e4 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(3) : v.toPrecision(4));
+    const fmt = (v) => (v === null || !Number.isFinite(v) ? '-' : Math.abs(v) >= 1e4 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(3) : v.toPrecision(4));
+    const rows = probeRows(message).map((r) =>
+      Array.isArray(r.value) ? `${r.name} = (${r.value.map(fmt).join(', ')}), |${r.name}| = ${fmt(r.magnitude)}` : `${r.name || 'value'} = ${fmt(r.value)}`,
+    );
     this.overlay.textContent = message.hit
-      ? `${message.attribute || 'value'} = ${fmt(message.value)}${message.iso_color_attribute ? `, ${message.iso_color_attribute} = ${fmt(message.iso_color_value)}` : ''}\n` +
-        `at (${message.position.map(fmt).join(', ')}) on the ${message.surface}`
+      ? `${rows.join('\n')}\nat (${message.position.map(fmt).join(', ')}) on the ${message.surface}`
       : 'nothing under the cursor';
     Object.assign(this.overlay.style, { left: `${this.asked.left + 12}px`, top: `${this.asked.top + 12}px` });
     this.overlay.hidden = false;

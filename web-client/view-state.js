@@ -55,7 +55,7 @@ export function defaultView() {
     isoOpacity: 1,
     budget: null, interactionBudget: null,  // null: the server's
     interactionQuality: 60, stillQuality: 90, pngStills: false,
-    clips: [], slices: [], sliceEdges: false,  // planes.js
+    clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
   };
 }
 

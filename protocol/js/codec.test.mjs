@@ -4,12 +4,14 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { fileURLToPath } from 'node:url';
 import { checkMessage, decodeFrame, encodeFrameHeader, DEFAULT_LIMITS, ProtocolError } from './codec.js';
+import { probeRows } from './planes.js';
 
 const dir = fileURLToPath(new URL('../testdata/', import.meta.url));
 const messages = JSON.parse(readFileSync(dir + 'messages.json', 'utf8'));
 // clip.set and slice.set have their own file (protocol/js/planes.js)
 messages.messages.push(...JSON.parse(readFileSync(dir + 'planes.json', 'utf8')).messages);
 const frames = JSON.parse(readFileSync(dir + 'frames.json', 'utf8'));
+const probeResults = JSON.parse(readFileSync(dir + 'planes.json', 'utf8')).probe_results;
 const limits = { ...DEFAULT_LIMITS, ...messages.limits };
 
 function textOf(vector) {
@@ -49,5 +51,11 @@ for (const vector of frames) {
     assert.deepEqual(header, vector.header);
     assert.equal(payload.length, vector.header.payload_bytes);
     assert.deepEqual(encodeFrameHeader(header), bytes.subarray(0, 48));
+  });
+}
+
+for (const vector of probeResults) {
+  test(`probe.result: ${vector.name}`, () => {
+    assert.deepEqual(probeRows(vector.json), vector.rows);
   });
 }

@@ -55,5 +55,30 @@ export const planeCheckers = {
   'slice.set'(f) {
     planeList(f, MAX_SLICE_PLANES).forEach((p, i) => checkPlane(f, p, i, false));
     f.boolean('edges');
+    f.boolean('lit');
   },
 };
+
+// probe.result's values as rows to show: [{name, value: number | null | [x, y, z], magnitude?}],
+// the attribute shown first. A reply without `values` (an older server) gives its one
+// attribute; malformed entries are left out (the server's reply, but read with care).
+export function probeRows(result) {
+  if (!result?.hit) return [];
+  const num = (v) => (typeof v === 'number' && Number.isFinite(v) ? v : null);
+  const rows = [];
+  const values = result.values !== null && typeof result.values === 'object' && !Array.isArray(result.values) ? result.values : null;
+  if (!values) return typeof result.attribute === 'string' ? [{ name: result.attribute, value: num(result.value) }] : [];
+  for (const [name, v] of Object.entries(values)) {
+    if (Array.isArray(v)) {
+      if (v.length === 0 || v.length > 16) continue;
+      const components = v.map(num);
+      const m = num(result.magnitudes?.[name]);
+      rows.push({ name, value: components, magnitude: m ?? (components.every((c) => c !== null) ? Math.hypot(...components) : null) });
+    } else if (typeof v === 'number' || v === null) {
+      rows.push({ name, value: num(v) });
+    }
+  }
+  const shown = rows.findIndex((r) => r.name === result.attribute);
+  if (shown > 0) rows.unshift(...rows.splice(shown, 1));
+  return rows;
+}

@@ -80,7 +80,7 @@ json ClipSpec::to_json() const {
 }
 
 json SliceSpec::to_json() const {
-  json j = {{"planes", json::array()}, {"edges", edges}};
+  json j = {{"planes", json::array()}, {"edges", edges}, {"lit", lit}};
   for (const Plane& p : planes) j["planes"].push_back({{"normal", p.normal}, {"offset", p.offset}});
   return j;
 }
@@ -121,6 +121,7 @@ SliceSpec parse_slice_spec(const json& object, std::optional<uint32_t> id) {
   for (size_t i = 0; i < planes.size(); ++i)
     spec.planes.push_back(each_plane(planes[i], i, id, [](const Fields& pf, const std::string& name) { return plane_of(pf, name); }));
   spec.edges = f.boolean("edges").value_or(false);
+  spec.lit = f.boolean("lit").value_or(true);
   return spec;
 }
 
@@ -130,6 +131,69 @@ Probe parse_probe(const json& object, uint32_t max_image_side, std::optional<uin
   p.x = f.number("x", f.require("x"), 0, max_image_side);
   p.y = f.number("y", f.require("y"), 0, max_image_side);
   return p;
+}
+
+json ProbeResult::to_json(uint32_t id) const {
+  json j = {{"type", "probe.result"}, {"id", id}, {"hit", hit}};
+  if (!hit) return j;
+  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  j["surface"] = surface;
+  j["position"] = position;
+  j["attribute"] = attribute;
+  j["value"] = number(value);
+  if (iso_color) {
+    j["iso_color_attribute"] = iso_color->first;
+    j["iso_color_value"] = number(iso_color->second);
+  }
+  json v = json::object(), m = json::object();
+  for (const auto& [name, components] : values) {
+    if (components.size() == 1) {
+      v[name] = number(components[0]);
+      continue;
+    }
+    json list = json::array();
+    double length = 0;
+    for (double c : components) {
+      list.push_back(number(c));
+      length += c * c;
+    }
+    v[name] = std::move(list);
+    m[name] = number(std::sqrt(length));
+  }
+  j["values"] = std::move(v);
+  if (!m.empty()) j["magnitudes"] = std::move(m);
+  return j;
+}
+
+ProbeResult ProbeResult::from_json(const json& object) {
+  const Fields f(object, std::nullopt);
+  ProbeResult r;
+  r.hit = f.boolean("hit").value_or(false);
+  if (!r.hit) return r;
+  const auto number = [&](const std::string& field, const json& v) { return v.is_null() ? std::nan("") : f.number(field, v, -1e300, 1e300); };
+  const auto text = [&](const std::string& field) {
+    f.require(field);
+    return *f.string(field, 4096);
+  };
+  r.surface = text("surface");
+  r.position = f.vector3("position");
+  r.attribute = text("attribute");
+  r.value = number("value", f.require("value"));
+  if (f.find("iso_color_attribute")) r.iso_color = {{text("iso_color_attribute"), number("iso_color_value", f.require("iso_color_value"))}};
+  if (const json* values = f.find("values")) {
+    if (!values->is_object()) f.fail("values", "expected {name: number | [x, y, z]}");
+    for (const auto& [name, v] : values->items()) {
+      std::vector<double> components;
+      if (v.is_array()) {
+        if (v.empty() || v.size() > 16) f.fail("values." + name, "expected 1 to 16 components");
+        for (const json& c : v) components.push_back(number("values." + name, c));
+      } else {
+        components.push_back(number("values." + name, v));
+      }
+      r.values.emplace_back(name, std::move(components));
+    }
+  }
+  return r;
 }
 
 ClipPlane parse_plane_text(std::string_view text, bool allow_invert) {

@@ -344,6 +344,7 @@ class GlRenderer final : public Renderer {
       glUniform1f(glGetUniformLocation(surface_program_, "inv_span"), float(1 / span));
     }
     glUniform4f(glGetUniformLocation(surface_program_, "solid"), 0, 0, 0, -1);
+    glUniform1i(glGetUniformLocation(surface_program_, "lit"), 1);
     glBindTextureUnit(0, colormap_texture_);
     glUniform1i(glGetUniformLocation(surface_program_, "colormap"), 0);
   }
@@ -367,9 +368,12 @@ class GlRenderer final : public Renderer {
     return true;
   }
 
-  // Slice planes (clip.h), opaque like isosurfaces; their triangles cached per mesh and planes.
+  // Slice planes (clip.h), opaque like isosurfaces, lit or flat; their triangles cached per
+  // mesh and planes (and edges: lit or flat does not slice again).
   bool draw_slices(const FrameSetup& setup, const protocol::SliceSpec& slices) {
-    const std::string key = slices.to_json().dump();
+    protocol::SliceSpec geometry = slices;
+    geometry.lit = true;
+    const std::string key = geometry.to_json().dump();
     if (key != slices_.key) {
       slices_ = {key, {}, {}};
       for (const protocol::Plane& plane : slices.planes) slice_scene(*mesh_, plane, slices_.triangles, slices.edges ? &slices_.edges : nullptr);
@@ -377,6 +381,7 @@ class GlRenderer final : public Renderer {
     if (slices_.triangles.empty()) return false;
     glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(slices_.triangles.size() * 4), slices_.triangles.data(), GL_STREAM_DRAW);
     use_surface_program(setup, false);
+    glUniform1i(glGetUniformLocation(surface_program_, "lit"), slices.lit);
     glBindVertexArray(line_vao_);
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(slices_.triangles.size() / 4));
     return true;

@@ -195,13 +195,16 @@ uniform float lo, inv_span;
 uniform vec4 solid;   // a >= 0: this colour instead of the colormap
 uniform float opacity = 1.0;  // premultiplied output
 uniform float depth_out; // 1: write the distance along the ray into the colour's alpha target 1
+uniform bool lit;         // false: flat, the colour unshaded (slices)
 layout(location = 0) out vec4 color;
 layout(location = 1) out float distance_out;
 void main() {
   vec3 n = normalize(cross(dFdx(world), dFdy(world)));
   vec3 d = ortho ? forward : normalize(world - eye);
-  float light = 0.25 + 0.75 * abs(dot(n, d));
-  vec3 base = solid.a >= 0.0 ? solid.rgb : texture(colormap, clamp((v - lo) * inv_span, 0.0, 1.0)).rgb;
+  float light = lit ? 0.25 + 0.75 * abs(dot(n, d)) : 1.0;
+  // texel i holds the colour at i / 255: s maps to texel coordinate 255 s, its centre + 0.5
+  float s = clamp((v - lo) * inv_span, 0.0, 1.0);
+  vec3 base = solid.a >= 0.0 ? solid.rgb : texture(colormap, (s * 255.0 + 0.5) / 256.0).rgb;
   color = vec4(base * light * opacity, opacity);
   distance_out = ortho ? dot(world - eye, forward) : length(world - eye);
 }

@@ -2,6 +2,7 @@
 // (Möller-Trumbore), the nearest hit wins; values interpolated barycentrically.
 #include "tetrascope/renderer/probe.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -78,6 +79,9 @@ ProbeHit probe(const SceneMesh& scene, const RenderSettings& settings, double x,
       for (size_t i = 0; i + 3 <= xyz.size(); i += 3) tris.insert(tris.end(), {xyz[i], xyz[i + 1], xyz[i + 2], static_cast<float>(iso)});
       test_triangles(tris, "isosurface");
     }
+  // the boundary is a surface the eye sees only in surface mode: otherwise (the volume) a
+  // slice or isosurface inside it is what the click means
+  if (!best.surface.empty() && !settings.surface) return best;
   const bool iso_color = scene.iso_color_value.size() == scene.value.size() && !scene.iso_color_attribute.empty();
   for (const auto& f : scene.boundary) {
     Vec3 p[3];
@@ -94,6 +98,56 @@ ProbeHit probe(const SceneMesh& scene, const RenderSettings& settings, double x,
     else best.iso_color_value.reset();
   }
   return best;
+}
+
+std::vector<PointValue> values_at(const SceneMesh& scene, const std::array<double, 3>& position) {
+  std::vector<PointValue> out;
+  if (scene.attributes.empty()) return out;
+  const Vec3 p{position[0], position[1], position[2]};
+  const double slack = 1e-6 * scene.diagonal;  // positions are floats
+  double best = -std::numeric_limits<double>::infinity();
+  std::array<double, 4> weights{};
+  const uint32_t* held = nullptr;
+  for (size_t t = 0; t < scene.tets.size() / 4 && best < 0; ++t) {
+    const uint32_t* tet = &scene.tets[4 * t];
+    Vec3 v[4];
+    bool near = true;
+    for (int k = 0; k < 4; ++k) v[k] = {scene.xyz[3 * size_t{tet[k]}], scene.xyz[3 * size_t{tet[k]} + 1], scene.xyz[3 * size_t{tet[k]} + 2]};
+    for (int a = 0; a < 3 && near; ++a) {
+      const double lo = std::min({v[0][a], v[1][a], v[2][a], v[3][a]}), hi = std::max({v[0][a], v[1][a], v[2][a], v[3][a]});
+      near = p[a] >= lo - slack && p[a] <= hi + slack;
+    }
+    if (!near) continue;
+    const Vec3 e1 = v[1] - v[0], e2 = v[2] - v[0], e3 = v[3] - v[0], q = p - v[0];
+    const double det = dot(e1, cross(e2, e3));
+    if (!(std::fabs(det) > 0)) continue;
+    const double w1 = dot(q, cross(e2, e3)) / det, w2 = dot(e1, cross(q, e3)) / det, w3 = dot(e1, cross(e2, q)) / det;
+    const std::array<double, 4> w{1 - w1 - w2 - w3, w1, w2, w3};
+    const double least = std::min({w[0], w[1], w[2], w[3]});
+    if (least > best) {
+      best = least;
+      weights = w;
+      held = tet;
+    }
+  }
+  if (!held || best < -1e-4) return out;
+  double sum = 0;  // a boundary point a rounding outside: onto the tet
+  for (double& w : weights) sum += (w = std::max(w, 0.0));
+  for (double& w : weights) w /= sum;
+  for (const storage::Attribute& a : scene.attributes) {
+    const uint32_t c = a.info.components;
+    if (c == 0 || a.values.size() < (scene.xyz.size() / 3) * c) continue;
+    PointValue value{a.info.name, std::vector<double>(c, 0.0), 0};
+    for (int k = 0; k < 4; ++k)
+      for (uint32_t i = 0; i < c; ++i) value.components[i] += weights[k] * a.values[size_t{held[k]} * c + i];
+    if (c > 1) {
+      double m = 0;
+      for (double x : value.components) m += x * x;
+      value.magnitude = std::sqrt(m);
+    }
+    out.push_back(std::move(value));
+  }
+  return out;
 }
 
 }  // namespace tetrascope::renderer

@@ -80,6 +80,7 @@ SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attri
     s.iso_color_attribute = iso_color_attribute;
     value_range(s.iso_color_value, &s.iso_color_min, &s.iso_color_max);
   }
+  s.attributes = mesh.attributes;
   s.boundary = boundary_faces(s.tets);
   s.max_edge = longest_edge(s.xyz, s.tets);
   return s;

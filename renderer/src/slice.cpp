@@ -106,7 +106,7 @@ SliceHits slice_hits(const SceneMesh& scene, const RenderSettings& settings, dou
         hits.distance[at] = static_cast<float>(t);
         const double s = std::clamp(((1 - u - v) * value[0] + u * value[1] + v * value[2] - lo) / (hi - lo), 0.0, 1.0);
         const auto base = settings.tf.colors.empty() ? colormap(settings.tf.colormap, s) : settings.tf.user_color(lo + s * (hi - lo));
-        const double light = 0.25 + 0.75 * std::fabs(dot(normal, dir));
+        const double light = settings.slices.lit ? 0.25 + 0.75 * std::fabs(dot(normal, dir)) : 1.0;
         for (int k = 0; k < 3; ++k) hits.rgb[at][k] = static_cast<float>(base[k] * light);
       }
   }

@@ -1,6 +1,7 @@
 // Clip and slice planes in the web client, in headless Chromium (as viewer.test.mjs): adding
-// a clip plane and dragging it along its normal changes the image, a slice shows, the planes
-// go into the URL and come back from a link, and the messages sent pass the codec.
+// a clip plane and dragging it along its normal changes the image, a slice shows, lit or
+// flat, the planes go into the URL and come back from a link, the messages sent pass the
+// codec, and a click reports every point attribute.
 //   node --test tests/browser/planes.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -105,6 +106,14 @@ test('a slice with edges facing the view shows, and a normal from a preset', asy
   assert.notEqual(await frameImage(), before, 'the slice shows');
   assert.match(page.url(), /slice=/);
   assert.match(page.url(), /sedges=1/);
+  // lit -> flat: the slice's shading goes, the image changes, the URL says so
+  const lit = await frameImage();
+  assert.equal(slice.lit, true);
+  await page.uncheck('#slice-lit');
+  await settled();
+  assert.equal((await lastSent('slice.set')).lit, false);
+  assert.notEqual(await frameImage(), lit, 'the flat slice differs from the lit one');
+  assert.match(page.url(), /sflat=1/);
   // a preset normal for the clip
   await page.selectOption('.plane-row[data-kind=clips] .plane-normal', '+y');
   await settled();
@@ -118,8 +127,14 @@ test('a link brings the planes back, and removing them restores the image', asyn
   const other = await browser.newPage({ viewport: { width: 900, height: 700 } });
   await other.goto(link);
   await other.waitForFunction(() => window.tetrascope.sent.some((m) => m.type === 'clip.set') && window.tetrascope.sent.some((m) => m.type === 'slice.set'), null, { timeout: 60000 });
-  const planes = await other.evaluate(() => ({ clips: window.tetrascope.view.clips.length, slices: window.tetrascope.view.slices.length, rows: document.querySelectorAll('.plane-row').length }));
-  assert.deepEqual(planes, { clips: 1, slices: 1, rows: 2 });
+  const planes = await other.evaluate(() => ({
+    clips: window.tetrascope.view.clips.length,
+    slices: window.tetrascope.view.slices.length,
+    rows: document.querySelectorAll('.plane-row').length,
+    lit: document.getElementById('slice-lit').checked,
+    sentLit: window.tetrascope.sent.filter((m) => m.type === 'slice.set').at(-1).body.lit,
+  }));
+  assert.deepEqual(planes, { clips: 1, slices: 1, rows: 2, lit: false, sentLit: false });
   await other.close();
   await page.click('.plane-row[data-kind=slices] .plane-remove');
   await page.click('.plane-row[data-kind=clips] .plane-remove');
@@ -141,7 +156,21 @@ test('a click on the image reports the field under the cursor', async () => {
   const range = await page.evaluate((name) => window.tetrascope.dataset.attributes.find((a) => a.name === name)?.range ?? null, result.attribute);
   assert.ok(Number.isFinite(result.value));
   if (range) assert.ok(result.value >= range[0] - 1e-3 * Math.abs(range[0]) && result.value <= range[1] + 1e-3 * Math.abs(range[1]), `${result.value} in ${range}`);
-  assert.match(await page.textContent('#probe'), /=/);
+  // every point attribute of the dataset at that point, vectors as components and magnitude
+  const attributes = await page.evaluate(() => window.tetrascope.dataset.attributes.map((a) => ({ name: a.name, components: a.components ?? null })));
+  for (const a of attributes) {
+    const v = result.values?.[a.name];
+    assert.ok(v !== undefined, `${a.name} in ${JSON.stringify(result.values)}`);
+    if (Array.isArray(v)) {
+      assert.equal(v.length, 3);
+      assert.ok(Math.abs(result.magnitudes[a.name] - Math.hypot(...v)) <= 1e-9 * Math.max(1, result.magnitudes[a.name]));
+    } else {
+      assert.ok(Number.isFinite(v));
+    }
+  }
+  if (!Array.isArray(result.values[result.attribute])) assert.ok(Math.abs(result.values[result.attribute] - result.value) <= 1e-3 * Math.max(1, Math.abs(result.value)));
+  const text = await page.textContent('#probe');
+  for (const a of attributes) assert.ok(text.includes(`${a.name} =`), `${a.name} in the readout: ${text}`);
   // the sky: nothing
   await page.mouse.click(box.x + 3, box.y + 3);
   await page.waitForFunction(() => window.tetrascope.probe.last && !window.tetrascope.probe.last.hit, null, { timeout: 60000 });

@@ -2,6 +2,9 @@
 // its options and the errors it gives.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
+
 #include <nlohmann/json.hpp>
 
 #include "cli_run.h"
@@ -88,6 +91,20 @@ TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
   Result bad_compare = run("render " + mesh + " -o " + out + " --size 16x16 --compare " + mesh);
   EXPECT_EQ(bad_compare.status, 2);
   EXPECT_NE(bad_compare.out.find("not a PNG"), std::string::npos) << bad_compare.out;
+}
+
+TEST(RenderCli, ASliceIsLitUnlessSliceFlat) {
+  const auto dir = scratch_dir("render-cli-slice");
+  auto bytes = [](const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string base = "render " + sample_mesh().string() + " --mode slice --slice 1,0,0,0 --size 96x64 --camera azimuth=60,elevation=20";
+  Result lit = run(base + " -o " + (dir / "lit.png").string());
+  ASSERT_EQ(lit.status, 0) << lit.out;
+  Result flat = run(base + " --slice-flat -o " + (dir / "flat.png").string());
+  ASSERT_EQ(flat.status, 0) << flat.out;
+  EXPECT_NE(bytes(dir / "lit.png"), bytes(dir / "flat.png")) << "the oblique slice is shaded when lit";
 }
 
 TEST(RenderCli, ImageSidesAreLimited) {

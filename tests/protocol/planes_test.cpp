@@ -1,5 +1,6 @@
 // clip.set and slice.set against the shared vectors (protocol/testdata/planes.json, also run
 // by the JS codec), the planes' normalisation, and the command line's plane text.
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -61,6 +62,62 @@ TEST(Planes, NormalsAreMadeUnitAndTheOffsetScaledWithThem) {
   EXPECT_GT(half[0].side(0, 0, 0), 0);
   // a round trip through JSON
   EXPECT_EQ(parse_clip_spec(clip.to_json(), 1), clip);
+}
+
+TEST(Planes, SlicesAreLitUnlessSentFlat) {
+  const auto slice = [](const char* text) { return std::get<SliceSet>(parse_message(text, Limits{}).message).slice; };
+  EXPECT_TRUE(slice(R"({"type":"slice.set","id":1,"planes":[{"normal":[1,0,0],"offset":0}]})").lit);
+  const SliceSpec flat = slice(R"({"type":"slice.set","id":2,"planes":[{"normal":[1,0,0],"offset":0}],"lit":false})");
+  EXPECT_FALSE(flat.lit);
+  EXPECT_EQ(flat.to_json()["lit"], false);
+  EXPECT_EQ(parse_slice_spec(flat.to_json(), 2), flat);
+  // a lit that is not a boolean names the field
+  try {
+    parse_slice_spec(nlohmann::json::parse(R"({"planes":[],"lit":"off"})"), 3);
+    ADD_FAILURE() << "accepted";
+  } catch (const ProtocolError& e) {
+    EXPECT_EQ(e.code(), code::kBadField);
+    EXPECT_NE(std::string(e.what()).find("lit"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ProbeResultVectors, EveryProbeResultRoundTripsAndHoldsItsRows) {
+  std::ifstream in(tetrascope::testing::source_dir() / "protocol" / "testdata" / "planes.json");
+  const nlohmann::json file = nlohmann::json::parse(in);
+  ASSERT_GE(file["probe_results"].size(), 4u);
+  for (const auto& vector : file["probe_results"]) {
+    SCOPED_TRACE(vector["name"].get<std::string>());
+    const nlohmann::json& expected = vector["json"];
+    const ProbeResult r = ProbeResult::from_json(expected);
+    nlohmann::json encoded = r.to_json(expected["id"].get<uint32_t>());
+    if (!expected.contains("values")) encoded.erase("values");  // an older server's reply
+    EXPECT_EQ(encoded, expected);
+    // every row the viewer shows (protocol/js/planes.js probeRows) is in the values
+    for (const auto& row : vector["rows"]) {
+      if (!expected.contains("values")) break;
+      const auto it = std::find_if(r.values.begin(), r.values.end(), [&](const auto& v) { return v.first == row["name"]; });
+      ASSERT_NE(it, r.values.end()) << row["name"];
+      const nlohmann::json value = row["value"].is_array() ? row["value"] : nlohmann::json::array({row["value"]});
+      ASSERT_EQ(it->second.size(), value.size());
+      for (size_t k = 0; k < value.size(); ++k) {
+        if (value[k].is_null()) {
+          EXPECT_TRUE(std::isnan(it->second[k]));
+        } else {
+          EXPECT_EQ(it->second[k], value[k].get<double>());
+        }
+      }
+    }
+  }
+}
+
+TEST(ProbeResultVectors, AMalformedProbeResultIsRefusedNamingTheField) {
+  for (const char* text : {R"({"hit":true,"surface":"slice","position":[0,0],"attribute":"f","value":1})",
+                           R"({"hit":true,"surface":"slice","position":[0,0,0],"attribute":"f","value":"1"})",
+                           R"({"hit":true,"surface":"slice","position":[0,0,0],"attribute":"f","value":1,"values":[1]})",
+                           R"({"hit":true,"surface":"slice","position":[0,0,0],"attribute":"f","value":1,"values":{"v":[]}})",
+                           R"({"hit":true,"surface":"slice","position":[0,0,0],"attribute":"f","value":1,"values":{"v":["x"]}})"}) {
+    EXPECT_THROW(ProbeResult::from_json(nlohmann::json::parse(text)), ProtocolError) << text;
+  }
 }
 
 TEST(Planes, PlaneTextWithAZeroNormalIsRefused) {

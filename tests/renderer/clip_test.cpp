@@ -12,6 +12,7 @@
 #include "test_paths.h"
 #include "tetrascope/protocol/planes.h"
 #include "tetrascope/renderer/clip.h"
+#include "tetrascope/renderer/probe.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/tet_topology.h"
@@ -69,6 +70,137 @@ TEST(Slice, LinearFieldInABoxHasTheCrossSectionAreaAndTheValueEverywhere) {
   triangles.clear();
   renderer::slice_scene(scene, {{1, 0, 0}, 2}, triangles, nullptr);
   EXPECT_TRUE(triangles.empty());
+}
+
+// The slice alone (no volume) of the unit cube seen from +z, f over [0, 1] through viridis.
+renderer::RenderSettings slice_view(const renderer::SceneMesh& scene, const protocol::Plane& plane, bool lit) {
+  renderer::RenderSettings s;
+  s.width = s.height = 96;
+  s.dvr = false;
+  s.camera = lod::parse_camera("eye=0.5,0.5,3,target=0.5,0.5,0.5,up=0,1,0,fov=30", scene.bounds);
+  s.tf.attribute = scene.attribute;
+  s.tf.colormap = "viridis";
+  s.tf.range = std::array<double, 2>{0, 1};
+  s.tf.opacity = {{0, 0}, {1, 0}};  // a clear volume: the CPU reference draws one always
+  s.slices.planes = {plane};
+  s.slices.lit = lit;
+  return s;
+}
+
+TEST(Slice, AFlatSliceHasTheColormapColourOfTheValueAndALitObliqueOneIsShaded) {
+  // f = x; the head-on plane z = 0.5 and the oblique x + z = 1 (45 degrees to the view)
+  const auto scene = renderer::SceneMesh::from(kuhn_box(6, 0, [](float x, float, float) { return x; }), "f");
+  gl().set_mesh(scene);
+  const double h = 1 / std::sqrt(2.0);
+  for (const protocol::Plane& plane : {protocol::Plane{{0, 0, 1}, 0.5}, protocol::Plane{{h, 0, h}, h}}) {
+    const bool oblique = plane.normal[0] != 0;
+    SCOPED_TRACE(oblique ? "oblique" : "head-on");
+    const auto flat_settings = slice_view(scene, plane, false);
+    const renderer::Image flat = gl().render(flat_settings);
+    const renderer::Image lit = gl().render(slice_view(scene, plane, true));
+    // the value under every pixel's centre, found on the CPU: the pixel's ray (from the eye
+    // through the probe's hit on the box) meets the plane at q, where f = q.x
+    renderer::RenderSettings bare = flat_settings;
+    bare.slices.planes.clear();
+    const std::array<double, 3> eye = bare.camera.eye;
+    const uint32_t W = flat.width, H = flat.height;
+    size_t covered = 0, off = 0, shaded = 0;
+    int worst = 0;
+    for (uint32_t y = 0; y < H; ++y)
+      for (uint32_t x = 0; x < W; ++x) {
+        const renderer::ProbeHit box_hit = renderer::probe(scene, bare, x + 0.5, y + 0.5);
+        if (box_hit.surface.empty()) continue;
+        double along = 0, across = 0;
+        for (int k = 0; k < 3; ++k) {
+          along += plane.normal[k] * (box_hit.position[k] - eye[k]);
+          across += plane.normal[k] * eye[k];
+        }
+        const double t = (plane.offset - across) / along;
+        std::array<double, 3> q;
+        bool inner = true;  // pixels on the slice's outline are partly background: judged by the inner ones
+        for (int k = 0; k < 3; ++k) {
+          q[k] = eye[k] + t * (box_hit.position[k] - eye[k]);
+          inner &= q[k] > 0.03 && q[k] < 0.97;
+        }
+        if (!inner) continue;
+        ++covered;
+        const auto expected = renderer::colormap("viridis", q[0]);
+        const size_t at = 4 * (size_t{y} * flat.width + x);
+        int d = 0, dl = 0;
+        for (int k = 0; k < 3; ++k) {
+          d = std::max(d, std::abs(int(flat.rgba[at + k]) - int(std::lround(expected[k] * 255))));
+          dl = std::max(dl, std::abs(int(lit.rgba[at + k]) - int(flat.rgba[at + k])));
+        }
+        worst = std::max(worst, d);
+        off += d > 2;
+        shaded += dl > 8;
+      }
+    EXPECT_GT(covered, 96u * 96 / 8) << "the slice covers part of the view";
+    EXPECT_EQ(off, 0u) << "flat pixels away from the colormap's colour of the value, worst by " << worst << " levels";
+    if (oblique) {
+      EXPECT_GT(shaded, covered * 9 / 10) << "lit at 45 degrees to the headlight is darker than flat";
+    } else {
+      EXPECT_LT(shaded, covered / 10) << "head-on, lit is nearly flat";
+    }
+    // the CPU reference draws flat slices alike
+    EXPECT_GE(renderer::psnr(flat, renderer::reference_render(scene, flat_settings)), 35.0);
+  }
+}
+
+TEST(Probe, EveryPointAttributeAtThePickedPointOnASliceTheBoundaryAndThroughAClip) {
+  // f = x and the vector v = (y, 2z, x + y) in a jittered box: linear, so interpolation in any
+  // tet gives them exactly at the picked point
+  storage::TetMesh box = kuhn_box(5, 0.3, [](float x, float, float) { return x; });
+  storage::Attribute v{{"v", 3}, {}};
+  for (size_t i = 0; i < box.vertex_count(); ++i) v.values.insert(v.values.end(), {box.y[i], 2 * box.z[i], box.x[i] + box.y[i]});
+  box.attributes.push_back(v);
+  const auto scene = renderer::SceneMesh::from(box, "f");
+  auto check = [](const std::vector<renderer::PointValue>& values, const std::array<double, 3>& p) {
+    ASSERT_EQ(values.size(), 2u);
+    EXPECT_EQ(values[0].name, "f");
+    ASSERT_EQ(values[0].components.size(), 1u);
+    EXPECT_NEAR(values[0].components[0], p[0], 1e-5);
+    EXPECT_EQ(values[1].name, "v");
+    ASSERT_EQ(values[1].components.size(), 3u);
+    const double expected[3] = {p[1], 2 * p[2], p[0] + p[1]};
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(values[1].components[k], expected[k], 1e-5) << k;
+    EXPECT_NEAR(values[1].magnitude, std::hypot(expected[0], expected[1], expected[2]), 1e-5);
+  };
+  renderer::RenderSettings s = slice_view(scene, {{0, 0, 1}, 0.4}, true);
+  // the slice is nearer than the boundary from an eye inside the box
+  renderer::RenderSettings inside = s;
+  inside.camera = lod::parse_camera("eye=0.5,0.5,0.9,target=0.5,0.5,0,up=0,1,0,fov=60", scene.bounds);
+  size_t probed = 0;
+  for (const auto& [x, y] : {std::pair{48.5, 48.5}, std::pair{30.2, 61.7}, std::pair{70.9, 25.1}}) {
+    // on the slice z = 0.4
+    const renderer::ProbeHit on_slice = renderer::probe(scene, inside, x, y);
+    ASSERT_EQ(on_slice.surface, "slice");
+    EXPECT_NEAR(on_slice.position[2], 0.4, 1e-5);
+    check(renderer::values_at(scene, on_slice.position), on_slice.position);
+    // from outside, the slice inside the volume, unless the boundary is drawn as a surface
+    EXPECT_EQ(renderer::probe(scene, s, x, y).surface, "slice");
+    renderer::RenderSettings surface = s;
+    surface.surface = true;
+    EXPECT_EQ(renderer::probe(scene, surface, x, y).surface, "boundary");
+    // on the boundary z = 1 (no slice), seen from outside
+    renderer::RenderSettings bare = s;
+    bare.slices.planes.clear();
+    const renderer::ProbeHit on_boundary = renderer::probe(scene, bare, x, y);
+    ASSERT_EQ(on_boundary.surface, "boundary");
+    EXPECT_NEAR(on_boundary.position[2], 1.0, 1e-5);
+    check(renderer::values_at(scene, on_boundary.position), on_boundary.position);
+    // clipped to z <= 0.7: the cut face, probed in the clipped scene, valued in the unclipped one
+    const auto clipped = renderer::clip_scene(scene, clip_of({clip_plane({0, 0, 1}, 0.7)}));
+    EXPECT_TRUE(clipped.attributes.empty());
+    const renderer::ProbeHit on_cut = renderer::probe(clipped, bare, x, y);
+    ASSERT_EQ(on_cut.surface, "boundary");
+    EXPECT_NEAR(on_cut.position[2], 0.7, 1e-5);
+    check(renderer::values_at(scene, on_cut.position), on_cut.position);
+    ++probed;
+  }
+  EXPECT_EQ(probed, 3u);
+  // a point outside the mesh has none
+  EXPECT_TRUE(renderer::values_at(scene, {2, 2, 2}).empty());
 }
 
 TEST(Clip, ABoxCutInHalfKeepsHalfItsVolumeAndStaysConforming) {

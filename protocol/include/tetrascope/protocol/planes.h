@@ -57,6 +57,7 @@ struct ClipSpec {
 struct SliceSpec {
   std::vector<Plane> planes;  // at most kMaxSlicePlanes
   bool edges = false;         // draw the tets' edges on the slice
+  bool lit = true;            // shaded by the headlight; false: flat, the transfer function's colour of the value
   nlohmann::json to_json() const;
   bool operator==(const SliceSpec&) const = default;
 };
@@ -76,10 +77,31 @@ struct Probe {
 };
 Probe parse_probe(const nlohmann::json& object, uint32_t max_image_side, std::optional<uint32_t> id);
 
+// probe.result (server to client), built by the server (server/src/frame_probe.cpp), read by
+// the viewer (protocol/js/planes.js probeRows):
+//   {"type": "probe.result", "id": n, "hit": true, "surface": "slice", "position": [x, y, z],
+//    "attribute": "a", "value": v, ["iso_color_attribute": "b", "iso_color_value": w,]
+//    "values": {"a": v, "velocity": [x, y, z], ...}, "magnitudes": {"velocity": m}}
+// `values` holds every point attribute at the position (a scalar as a number, a vector as its
+// components; a non-finite component as null), `magnitudes` the vectors' lengths.
+struct ProbeResult {
+  bool hit = false;
+  std::string surface;  // "slice", "isosurface" or "boundary"
+  std::array<double, 3> position{};
+  std::string attribute;  // the attribute shown, and its value (vector magnitude for vectors)
+  double value = 0;
+  std::optional<std::pair<std::string, double>> iso_color;  // the iso-colour attribute and its value
+  std::vector<std::pair<std::string, std::vector<double>>> values;  // name, components
+  nlohmann::json to_json(uint32_t id) const;
+  // the fields of `object`; throws ProtocolError(code::kBadField) naming a malformed one
+  static ProbeResult from_json(const nlohmann::json& object);
+  bool operator==(const ProbeResult&) const = default;
+};
+
 // The fields of clip.set / slice.set in `object` (untrusted):
 //   clip.set:  {"planes": [{"normal": [nx, ny, nz], "offset": d, "invert": false}, ...],
 //               "box": {"min": [x, y, z], "max": [x, y, z]}, "crinkle": false}
-//   slice.set: {"planes": [{"normal": [nx, ny, nz], "offset": d}, ...], "edges": false}
+//   slice.set: {"planes": [{"normal": [nx, ny, nz], "offset": d}, ...], "edges": false, "lit": true}
 // Throws ProtocolError(code::kBadField, carrying `id`) naming the field.
 ClipSpec parse_clip_spec(const nlohmann::json& object, std::optional<uint32_t> id);
 SliceSpec parse_slice_spec(const nlohmann::json& object, std::optional<uint32_t> id);

@@ -124,9 +124,10 @@ struct RenderSettings {
   uint64_t point_target = 400000;        // points wanted when point_area is 0
   double point_size = 0;                 // splat diameter in pixels; 0: covering (from point_area and depth)
   bool point_depth_scaling = false;      // §7.2: fewer points far away
-  // Slice planes of the scene drawn, opaque and lit, coloured through the colormap, with the
-  // tets' edges on them when `slices.edges` (clip.h; a clip is applied to the scene itself,
-  // see clip_scene, so it clips the slices too).
+  // Slice planes of the scene drawn, opaque, coloured through the colormap, lit by the
+  // headlight (flat, the colour unshaded, without `slices.lit`), with the tets' edges on them
+  // when `slices.edges` (clip.h; a clip is applied to the scene itself, see clip_scene, so it
+  // clips the slices too).
   protocol::SliceSpec slices;
   VolumeMethod volume = VolumeMethod::exact;
   // Asked between draw calls (every kTetsPerChunk tets of the volume, and between passes);
@@ -159,6 +160,9 @@ struct SceneMesh {
   std::string iso_color_attribute;
   std::vector<float> iso_color_value;
   double iso_color_min = 0, iso_color_max = 1;
+  // every point attribute of the source mesh, vertex-aligned, for the probe (values_at in
+  // probe.h); a clipped scene (clip_scene) has none: probe its source
+  std::vector<storage::Attribute> attributes;
   static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute = "");  // throws std::invalid_argument
 };
 

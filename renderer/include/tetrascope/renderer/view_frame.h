@@ -105,6 +105,8 @@ class ViewPipeline {
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)
   // The scene drawn after update: clipped when the request has a clip.
   const SceneMesh& scene() const { return clipped_ ? *clipped_ : *scene_; }
+  // The scene before the clip, with every point attribute (the probe's values_at).
+  const SceneMesh& unclipped_scene() const { return *scene_; }
   const lod::Cut* cut() const { return cut_.get(); }   // null for a whole mesh
   // The lines traced for the last request with lines (null: none yet), and the error of the
   // cut they were traced on (stores only).
