@@ -334,11 +334,15 @@ TEST_F(HardeningTest, ConnectionsPastTheCapAreAnswered503) {
 }
 
 TEST_F(HardeningTest, OutOfFileDescriptorsTheAcceptLoopWaitsInsteadOfSpinning) {
-  // Under ASan+UBSan this path reports a vptr error inside Beast's basic_stream timer (a
-  // pending read's operation already freed) - an open finding; the release run checks the
-  // behaviour (no spinning, recovery).
-  if (!kAddressSpaceLimitWorks) GTEST_SKIP() << "open finding under UBSan: Beast basic_stream timer vptr error while out of descriptors";
   start();
+  // UBSan's vptr check (clang 14's runtime) probes a vtable it has not seen before with
+  // pipe(): with no descriptor free that fails and it reports a valid object as having "an
+  // invalid vptr" (reproduced outside the server with one virtual class; ASan sees no
+  // use-after-free). So one whole request first (its connection's teardown included) puts
+  // the HTTP session's types in its cache, and the idle connections close only once the
+  // limit is back up.
+  ASSERT_EQ(http_request(base_ + "/api/v1/health", "GET").status, 200);
+  std::this_thread::sleep_for(300ms);
   rlimit saved{};
   ::getrlimit(RLIMIT_NOFILE, &saved);
   size_t open_now = 0;
@@ -359,8 +363,8 @@ TEST_F(HardeningTest, OutOfFileDescriptorsTheAcceptLoopWaitsInsteadOfSpinning) {
   ::getrusage(RUSAGE_SELF, &after);
   auto cpu_s = [](const rusage& r) { return r.ru_utime.tv_sec + r.ru_stime.tv_sec + (r.ru_utime.tv_usec + r.ru_stime.tv_usec) / 1e6; };
   const double busy = cpu_s(after) - cpu_s(before);
-  idle.clear();
   ::setrlimit(RLIMIT_NOFILE, &saved);
+  idle.clear();
   EXPECT_LT(busy, 0.3) << "the process burned " << busy << " s of CPU in 1 s while out of descriptors";
   // and it recovers once descriptors are free
   const auto start_time = std::chrono::steady_clock::now();
