@@ -100,14 +100,6 @@ class GlRenderer final : public Renderer {
     line_program_ = link_program(kSurfaceVertex, kLineFragment);
     glCreateVertexArrays(1, &empty_vao_);
     glCreateVertexArrays(1, &projected_vao_);  // ProjectedVertex: position, segment, light
-    for (RingBuffer& ring : projected_ring_) {
-      glCreateBuffers(1, &ring.buffer);
-      const GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
-      const auto bytes = static_cast<GLsizeiptr>(size_t{kTetsPerChunk} * kVerticesPerTet * sizeof(ProjectedVertex));
-      glNamedBufferStorage(ring.buffer, bytes, nullptr, flags);
-      ring.vertices = static_cast<ProjectedVertex*>(glMapNamedBufferRange(ring.buffer, 0, bytes, flags));
-      if (!ring.vertices) throw RenderError("cannot map the projected tetrahedra's vertex buffers");
-    }
     for (GLuint a = 0; a < 3; ++a) {
       glEnableVertexArrayAttrib(projected_vao_, a);
       glVertexArrayAttribFormat(projected_vao_, a, a == 2 ? 1 : 3, GL_FLOAT, GL_FALSE, 12 * a);
@@ -148,6 +140,45 @@ class GlRenderer final : public Renderer {
     iso_cache_.clear();
     point_pass_.set_mesh(mesh);
     slices_ = {};
+  }
+
+  void release_memory() override {
+    glFinish();
+    shrink_framebuffer();
+    release_projected_ring();
+    // the scene's buffers shrink to nothing (their names stay: the vertex arrays refer to them)
+    for (GLuint buffer : {vertex_buffer_, tet_buffer_, order_buffer_, cell_buffer_, surface_buffer_, line_buffer_})
+      if (buffer) glNamedBufferData(buffer, 4, nullptr, GL_STATIC_DRAW);
+    surface_vertices_ = 0;
+    if (table_texture_) glDeleteTextures(1, &table_texture_);
+    table_texture_ = 0;
+    table_ = {};
+    table_key_.clear();
+    mesh_ = nullptr;  // render() needs a set_mesh first
+    sort_inputs_ = {};
+    boundary_ = {};
+    visibility_ = {};
+    iso_cache_.clear();
+    slices_ = {};
+    forget_bindings();
+  }
+
+  // Mesa keeps the storage of what a draw last used (buffers, textures, vertex buffers) until
+  // the next draw validates the context's state, deleted objects included: so the bindings go,
+  // one point is drawn with rasteriser discard, and the queued work is finished.
+  void forget_bindings() {
+    for (GLuint i = 0; i < 4; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
+    for (GLuint unit = 1; unit < 3; ++unit) glBindTextureUnit(unit, 0);
+    const float point[4] = {};
+    glNamedBufferData(line_buffer_, sizeof(point), point, GL_STATIC_DRAW);
+    glUseProgram(line_program_);
+    glBindVertexArray(line_vao_);
+    glEnable(GL_RASTERIZER_DISCARD);
+    glDrawArrays(GL_POINTS, 0, 1);
+    glDisable(GL_RASTERIZER_DISCARD);
+    glBindVertexArray(0);
+    glUseProgram(0);
+    glFinish();
   }
 
   Image render(const RenderSettings& s, FrameTimings* timings) override {
@@ -191,7 +222,7 @@ class GlRenderer final : public Renderer {
     Image image = read_back(s.width, s.height, tm);
     // the framebuffers take ~36 bytes a pixel (float colour, depth, distances, readback): a
     // large still's (600 MB at 4096^2) is given back at once instead of held by the worker
-    if (uint64_t{s.width} * s.height > kKeepFramebufferPixels) release_framebuffer();
+    if (uint64_t{s.width} * s.height > kKeepFramebufferPixels) shrink_framebuffer();
     tm.total_ms = ms_since(start);
     tm.cpu_ms = process_cpu_ms() - cpu_start;
     return image;
@@ -228,6 +259,35 @@ class GlRenderer final : public Renderer {
 
   static constexpr uint64_t kKeepFramebufferPixels = uint64_t{2048} * 2048;
 
+  // The projected tetrahedra's ring of persistently mapped vertex buffers (9 MB each), made at
+  // the first projected draw and again after release_memory.
+  void ensure_projected_ring() {
+    if (projected_ring_[0].buffer) return;
+    for (RingBuffer& ring : projected_ring_) {
+      glCreateBuffers(1, &ring.buffer);
+      const GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+      const auto bytes = static_cast<GLsizeiptr>(size_t{kTetsPerChunk} * kVerticesPerTet * sizeof(ProjectedVertex));
+      glNamedBufferStorage(ring.buffer, bytes, nullptr, flags);
+      ring.vertices = static_cast<ProjectedVertex*>(glMapNamedBufferRange(ring.buffer, 0, bytes, flags));
+      if (!ring.vertices) throw RenderError("cannot map the projected tetrahedra's vertex buffers");
+    }
+  }
+
+  void release_projected_ring() {
+    for (RingBuffer& ring : projected_ring_) {
+      if (ring.fence) {
+        glClientWaitSync(ring.fence, GL_SYNC_FLUSH_COMMANDS_BIT, ~GLuint64{0});
+        glDeleteSync(ring.fence);
+      }
+      if (ring.buffer) {
+        glUnmapNamedBuffer(ring.buffer);
+        glDeleteBuffers(1, &ring.buffer);
+      }
+      ring = {};
+    }
+    ring_next_ = 0;
+  }
+
   void release_framebuffer() {
     if (!framebuffer_) return;
     glDeleteFramebuffers(1, &framebuffer_);
@@ -240,6 +300,20 @@ class GlRenderer final : public Renderer {
     glDeleteBuffers(1, &pack_buffer_);
     framebuffer_ = 0;
     fb_width_ = fb_height_ = 0;
+  }
+
+  // Frees the framebuffers. Deleting them is not enough: Mesa keeps the bound framebuffer's
+  // surfaces (float colour, depth, distance: 24 bytes a pixel) until this context validates
+  // its framebuffer state again, and what the last readback read from (8 bytes a pixel) until
+  // another readback, and a worker may draw nothing for hours. So a 1x1 set takes their place,
+  // is cleared and read back, and the queued work is finished.
+  void shrink_framebuffer() {
+    ensure_framebuffer(1, 1);
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    FrameTimings ignored;
+    read_back(1, 1, ignored);
+    glFinish();
   }
 
   void ensure_framebuffer(uint32_t w, uint32_t h) {
@@ -550,6 +624,7 @@ class GlRenderer final : public Renderer {
   // of 4 triangles a tet with the thick vertex first (provoking), no culling.
   void draw_projected(const FrameSetup& setup, std::span<const uint32_t> tets, bool light, FrameTimings& tm) {
     const auto classify_start = clock_type::now();
+    ensure_projected_ring();
     RingBuffer& ring = projected_ring_[ring_next_];
     ring_next_ = (ring_next_ + 1) % kRingBuffers;
     if (ring.fence) {

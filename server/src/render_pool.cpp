@@ -1,8 +1,10 @@
 #include "render_pool.h"
 
+#include <malloc.h>
+
 namespace tetrascope::server {
 
-RenderPool::RenderPool(unsigned workers) {
+RenderPool::RenderPool(unsigned workers, std::chrono::milliseconds idle_release) : idle_release_(idle_release) {
   for (unsigned i = 0; i < std::max(1u, workers); ++i) threads_.emplace_back([this, i] { run(i); });
   std::unique_lock lock(mutex_);
   ready_.wait(lock, [&] { return started_ == threads_.size(); });
@@ -56,11 +58,24 @@ void RenderPool::run(size_t index) {
     ++started_;
   }
   ready_.notify_all();
+  bool holds_memory = false;  // drawn since the last release
   for (;;) {
     Task task;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || !tasks_.empty() || !refinement_tasks_.empty(); });
+      const auto has_work = [&] { return stopping_ || !tasks_.empty() || !refinement_tasks_.empty(); };
+      if (holds_memory && worker.renderer && idle_release_.count() > 0 && !wake_.wait_for(lock, idle_release_, has_work)) {
+        // idle for idle_release_: the scene, framebuffers and caches go (the next task uploads
+        // again), then this thread's freed heap goes back to the system
+        lock.unlock();
+        worker.renderer->release_memory();
+        worker.scene_generation = 0;
+        holds_memory = false;
+        ::malloc_trim(0);
+        ++idle_releases_;
+        continue;
+      }
+      wake_.wait(lock, has_work);
       if (stopping_) break;
       std::deque<Task>& from = tasks_.empty() ? refinement_tasks_ : tasks_;
       if (&from == &tasks_) --interaction_queued_;
@@ -68,6 +83,7 @@ void RenderPool::run(size_t index) {
       from.pop_front();
     }
     task(worker);  // tasks catch their own errors
+    holds_memory = true;
   }
   // The context stays up to exit (see run_render in apps/cmd_view.cpp): Mesa, unloaded by eglTerminate, leaves
   // allocations that leak checkers report against us.

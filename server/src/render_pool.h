@@ -5,6 +5,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -22,12 +23,15 @@ class RenderPool {
   using Task = std::function<void(Worker&)>;
   enum class Priority { kInteraction, kRefinement };
   // Starts `workers` threads and waits until each has its context; throws
-  // renderer::RenderError when one cannot be made.
-  explicit RenderPool(unsigned workers);
+  // renderer::RenderError when one cannot be made. A worker that has drawn and then gets no
+  // task for `idle_release` releases its renderer's memory (Renderer::release_memory).
+  explicit RenderPool(unsigned workers, std::chrono::milliseconds idle_release = std::chrono::seconds(5));
   ~RenderPool();
   void submit(Task task, Priority priority = Priority::kInteraction);
   const std::string& description() const { return description_; }
   size_t queued() const;
+  // Workers that released their memory after going idle, in all (tests, /metrics).
+  uint64_t idle_releases() const { return idle_releases_.load(std::memory_order_relaxed); }
   // Whether an interaction task is waiting for a worker: a running refinement step gives its
   // worker up (RenderSettings::should_stop) when one is.
   bool interaction_waiting() const { return interaction_queued_.load(std::memory_order_relaxed) > 0; }
@@ -39,6 +43,8 @@ class RenderPool {
   std::condition_variable wake_, ready_;
   std::deque<Task> tasks_, refinement_tasks_;
   std::atomic<size_t> interaction_queued_{0};
+  std::atomic<uint64_t> idle_releases_{0};
+  std::chrono::milliseconds idle_release_;
   bool stopping_ = false;
   size_t started_ = 0;
   std::string error_, description_;

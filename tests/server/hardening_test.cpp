@@ -334,11 +334,15 @@ TEST_F(HardeningTest, ConnectionsPastTheCapAreAnswered503) {
 }
 
 TEST_F(HardeningTest, OutOfFileDescriptorsTheAcceptLoopWaitsInsteadOfSpinning) {
-  // Under ASan+UBSan this path reports a vptr error inside Beast's basic_stream timer (a
-  // pending read's operation already freed) - an open finding; the release run checks the
-  // behaviour (no spinning, recovery).
-  if (!kAddressSpaceLimitWorks) GTEST_SKIP() << "open finding under UBSan: Beast basic_stream timer vptr error while out of descriptors";
   start();
+  // UBSan's vptr check (clang 14's runtime) probes a vtable it has not seen before with
+  // pipe(): with no descriptor free that fails and it reports a valid object as having "an
+  // invalid vptr" (reproduced outside the server with one virtual class; ASan sees no
+  // use-after-free). So one whole request first (its connection's teardown included) puts
+  // the HTTP session's types in its cache, and the idle connections close only once the
+  // limit is back up.
+  ASSERT_EQ(http_request(base_ + "/api/v1/health", "GET").status, 200);
+  std::this_thread::sleep_for(300ms);
   rlimit saved{};
   ::getrlimit(RLIMIT_NOFILE, &saved);
   size_t open_now = 0;
@@ -359,8 +363,8 @@ TEST_F(HardeningTest, OutOfFileDescriptorsTheAcceptLoopWaitsInsteadOfSpinning) {
   ::getrusage(RUSAGE_SELF, &after);
   auto cpu_s = [](const rusage& r) { return r.ru_utime.tv_sec + r.ru_stime.tv_sec + (r.ru_utime.tv_usec + r.ru_stime.tv_usec) / 1e6; };
   const double busy = cpu_s(after) - cpu_s(before);
-  idle.clear();
   ::setrlimit(RLIMIT_NOFILE, &saved);
+  idle.clear();
   EXPECT_LT(busy, 0.3) << "the process burned " << busy << " s of CPU in 1 s while out of descriptors";
   // and it recovers once descriptors are free
   const auto start_time = std::chrono::steady_clock::now();
@@ -479,27 +483,29 @@ uint64_t resident_bytes() {
   return resident * static_cast<uint64_t>(::sysconf(_SC_PAGESIZE));
 }
 
-// Open finding, disabled until fixed: after 4096^2 PNG stills the server's resident memory
-// sometimes returns to ~210 MB and sometimes stays at ~610 MB (two render workers; malloc_trim
-// runs after frames of 2048^2 and more, and the renderer frees framebuffers that large), so
-// this check is not reliable yet. Run it with --gtest_also_run_disabled_tests.
-TEST_F(HardeningTest, DISABLED_RepeatedLargePngStillsDoNotAccumulateMemory) {
-  if (!kAddressSpaceLimitWorks) GTEST_SKIP() << "ASan's allocator keeps freed memory in quarantine; malloc_trim cannot return it (the release run checks this)";
-  const fs::path store = data_dir() / "disk";
-  const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + store.string() +
+// The sample mesh as store DATA/disk (small segments, so refinement has steps to take).
+void preprocess_sample(const fs::path& data) {
+  const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + (data / "disk").string() +
                               " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0);
-  start();
-  SessionClient c("ws://127.0.0.1:" + std::to_string(port()) + "/api/v1/session");
-  c.send("hello", {{"version", 1}});
-  c.expect("hello.ok");
-  c.send("view.resize", {{"width", 320}, {"height", 240}});
-  c.send("dataset.open", {{"name", "disk"}});
-  c.expect("dataset.info", 60s);
-  auto wait_still = [&](uint32_t width) {
-    const auto deadline = std::chrono::steady_clock::now() + 120s;
+}
+
+// A session on dataset "disk": hello, view size, PNG stills; still(width) reads until the
+// still of that width and returns its image bytes (PNG), empty when none came.
+struct StillSession {
+  SessionClient client;
+  StillSession(uint16_t port, uint32_t width, uint32_t height) : client("ws://127.0.0.1:" + std::to_string(port) + "/api/v1/session") {
+    client.send("hello", {{"version", 1}});
+    client.expect("hello.ok");
+    client.send("quality.set", {{"still_codec", "png"}});
+    client.send("view.resize", {{"width", width}, {"height", height}});
+    client.send("dataset.open", {{"name", "disk"}});
+    client.expect("dataset.info", 60s);
+  }
+  std::string still(uint32_t width) {
+    const auto deadline = std::chrono::steady_clock::now() + 300s;
     while (std::chrono::steady_clock::now() < deadline) {
-      auto m = c.read(60s);
+      auto m = client.read(300s);
       if (!m) break;
       if (!m->binary) {
         EXPECT_EQ(m->data.find("\"error\""), std::string::npos) << m->data;
@@ -507,24 +513,83 @@ TEST_F(HardeningTest, DISABLED_RepeatedLargePngStillsDoNotAccumulateMemory) {
       }
       if (m->data.size() < protocol::kFrameHeaderBytes) continue;
       auto h = protocol::decode_frame_header(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(m->data.data()), m->data.size()), protocol::Limits{});
-      if (h.still && h.width == width) return true;
+      if (h.still && h.width == width) return m->data.substr(protocol::kFrameHeaderBytes);
     }
-    return false;
-  };
-  ASSERT_TRUE(wait_still(320));
-  c.send("quality.set", {{"still_codec", "png"}});
-  auto large_still_and_back = [&] {
-    c.send("view.resize", {{"width", 4096}, {"height", 4096}});
-    EXPECT_TRUE(wait_still(4096));
-    c.send("view.resize", {{"width", 320}, {"height", 240}});
-    EXPECT_TRUE(wait_still(320));
-    std::this_thread::sleep_for(300ms);
-    return resident_bytes();
-  };
-  const uint64_t first = large_still_and_back();
-  uint64_t last = first;
-  for (int i = 0; i < 3; ++i) last = large_still_and_back();
-  EXPECT_LT(last, first + (160ull << 20)) << "resident memory grew from " << (first >> 20) << " MB to " << (last >> 20) << " MB over three more 4096^2 stills";
+    return {};
+  }
+  void resize(uint32_t width, uint32_t height) { client.send("view.resize", {{"width", width}, {"height", height}}); }
+};
+
+// Open finding (issue 13), disabled until fixed; it fails today, deterministically. After a
+// still over 2048^2 pixels the renderer deletes its framebuffers, binds, clears and reads back
+// a 1x1 set in their place and finishes (so Mesa's bound-framebuffer and readback state refer
+// to nothing large), and the server calls malloc_trim. Still, after a 2600^2 PNG still with
+// the one worker drawing nothing more, resident memory stays ~150 MB higher (~175 MB before
+// the 1x1 rebinding; one run each): glibc's mallinfo2 counts it as live mmapped chunks
+// (hblkhd), one of 103 MB = 2600^2 x 16 bytes, the float colour target, and ~26 MB ones (the
+// depth and distance targets): Mesa (llvmpipe, Debian 12) still holds the deleted targets'
+// storage. Not glibc arenas (malloc_trim returns nothing more), not the PNG encoder. It did
+// not grow from the first still to the second (318, then 315 MB). Run it with
+// --gtest_also_run_disabled_tests.
+TEST_F(HardeningTest, DISABLED_RepeatedLargePngStillsDoNotAccumulateMemory) {
+  if (!kAddressSpaceLimitWorks) GTEST_SKIP() << "ASan's allocator keeps freed memory in quarantine; malloc_trim cannot return it (the release run checks this)";
+  constexpr uint32_t kSide = 2600;  // over 2048^2 pixels (the renderer keeps framebuffers up to that): 160 MB of them, drawn faster than 4096^2
+  preprocess_sample(data_dir());
+  ServerOptions o = options();
+  o.worker_idle_release = 0ms;  // off: this checks what a large frame gives back by itself
+  o.refine_growth = 1000;       // the first refinement step is the still: one large draw a still
+  start(o);
+  StillSession session(port(), 320, 240);
+  ASSERT_FALSE(session.still(320).empty());
+  std::this_thread::sleep_for(300ms);
+  const uint64_t before = resident_bytes();
+  for (int i = 0; i < 2; ++i) {
+    session.resize(kSide, kSide);
+    ASSERT_FALSE(session.still(kSide).empty());
+    std::this_thread::sleep_for(300ms);  // the frame sent and freed
+    const uint64_t after = resident_bytes();
+    EXPECT_LT(after, before + (80ull << 20)) << "resident memory went from " << (before >> 20) << " MB to " << (after >> 20) << " MB after large still " << i + 1;
+    session.resize(320, 240);
+    ASSERT_FALSE(session.still(320).empty());
+  }
+}
+
+// Issue 17: an idle server that has served views held each render worker's scene,
+// framebuffers and caches for good. A worker idle for worker_idle_release now gives them back;
+// a view drawn afterwards uploads again and is the same image a fresh server drew.
+TEST_F(HardeningTest, AnIdleServerGivesBackItsRenderWorkersMemory) {
+  if (!kAddressSpaceLimitWorks) GTEST_SKIP() << "ASan's allocator keeps freed memory in quarantine; malloc_trim cannot return it (the release run checks this)";
+  constexpr uint64_t kReleasedAtLeast = 54ull << 20;
+  preprocess_sample(data_dir());
+  ServerOptions o = options();
+  o.worker_idle_release = 2s;
+  o.refine_growth = 1000;  // the first refinement step is the still, with the still budget: the same cut each time
+  start(o);
+  ASSERT_EQ(http_request(base_ + "/api/v1/datasets/disk", "GET").status, 200);  // opened: its segments mapped
+  std::this_thread::sleep_for(300ms);
+  const uint64_t started = resident_bytes();
+  std::string first;
+  uint64_t served = 0;
+  {
+    // 1600x1200 (under the 2048^2 of frames whose framebuffers go at once): ~70 MB of them
+    StillSession session(port(), 1600, 1200);
+    first = session.still(1600);
+    ASSERT_FALSE(first.empty());
+    served = resident_bytes();  // within the idle time of the worker's last frame
+  }
+  std::this_thread::sleep_for(o.worker_idle_release + 3s);  // the session closed, the worker released (and the server's 5 s trim ran)
+  const uint64_t idle = resident_bytes();
+  ASSERT_GT(served, started + (60ull << 20)) << "serving a 1600x1200 view should take the worker's framebuffers: " << (started >> 20) << " -> " << (served >> 20) << " MB";
+  // Measured (one worker, this view): 77 MB started, 233 serving; idle 195 MB without the
+  // release (the server's malloc_trim alone), 163 MB with it (3 runs). The projected
+  // tetrahedra's vertex ring alone is 27 MB.
+  EXPECT_GT(served - std::min(served, idle), kReleasedAtLeast)
+      << "resident memory: " << (started >> 20) << " MB started, " << (served >> 20) << " MB serving, " << (idle >> 20) << " MB idle";
+  // and a view drawn afterwards is the one a fresh server drew
+  StillSession again(port(), 1600, 1200);
+  const std::string second = again.still(1600);
+  ASSERT_FALSE(second.empty());
+  EXPECT_EQ(second, first) << "the still drawn after the worker released its memory differs from the first server's";
 }
 
 }  // namespace

@@ -204,6 +204,10 @@ class Renderer {
   // Throws std::invalid_argument for bad settings (a side outside 1..kMaxImageSide, an
   // unknown colormap, an isosurface opacity outside (0, 1]).
   virtual Image render(const RenderSettings& settings, FrameTimings* timings = nullptr) = 0;
+  // Gives back what set_mesh uploaded and what frames left behind: the scene's buffers, the
+  // framebuffers, the transfer function's table, the isosurface and slice caches (the context
+  // and its compiled shaders stay). The next render needs a set_mesh first.
+  virtual void release_memory() = 0;
 };
 
 // CPU reference: rays through every pixel, tets intersected exactly, segments composed front

@@ -72,6 +72,9 @@ struct ServerOptions {
   double interaction_scale = 0.375;    // of the view size, for interaction frames (fragments dominate on llvmpipe; bench/server_bench.sh)
   std::chrono::milliseconds still_delay{150};
   std::chrono::milliseconds hello_timeout{10000};  // a WebSocket that has not sent hello by then is closed (its session slot freed)
+  // A render worker given no task for this long gives back its uploaded scene, framebuffers
+  // and caches (Renderer::release_memory) and trims its heap; the next frame uploads again.
+  std::chrono::milliseconds worker_idle_release{5000};
   std::filesystem::path job_binary;    // the tetrascope executable jobs run (default: this one)
   bool read_only = false;              // a replica beside a writer on one data folder: no uploads, jobs or deletes, .jobs untouched
 };
