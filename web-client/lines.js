@@ -175,19 +175,19 @@ export class LinesPanel {
     $('lines-seeds').addEventListener('change', () => {
       l().seeds = $('lines-seeds').value;
       l().count = l().seeds === 'rake' ? 100 : 12;
-      l().select = null;
+      this.retraced();
       this.show();
       changed(true);
     });
     $('lines-field').addEventListener('change', () => {
       l().field = $('lines-field').value || null;
-      l().select = null;
+      this.retraced();
       changed(true);
     });
     $('lines-count').addEventListener('change', () => {
       const count = Math.round(Number($('lines-count').value));
       l().count = l().seeds === 'rake' ? Math.min(2000, Math.max(1, count || 100)) : Math.min(64, Math.max(1, count || 12));
-      l().select = null;
+      this.retraced();
       changed(true);
     });
     for (const id of ['lines-from', 'lines-to']) {
@@ -195,7 +195,7 @@ export class LinesPanel {
         const p = numbers($(id).value);
         if (p.length !== 3 || p.some((x) => !Number.isFinite(x))) return this.status('rake ends are x,y,z');
         l()[id === 'lines-from' ? 'from' : 'to'] = p;
-        l().select = null;
+        this.retraced();
         changed(true);
       });
     }
@@ -229,6 +229,11 @@ export class LinesPanel {
     });
     this.listenToImage();
     this.timer = setInterval(() => this.animate(), 1000 / kAnimationHz);
+  }
+
+  // new lines: picked ids and clicks meant lines of the old trace; a box still selects
+  retraced() {
+    if (!this.l().select?.box) this.l().select = null;
   }
 
   l() {
@@ -346,8 +351,8 @@ export class LinesPanel {
       from: pointOnViewPlane(camera, aspect, ...start),
       to: pointOnViewPlane(camera, aspect, ...end),
       count: l.seeds === 'rake' ? l.count : 100,
-      select: null,
     });
+    this.retraced();
     this.show();
     this.sendLines(true);
     this.host.saved?.();
@@ -360,6 +365,7 @@ export class LinesPanel {
     const l = this.l();
     if (!vectors.length) l.on = false;
     if (l.field && !vectors.some((a) => a.name === l.field)) Object.assign(l, { field: null, select: null });
+    l.field ??= vectors[0]?.name ?? null;
     this.status(vectors.length ? '' : 'no vector field in this dataset');
     const b = info.bounds;
     if (b && !(l.from && l.to)) {  // a rake across the middle of the box, along its longest side

@@ -188,9 +188,9 @@ test('the line state comes back from a link and after a reconnect', async () => 
     seeds: document.getElementById('lines-seeds').value,
   }));
   await other.close();
-  assert.deepEqual(fromLink.lines.seeds, resent.seeds);
+  fromLink.lines.seeds.flat().forEach((v, i) => assert.ok(Math.abs(v - resent.seeds.flat()[i]) < 1e-5 * (1 + Math.abs(v)), 'the rake, to the 6 digits of the URL'));
   assert.equal(fromLink.lines.count, 40);
-  assert.deepEqual(fromLink.lines.select, resent.select);
+  fromLink.lines.select.box.flat().forEach((v, i) => assert.ok(Math.abs(v - resent.select.box.flat()[i]) < 1e-5 * (1 + Math.abs(v))));
   assert.equal(fromLink.mode, 'dvr+lines');
   assert.ok(fromLink.on);
   assert.equal(fromLink.seeds, 'rake');
