@@ -577,6 +577,12 @@ std::vector<StreamlineTracer::CriticalPoint> StreamlineTracer::critical_points()
   std::vector<CriticalPoint> out;
   if (!(m.max_speed > 0)) return out;  // a zero field: nothing isolated
   const double merge = 1e-9 * m.diagonal;
+  std::vector<uint8_t> on_boundary(m.mesh.vertex_count(), 0);
+  for (size_t t = 0; t < m.mesh.tet_count(); ++t)
+    for (int f = 0; f < 4; ++f)
+      if (m.opposite[4 * t + f] == kNoOppositeFace)
+        for (int i = 0; i < 4; ++i)
+          if (i != f) on_boundary[m.mesh.tets[4 * t + i]] = 1;
   for (uint32_t t = 0; t < m.mesh.tet_count(); ++t) {
     // sum_i l_i v_i = 0, sum_i l_i = 1, the field scaled by its largest |v|: Gaussian
     // elimination with partial pivoting on the 4 x 5 system
@@ -613,16 +619,25 @@ std::vector<StreamlineTracer::CriticalPoint> StreamlineTracer::critical_points()
     if (!inside) continue;
     Vec3 p{0, 0, 0};
     for (int i = 0; i < 4; ++i) p = p + m.position(m.mesh.tets[4 * size_t{t} + i]) * l[i];
-    out.push_back({p, m.cell_size(t)});
+    // spanned by boundary vertices only (a wall vertex, edge or face): a no-slip wall's zero,
+    // not a critical point of the flow inside
+    bool wall = true;
+    for (int i = 0; i < 4; ++i) wall = wall && (l[i] <= kInsideEpsilon || on_boundary[m.mesh.tets[4 * size_t{t} + i]]);
+    out.push_back({p, m.cell_size(t), wall});
   }
   // a zero on a shared face, edge or vertex is found by every tet there: once, by a sweep in x
   std::sort(out.begin(), out.end(), [](const CriticalPoint& a, const CriticalPoint& b) { return a.position < b.position; });
   std::vector<CriticalPoint> kept;
   for (const CriticalPoint& c : out) {
     bool known = false;
-    for (size_t i = kept.size(); i-- > 0 && c.position[0] - kept[i].position[0] <= merge;) known = known || length(c.position - kept[i].position) <= merge;
+    for (size_t i = kept.size(); i-- > 0 && c.position[0] - kept[i].position[0] <= merge;)
+      if (length(c.position - kept[i].position) <= merge) {
+        known = true;
+        kept[i].on_boundary = kept[i].on_boundary || c.on_boundary;
+      }
     if (!known) kept.push_back(c);
   }
+  std::erase_if(kept, [](const CriticalPoint& c) { return c.on_boundary; });
   return kept;
 }
 

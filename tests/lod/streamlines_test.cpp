@@ -254,6 +254,10 @@ TEST(Streamlines, DegenerateFieldsGiveNoCriticalPointStorm) {
   storage::TetMesh rotation = box_with_field(4, 0.2, [](double x, double y, double) { return Vec3{y - 0.5, -(x - 0.5), 0}; });
   auto ro = pair_faces(rotation.tets).opposite;
   EXPECT_TRUE(lod::StreamlineTracer(rotation, ro, "v").critical_points().empty());
+  // a zero on the boundary (a no-slip wall, here the box's corner): not a critical point inside
+  storage::TetMesh corner = box_with_field(4, 0.2, [](double x, double y, double z) { return Vec3{x, y, 2 * z}; });
+  auto co = pair_faces(corner.tets).opposite;
+  EXPECT_TRUE(lod::StreamlineTracer(corner, co, "v").critical_points().empty());
   for (const char* bad : {"critical:", "critical:0", "critical:33", "critical:3,0", "critical:3,-1", "critical:3,nan", "critical:3,2,1", "critical:3,1e9"})
     EXPECT_THROW(lod::parse_seeds(bad), std::invalid_argument) << bad;
 }

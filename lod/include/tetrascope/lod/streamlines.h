@@ -96,10 +96,12 @@ class StreamlineTracer {
   Streamlines trace_dense(uint32_t resolution, const StreamlineOptions& options) const;
   // The isolated zeros of the field (linear in each tet): a point where the field vanishes
   // inside or on a tet whose field is not degenerate (a tet with a constant or planar field
-  // has none isolated). Duplicates on shared faces merged; in tet order.
+  // has none isolated). Duplicates on shared faces merged; zeros on the domain's boundary
+  // (no-slip walls) left out; sorted by position.
   struct CriticalPoint {
     Vec3 position;
-    double cell_size;  // of its tet
+    double cell_size;          // of its tet
+    bool on_boundary = false;  // (found on a boundary face; such points are not returned)
   };
   std::vector<CriticalPoint> critical_points() const;
   // §7.3.1's spheres: seeds about every critical point. Throws std::invalid_argument when the
