@@ -108,7 +108,7 @@ struct RenderOptions {
 // the style. Seeds and numbers are checked here; the field by the dataset when traced.
 void line_options(const Args& args, RenderOptions& o) {
   r::LineRequest& line = o.view.line;
-  const char* kLineOptions[] = {"--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--no-halos"};
+  const char* kLineOptions[] = {"--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--no-halos", "--depth-correction"};
   if (!o.view.lines) {
     for (const char* name : kLineOptions)
       if (args.has(name)) throw std::invalid_argument(std::string(name) + " needs a mode with lines (e.g. --mode dvr+lines)");
@@ -151,6 +151,10 @@ void line_options(const Args& args, RenderOptions& o) {
     else throw std::invalid_argument("--flow expects arrows, dashes or none, got '" + flow + "'");
   }
   line.halos = !args.has("--no-halos");
+  if (args.has("--depth-correction")) {
+    line.depth_correction = args.real("--depth-correction");
+    if (!(line.depth_correction >= 0 && line.depth_correction <= 1)) throw std::invalid_argument("--depth-correction must be in [0, 1]");
+  }
 }
 
 RenderOptions render_options(const Args& args) {
@@ -308,12 +312,12 @@ int run_render(const Arguments& all) {
   const Arguments raw = take_plane_options(all, clip, &slices);
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
-             "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--point-size",
+             "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
              "--point-target", "--compare", "--volume"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
-                 "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos]\n"
+                 "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
     return 2;
   }

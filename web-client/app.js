@@ -57,7 +57,13 @@ let capture = null;        // a still at a chosen size being waited for: {id, re
 
 const frameCanvas = $('frame');
 const frameContext = frameCanvas.getContext('2d');
-const linesPanel = new LinesPanel($('vector-panel'), frameCanvas, { send: (type, body) => send(type, body), onModes: () => onModes() });
+const linesPanel = new LinesPanel($('vector-panel'), frameCanvas, {
+  send: (type, body) => send(type, body),
+  onModes: () => onModes(),
+  view: () => state.view,
+  saved: () => saveViewInHash(),
+  camera: () => camera?.get() ?? null,
+});
 const tfEditor = new TfEditor($('tf-editor'), onTfEdited, { onSelectColor });
 const planes = new PlanesPanel($('planes'), {
   send,
@@ -173,6 +179,7 @@ async function onFrame(buffer) {
   if (header.refining) state.refiningFrames += 1;
   stats.frame(header, payload.length);
   refinement.frame(header);
+  linesPanel.onFrame(header);
   state.onFrame?.(header);  // a hook for the browser test: called once a frame is on the screen
 }
 

@@ -3,6 +3,7 @@
 // points are kept in normalised units t in [0, 1] over the range, so a new range keeps the
 // curve's shape; tfBody() maps them onto attribute values for tf.set.
 import { DEFAULT_PRESET, PRESETS } from './colormaps.js';
+import { defaultLines, linesFromHash, linesToHash } from './lines.js';
 import { planesFromHash, planesToHash } from './planes.js';
 
 // The default opacity curve, chosen by looking at the shared datasets (disk_out_ref,
@@ -56,12 +57,14 @@ export function defaultView() {
     budget: null, interactionBudget: null,  // null: the server's
     interactionQuality: 60, stillQuality: 90, pngStills: false,
     clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
+    lines: defaultLines(),      // stream lines and point isosurfaces (lines.js)
   };
 }
 
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
-  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [] };
+  const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
+  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines };
 }
 
 // ---------- URL fragment ----------
@@ -91,7 +94,7 @@ export function viewToHash(view) {
   if (view.opacityScale !== 1) put('oscale', num(view.opacityScale));
   if (view.unitDistance) put('unit', num(view.unitDistance));
   if (view.outsideTransparent) put('outside', 'transparent');
-  put('mode', ['dvr', 'iso', 'surface'].filter((m) => view[m]).join('+'));
+  put('mode', [...['dvr', 'iso', 'surface'].filter((m) => view[m]), ...(view.lines?.on ? ['lines'] : []), ...(view.lines?.points ? ['points'] : [])].join('+'));
   if (view.wireframe) put('wireframe', 1);
   if (view.box) put('box', 1);
   if (view.isovalues.length) put('iso', list(view.isovalues));
@@ -100,6 +103,7 @@ export function viewToHash(view) {
   if (view.interactionBudget) put('ibudget', view.interactionBudget);
   put('quality', `${view.interactionQuality},${view.stillQuality}${view.pngStills ? ',png' : ''}`);
   p.push(...planesToHash(view));
+  p.push(...linesToHash(view));
   return p.join('&');
 }
 
@@ -150,10 +154,11 @@ export function viewFromHash(hash) {
   if (finite(h.get('oscale'))) view.opacityScale = Math.min(Math.max(Number(h.get('oscale')), 0), 3);
   if (finite(h.get('unit')) && Number(h.get('unit')) > 0) view.unitDistance = Number(h.get('unit'));
   view.outsideTransparent = h.get('outside') === 'transparent';
+  const modes = h.get('mode')?.split('+') ?? [];
+  view.lines = linesFromHash(h, modes);
   if (h.has('mode')) {
-    const modes = h.get('mode').split('+');
     for (const m of ['dvr', 'iso', 'surface']) view[m] = modes.includes(m);
-    if (!view.dvr && !view.iso && !view.surface) view.dvr = true;
+    if (!view.dvr && !view.iso && !view.surface && !view.lines.on && !view.lines.points) view.dvr = true;
   }
   view.wireframe = h.get('wireframe') === '1';
   view.box = h.get('box') === '1';

@@ -128,11 +128,21 @@ SeedSpec parse_seeds(const std::string& text) {
       if (spec.points.size() > kMaxSeeds) throw std::invalid_argument("more than " + std::to_string(kMaxSeeds) + " seed points");
     }
     if (spec.points.empty()) throw std::invalid_argument("points seeds: no point given");
+  } else if (kind == "critical") {
+    const auto parts = split(body, ',');
+    if (parts.empty() || parts.size() > 2) throw std::invalid_argument("critical seeds (critical:K[,R]): expected a subdivision K and an optional radius R in cell sizes");
+    spec.critical_subdivision = parse_count(parts[0], "critical-point sphere subdivision");
+    if (spec.critical_subdivision > kMaxCriticalSubdivision) throw std::invalid_argument("critical-point sphere subdivision must be at most " + std::to_string(kMaxCriticalSubdivision));
+    if (parts.size() == 2) {
+      spec.critical_radius_cells = parse_double(parts[1], "critical-point sphere radius");
+      if (!(spec.critical_radius_cells > 0 && spec.critical_radius_cells <= kMaxCriticalRadiusCells))
+        throw std::invalid_argument("critical-point sphere radius must be above 0 and at most " + std::to_string(int(kMaxCriticalRadiusCells)) + " cell sizes");
+    }
   } else if (kind == "dense") {
     spec.dense_resolution = parse_count(body, "dense seed resolution");
     if (spec.dense_resolution > kMaxDenseResolution) throw std::invalid_argument("dense seed resolution must be at most " + std::to_string(kMaxDenseResolution));
   } else {
-    throw std::invalid_argument("seeds '" + text + "': unknown kind '" + kind + "' (line, plane, points or dense)");
+    throw std::invalid_argument("seeds '" + text + "': unknown kind '" + kind + "' (line, plane, points, dense or critical)");
   }
   return spec;
 }
@@ -542,8 +552,114 @@ Streamlines StreamlineTracer::trace_dense(uint32_t resolution, const StreamlineO
   return out;
 }
 
+std::vector<Vec3> sphere_points(uint32_t k) {
+  std::vector<Vec3> out;
+  if (k == 0) return out;
+  const Vec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+  const int faces[4][3] = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
+  std::vector<std::array<int64_t, 3>> seen;  // points on shared edges once
+  for (const auto& f : faces) {
+    const Vec3 a = corner[f[0]], b = corner[f[1]], c = corner[f[2]];
+    for (uint32_t i = 0; i <= k; ++i)
+      for (uint32_t j = 0; i + j <= k; ++j) {
+        const Vec3 p = a + (b - a) * (double(i) / k) + (c - a) * (double(j) / k);
+        const std::array<int64_t, 3> key{std::llround(p[0] * 1e9), std::llround(p[1] * 1e9), std::llround(p[2] * 1e9)};
+        if (std::find(seen.begin(), seen.end(), key) != seen.end()) continue;
+        seen.push_back(key);
+        out.push_back(p * (1 / length(p)));
+      }
+  }
+  return out;
+}
+
+std::vector<StreamlineTracer::CriticalPoint> StreamlineTracer::critical_points() const {
+  const Impl& m = *impl_;
+  std::vector<CriticalPoint> out;
+  if (!(m.max_speed > 0)) return out;  // a zero field: nothing isolated
+  const double merge = 1e-9 * m.diagonal;
+  std::vector<uint8_t> on_boundary(m.mesh.vertex_count(), 0);
+  for (size_t t = 0; t < m.mesh.tet_count(); ++t)
+    for (int f = 0; f < 4; ++f)
+      if (m.opposite[4 * t + f] == kNoOppositeFace)
+        for (int i = 0; i < 4; ++i)
+          if (i != f) on_boundary[m.mesh.tets[4 * t + i]] = 1;
+  for (uint32_t t = 0; t < m.mesh.tet_count(); ++t) {
+    // sum_i l_i v_i = 0, sum_i l_i = 1, the field scaled by its largest |v|: Gaussian
+    // elimination with partial pivoting on the 4 x 5 system
+    double a[4][5];
+    for (int i = 0; i < 4; ++i) {
+      const float* f = m.field + 3 * size_t{m.mesh.tets[4 * size_t{t} + i]};
+      for (int k = 0; k < 3; ++k) a[k][i] = f[k] / m.max_speed;
+      a[3][i] = 1;
+    }
+    a[0][4] = a[1][4] = a[2][4] = 0;
+    a[3][4] = 1;
+    bool singular = false;
+    for (int col = 0; col < 4 && !singular; ++col) {
+      int pivot = col;
+      for (int r = col + 1; r < 4; ++r)
+        if (std::abs(a[r][col]) > std::abs(a[pivot][col])) pivot = r;
+      if (!(std::abs(a[pivot][col]) > 1e-9)) singular = true;
+      else {
+        std::swap(a[col], a[pivot]);
+        for (int r = 0; r < 4; ++r) {
+          if (r == col) continue;
+          const double factor = a[r][col] / a[col][col];
+          for (int c = col; c < 5; ++c) a[r][c] -= factor * a[col][c];
+        }
+      }
+    }
+    if (singular) continue;
+    double l[4];
+    bool inside = true;
+    for (int i = 0; i < 4; ++i) {
+      l[i] = a[i][4] / a[i][i];
+      inside = inside && std::isfinite(l[i]) && l[i] >= -kInsideEpsilon;
+    }
+    if (!inside) continue;
+    Vec3 p{0, 0, 0};
+    for (int i = 0; i < 4; ++i) p = p + m.position(m.mesh.tets[4 * size_t{t} + i]) * l[i];
+    // spanned by boundary vertices only (a wall vertex, edge or face): a no-slip wall's zero,
+    // not a critical point of the flow inside
+    bool wall = true;
+    for (int i = 0; i < 4; ++i) wall = wall && (l[i] <= kInsideEpsilon || on_boundary[m.mesh.tets[4 * size_t{t} + i]]);
+    out.push_back({p, m.cell_size(t), wall});
+  }
+  // a zero on a shared face, edge or vertex is found by every tet there: once, by a sweep in x
+  std::sort(out.begin(), out.end(), [](const CriticalPoint& a, const CriticalPoint& b) { return a.position < b.position; });
+  std::vector<CriticalPoint> kept;
+  for (const CriticalPoint& c : out) {
+    bool known = false;
+    for (size_t i = kept.size(); i-- > 0 && c.position[0] - kept[i].position[0] <= merge;)
+      if (length(c.position - kept[i].position) <= merge) {
+        known = true;
+        kept[i].on_boundary = kept[i].on_boundary || c.on_boundary;
+      }
+    if (!known) kept.push_back(c);
+  }
+  std::erase_if(kept, [](const CriticalPoint& c) { return c.on_boundary; });
+  return kept;
+}
+
+std::vector<Vec3> StreamlineTracer::critical_seeds(uint32_t subdivision, double radius_cells) const {
+  const std::vector<Vec3> sphere = sphere_points(subdivision);
+  const std::vector<CriticalPoint> points = critical_points();
+  if (uint64_t{points.size()} * sphere.size() > kMaxSeeds)
+    throw std::invalid_argument(std::to_string(points.size()) + (points.size() > kMaxSeeds ? "+" : "") + " critical points x " + std::to_string(sphere.size()) + " seeds each is over " +
+                                std::to_string(kMaxSeeds) + " seeds; use a smaller subdivision");
+  std::vector<Vec3> seeds;
+  seeds.reserve(points.size() * sphere.size());
+  for (const CriticalPoint& c : points)
+    for (const Vec3& s : sphere) seeds.push_back(c.position + s * (radius_cells * c.cell_size));
+  return seeds;
+}
+
 Streamlines StreamlineTracer::trace(const SeedSpec& seeds, const StreamlineOptions& options) const {
   if (seeds.dense_resolution) return trace_dense(seeds.dense_resolution, options);
+  if (seeds.critical_subdivision) {
+    const std::vector<Vec3> around = critical_seeds(seeds.critical_subdivision, seeds.critical_radius_cells);
+    return trace(std::span<const Vec3>(around), options);
+  }
   return trace(std::span<const Vec3>(seeds.points), options);
 }
 

@@ -205,6 +205,8 @@ const checkers = {
     f.boolean('halos');
     const flow = f.string('flow', 16);
     if (flow !== undefined && !['arrows', 'dashes', 'none'].includes(flow)) f.fail('flow', 'expected arrows, dashes or none');
+    f.optNumber('depth_correction', 0, 1);
+    f.optNumber('dash_phase', 0, 1);
   },
   'points.set'(f, limits) {
     const values = f.find('values');

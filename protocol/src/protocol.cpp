@@ -62,6 +62,8 @@ LinesSet parse_lines_set(const Fields& f, uint32_t) {
   m.halos = f.boolean("halos");
   m.flow = f.string("flow", 16);
   if (m.flow && *m.flow != "arrows" && *m.flow != "dashes" && *m.flow != "none") f.fail("flow", "expected arrows, dashes or none");
+  m.depth_correction = f.number("depth_correction", 0, 1);
+  m.dash_phase = f.number("dash_phase", 0, 1);
   return m;
 }
 

@@ -10,6 +10,14 @@
 //    reads as one line passing over the other. Flow direction in stills: arrowheads in the
 //    halo by arc length (§7.3.3's textured arrows, computed in the shader), or dashes along
 //    the line (§7.3.3's stipple, by arc length instead of pixels; `dash_phase` moves them).
+//  - depth correction (§7.3.3, figure 7.12): the halo's world width is g(d) = g0 ((1 - c) +
+//    c d / d0), linear in the view depth d as the dissertation's g = s/e * |o - p|, with d0 the
+//    camera's distance to its target; in pixels that is half_width ((1 - c) d0 / d + c). The
+//    arrows' (and dashes') pattern coordinate advances by the arc length over the same factor,
+//    t_i = t_{i-1} + |p_i - p_{i-1}| / ((1 - c) + c d / d0) (§7.3.3's h(|o - p|)), summed on
+//    the CPU when the camera or c changes. c = 1 (default): halos and arrows keep their size in
+//    the image at every depth; c = 0: their size is fixed in the world and perspective shrinks
+//    far ones.
 //  - ghosted lines (§7.3.2): one colour and opacity, segments sorted back to front by their
 //    midpoint's distance, blended, depth tested, no depth writes.
 //
@@ -39,6 +47,7 @@ const char* const kStreamlineVertex = R"(#version 450 core
 layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };     // xyz, value
 layout(std430, binding = 1) readonly buffer Tangents { vec4 tangents[]; }; // unit tangent, arc length
 layout(std430, binding = 2) readonly buffer Segments { uint segments[]; }; // first point of each segment drawn
+layout(std430, binding = 3) readonly buffer Pattern { float pattern[]; };  // arrow and dash coordinate (depth corrected arc length)
 uniform mat4 mvp;
 uniform vec2 viewport;
 uniform float half_width;   // pixels
@@ -46,6 +55,8 @@ uniform float cap;          // pixels the quad reaches past each end (closes joi
 uniform float push;         // world distance the strip moves away from the eye (halos)
 uniform vec3 eye, forward;
 uniform bool ortho;
+uniform bool depth_scaled;  // halos: half_width at depth ref_depth, corrected by depth_correction
+uniform float ref_depth, depth_correction;
 out vec3 world;
 out float v;
 out float arc;
@@ -62,7 +73,7 @@ void main() {
   vec3 dir = ortho ? forward : normalize(p - eye);
   world = p + push * dir;
   v = points[i].w;
-  arc = tangents[i].w;
+  arc = pattern[i];
   tangent = tangents[i].xyz;
   across = side;
   vec4 ca = mvp * vec4(pa, 1.0), cb = mvp * vec4(pb, 1.0);
@@ -76,7 +87,9 @@ void main() {
   d = len > 1e-6 ? d / len : vec2(1.0, 0.0);
   vec2 n = vec2(-d.y, d.x);
   vec4 c = mvp * vec4(world, 1.0);
-  vec2 offset = n * side * half_width + d * (at_b ? cap : -cap);
+  float width = half_width;
+  if (depth_scaled && !ortho) width *= mix(ref_depth / max(c.w, 1e-6 * ref_depth), 1.0, depth_correction);
+  vec2 offset = n * side * width + d * (at_b ? cap : -cap);
   c.xy += offset * 2.0 / viewport * c.w;
   gl_Position = c;
 }
@@ -140,6 +153,7 @@ void check_line_settings(const RenderSettings& s) {
   if (!(s.ghost_opacity > 0 && s.ghost_opacity <= 1)) throw std::invalid_argument("ghost opacity must be in (0, 1]");
   if (!(s.flow_spacing >= 0 && std::isfinite(s.flow_spacing))) throw std::invalid_argument("flow spacing must be 0 (automatic) or a positive length");
   if (!(s.dash_phase >= 0 && s.dash_phase <= 1)) throw std::invalid_argument("dash phase must be in [0, 1]");
+  if (!(s.depth_correction >= 0 && s.depth_correction <= 1)) throw std::invalid_argument("depth correction must be in [0, 1]");
   if (!std::is_sorted(s.selected_lines.begin(), s.selected_lines.end())) throw std::invalid_argument("selected lines must be ascending ids");
   if (!s.selected_lines.empty() && s.selected_lines.back() >= s.lines->line_count())
     throw std::invalid_argument("selected line " + std::to_string(s.selected_lines.back()) + " does not exist (there are " + std::to_string(s.lines->line_count()) + " lines)");
@@ -150,6 +164,7 @@ LinePass::LinePass() {
   glCreateBuffers(1, &points_);
   glCreateBuffers(1, &tangents_);
   glCreateBuffers(1, &segments_);
+  glCreateBuffers(1, &pattern_);
   glCreateVertexArrays(1, &vao_);
 }
 
@@ -157,6 +172,7 @@ LinePass::~LinePass() {
   glDeleteBuffers(1, &points_);
   glDeleteBuffers(1, &tangents_);
   glDeleteBuffers(1, &segments_);
+  glDeleteBuffers(1, &pattern_);
   glDeleteVertexArrays(1, &vao_);
   glDeleteProgram(program_);
 }
@@ -168,6 +184,7 @@ void LinePass::upload(const std::shared_ptr<const LineSet>& lines) {
   const LineSet& set = *lines;
   const size_t n = set.point_count();
   std::vector<float> points(4 * std::max<size_t>(n, 1)), tangents(4 * std::max<size_t>(n, 1));
+  arc_.assign(std::max<size_t>(n, 1), 0.0f);
   for (size_t l = 0; l < set.line_count(); ++l) {
     const uint32_t first = set.line_first[l], end = set.line_first[l + 1];
     double arc = 0;
@@ -185,11 +202,42 @@ void LinePass::upload(const std::shared_ptr<const LineSet>& lines) {
       }
       points[4 * i + 3] = set.value[i];
       tangents[4 * i + 3] = static_cast<float>(arc);
+      arc_[i] = static_cast<float>(arc);
     }
   }
   glNamedBufferData(points_, static_cast<GLsizeiptr>(points.size() * 4), points.data(), GL_STATIC_DRAW);
   glNamedBufferData(tangents_, static_cast<GLsizeiptr>(tangents.size() * 4), tangents.data(), GL_STATIC_DRAW);
   held_ = lines;
+  pattern_valid_ = false;
+}
+
+void LinePass::update_pattern(const PassView& view, const RenderSettings& s) {
+  const Frame& f = view.frame;
+  const double ref = length(s.camera.target - s.camera.eye);
+  // orthographic, or no correction asked for the world size: the pattern is the arc length
+  const double c = f.ortho ? 0.0 : s.depth_correction;
+  const std::array<double, 8> key{f.eye[0], f.eye[1], f.eye[2], f.forward[0], f.forward[1], f.forward[2], ref, c};
+  if (pattern_valid_ && (key == pattern_key_ || (c == 0 && pattern_key_[7] == 0))) return;
+  const LineSet& set = *s.lines;
+  const float* upload = arc_.data();
+  if (c > 0 && ref > 0) {
+    pattern_scratch_.assign(arc_.size(), 0.0f);
+    const double floor_depth = 1e-3 * ref;  // segments at or behind the eye are not drawn
+    for (size_t l = 0; l < set.line_count(); ++l) {
+      double t = 0;
+      for (uint32_t i = set.line_first[l] + 1; i < set.line_first[l + 1]; ++i) {
+        double depth = 0;
+        for (int k = 0; k < 3; ++k) depth += (0.5 * (double(set.xyz[3 * i + k]) + set.xyz[3 * (i - 1) + k]) - f.eye[k]) * f.forward[k];
+        const double scale = (1 - c) + c * std::max(depth, floor_depth) / ref;  // world size / nominal size there
+        t += (double(arc_[i]) - arc_[i - 1]) / scale;
+        pattern_scratch_[i] = static_cast<float>(t);
+      }
+    }
+    upload = pattern_scratch_.data();
+  }
+  glNamedBufferData(pattern_, static_cast<GLsizeiptr>(arc_.size() * 4), upload, GL_DYNAMIC_DRAW);
+  pattern_key_ = key;
+  pattern_valid_ = true;
 }
 
 void LinePass::use(const PassView& view, const RenderSettings& s) {
@@ -218,6 +266,10 @@ void LinePass::use(const PassView& view, const RenderSettings& s) {
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, points_);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tangents_);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, segments_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, pattern_);
+  glUniform1f(at("ref_depth"), float(length(s.camera.target - s.camera.eye)));
+  glUniform1f(at("depth_correction"), float(s.depth_correction));
+  glUniform1i(at("depth_scaled"), 0);
   glBindVertexArray(vao_);
 }
 
@@ -239,6 +291,7 @@ bool LinePass::draw_opaque(const PassView& view, const RenderSettings& s, FrameT
       for (uint32_t i = set.line_first[l]; i + 1 < set.line_first[l + 1]; ++i) scratch_.push_back(i);
   tm.line_segments_opaque = scratch_.size();
   if (scratch_.empty()) return false;
+  update_pattern(view, s);
   glNamedBufferData(segments_, static_cast<GLsizeiptr>(scratch_.size() * 4), scratch_.data(), GL_STREAM_DRAW);
   static constexpr GLenum kBoth[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
   glDrawBuffers(2, kBoth);
@@ -248,7 +301,10 @@ bool LinePass::draw_opaque(const PassView& view, const RenderSettings& s, FrameT
   use(view, s);
   const float half = float(s.line_width / 2);
   draw_segments(scratch_, kLine, half, 0, half);
-  if (s.halos) draw_segments(scratch_, kHalo, half * kHaloWidthFactor, float(set.diagonal * kHaloDepthFraction), half);
+  if (s.halos) {
+    glUniform1i(glGetUniformLocation(program_, "depth_scaled"), 1);
+    draw_segments(scratch_, kHalo, half * kHaloWidthFactor, float(set.diagonal * kHaloDepthFraction), half);
+  }
   return true;
 }
 
@@ -257,6 +313,7 @@ void LinePass::draw_ghosts(const PassView& view, const RenderSettings& s, FrameT
   upload(s.lines);
   const LineSet& set = *s.lines;
   const Frame& f = view.frame;
+  update_pattern(view, s);  // bound by use(); ghosts draw no flow marks
   order_.clear();
   for (uint32_t l = 0; l < set.line_count(); ++l) {
     if (is_selected(s.selected_lines, l)) continue;

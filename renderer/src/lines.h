@@ -47,7 +47,14 @@ class LinePass {
   void upload(const std::shared_ptr<const LineSet>& lines);
   void use(const PassView& view, const RenderSettings& s);
   void draw_segments(const std::vector<uint32_t>& segments, int kind, float half_width, float push, float cap);
-  GLuint program_ = 0, points_ = 0, tangents_ = 0, segments_ = 0, vao_ = 0;
+  // The arrows' and dashes' coordinate at every point: the arc length, depth corrected
+  // (§7.3.3) for this view; summed again only when the view or the correction changes.
+  void update_pattern(const PassView& view, const RenderSettings& s);
+  GLuint program_ = 0, points_ = 0, tangents_ = 0, segments_ = 0, pattern_ = 0, vao_ = 0;
+  std::vector<float> arc_;                    // world arc length at every point (the uncorrected pattern)
+  std::vector<float> pattern_scratch_;
+  std::array<double, 8> pattern_key_{};       // eye, forward, reference depth, correction of the uploaded pattern
+  bool pattern_valid_ = false;
   std::shared_ptr<const LineSet> held_;  // the uploaded set (held, so its address is not reused)
   std::vector<uint32_t> scratch_;
   std::vector<std::pair<float, uint32_t>> order_;

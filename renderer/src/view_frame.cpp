@@ -111,6 +111,8 @@ void ViewPipeline::apply_lines(const LineRequest& request, RenderSettings& s) {
   s.ghost_opacity = request.ghost_opacity;
   s.halos = request.halos;
   s.flow = request.flow;
+  s.depth_correction = request.depth_correction;
+  s.dash_phase = request.dash_phase;
 }
 
 void ViewPipeline::update_clip(const protocol::ClipSpec& clip, ViewTimings& timings) {

@@ -31,7 +31,14 @@ void apply_lines_set(const protocol::LinesSet& m, renderer::LineRequest& line) {
   if (m.ghost_opacity) line.ghost_opacity = *m.ghost_opacity;
   if (m.line_width) line.line_width = *m.line_width;
   if (m.halos) line.halos = *m.halos;
+  if (m.depth_correction) line.depth_correction = *m.depth_correction;
+  if (m.dash_phase) line.dash_phase = *m.dash_phase;
   if (m.flow) line.flow = *m.flow == "arrows" ? renderer::FlowStyle::arrows : *m.flow == "dashes" ? renderer::FlowStyle::dashes : renderer::FlowStyle::none;
+}
+
+bool is_animation_step(const protocol::LinesSet& m) {
+  return m.dash_phase && !m.field && !m.dense && !m.rake && !m.count && !m.max_steps && !m.select && !m.ghost_opacity && !m.line_width && !m.halos && !m.flow &&
+         !m.depth_correction;
 }
 
 void apply_points_set(const protocol::PointsSet& m, renderer::ViewRequest& view) {

@@ -274,6 +274,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   Then on_message(const protocol::LinesSet& m, uint32_t id) {
     if (m.field) check_vector_field(*need_dataset(id), *m.field, id);
     change_state(id, [&](ViewState& s) { apply_lines_set(m, s.view.line); });
+    if (is_animation_step(m)) return Then::kInteraction;  // the viewer's dash animation
     return Then::kStill;  // tracing takes a while: one still, not a burst of interaction frames
   }
 

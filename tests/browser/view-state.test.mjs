@@ -85,3 +85,35 @@ test('re-binning a histogram onto a narrower range spreads each bin over its spa
   assert.deepEqual(rebin([4, 8], [0, 2], [0.5, 1.5], 2), [2, 4]);
   assert.deepEqual(rebin([4, 8], [0, 2], [5, 6], 2), [0, 0]);
 });
+
+test('the stream-line state survives the URL (field, rake, count, selection, style)', () => {
+  const base = { ...defaultView(), dataset: 'disk', attribute: 'Temp' };
+  const lines = {
+    ...base.lines, on: true, points: true, field: 'Velocity', seeds: 'rake', from: [0, -5, 2], to: [0, 5.5, 2], count: 300,
+    select: { box: [[-1, -1, 0], [1, 2, 3]] }, ghost: 0.3, flow: 'dashes', depth: 0.25, animate: false, pointValues: [0.1, 0.2],
+  };
+  const view = { ...base, lines };
+  const hash = viewToHash(view);
+  assert.match(hash, /mode=dvr\+lines\+points/);
+  assert.match(hash, /lseeds=rake:0,-5,2,0,5.5,2,300/);
+  assert.deepEqual(viewFromHash(`#${hash}`), view);
+  for (const select of [{ lines: [1, 4, 9] }, { pixel: [0.25, 0.5] }, null]) {
+    const v = { ...base, lines: { ...base.lines, on: true, select } };
+    assert.deepEqual(viewFromHash(`#${viewToHash(v)}`).lines.select, select);
+  }
+  const dense = { ...base, dvr: false, lines: { ...base.lines, on: true, count: 20 } };
+  assert.deepEqual(viewFromHash(`#${viewToHash(dense)}`), dense, 'lines alone: the volume stays off');
+});
+
+test('a hostile stream-line fragment leaves the line defaults', () => {
+  for (const hash of ['#lseeds=rake:1,2,3&lselect=ids:-1,2&lflow=sparks&ldepth=x', '#lseeds=dense:100000&lselect=box:1,2,3', '#lseeds=rake:1,2,3,4,5,6,0&lselect=pick:2,0.5&lfield=a%20b',
+    `#lselect=ids:${Array.from({ length: 5000 }, (_, i) => i).join(',')}`]) {
+    const lines = viewFromHash(hash).lines;
+    assert.equal(lines.seeds, 'dense', hash);
+    assert.equal(lines.count, 12, hash);
+    assert.equal(lines.select, null, hash);
+    assert.equal(lines.flow, 'arrows', hash);
+    assert.equal(lines.depth, 1, hash);
+    assert.equal(lines.field, null, hash);
+  }
+});

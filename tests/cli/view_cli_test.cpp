@@ -85,6 +85,9 @@ TEST(RenderCli, StreamLinesAndPointsRenderAndBadSeedsOrFieldsAreClearErrors) {
   EXPECT_NE(seeds.out.find("line"), std::string::npos) << seeds.out;
   Result too_many = run("render " + mesh + " -o " + out + " --mode lines --seeds dense:100000");
   EXPECT_EQ(too_many.status, 2) << too_many.out;
+  Result depth = run("render " + mesh + " -o " + out + " --mode lines --depth-correction 2");
+  EXPECT_EQ(depth.status, 2);
+  EXPECT_NE(depth.out.find("--depth-correction must be in [0, 1]"), std::string::npos) << depth.out;
   Result no_lines = run("render " + mesh + " -o " + out + " --seeds dense:4");
   EXPECT_EQ(no_lines.status, 2);
   EXPECT_NE(no_lines.out.find("needs a mode with lines"), std::string::npos) << no_lines.out;

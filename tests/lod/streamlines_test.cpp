@@ -208,6 +208,60 @@ TEST(Streamlines, DenseSeedingCoversTheBox) {
   EXPECT_EQ(lines.seeds_outside, 0u);
 }
 
+// §7.3.1: seeds on spheres about the critical points. A saddle v = (x - a, y - b, -2 (z - c))
+// with its zero at (a, b, c) inside a tet (not at a vertex): found to rounding, and the
+// seeds lie on a sphere about it; lines leave it along x and y and come in along z.
+TEST(Streamlines, CriticalPointSeedingFindsTheSaddleAndSeedsASphereAboutIt) {
+  const Vec3 zero{0.43, 0.58, 0.51};
+  auto saddle = [&](double x, double y, double z) { return Vec3{x - zero[0], y - zero[1], -2 * (z - zero[2])}; };
+  storage::TetMesh mesh = box_with_field(6, 0.2, saddle);
+  auto opposite = pair_faces(mesh.tets).opposite;
+  lod::StreamlineTracer tracer(mesh, opposite, "v");
+  const auto points = tracer.critical_points();
+  ASSERT_EQ(points.size(), 1u) << "one zero, found once though it may lie on shared faces";
+  EXPECT_LT(length(points[0].position - zero), 1e-6) << "a linear field is interpolated exactly";
+  EXPECT_EQ(lod::sphere_points(1).size(), 4u);
+  EXPECT_EQ(lod::sphere_points(3).size(), 20u);  // 2 K^2 + 2
+  for (const Vec3& p : lod::sphere_points(5)) EXPECT_NEAR(length(p), 1, 1e-12);
+  const lod::SeedSpec spec = lod::parse_seeds("critical:3,1.5");
+  EXPECT_EQ(spec.critical_subdivision, 3u);
+  EXPECT_EQ(spec.critical_radius_cells, 1.5);
+  const std::vector<Vec3> seeds = tracer.critical_seeds(3, 1.5);
+  ASSERT_EQ(seeds.size(), 20u);
+  for (const Vec3& s : seeds) EXPECT_NEAR(length(s - points[0].position), 1.5 * points[0].cell_size, 1e-12);
+  lod::StreamlineOptions o;
+  o.threads = 2;
+  const lod::Streamlines lines = tracer.trace(spec, o);
+  EXPECT_EQ(lines.seeds, 20u);
+  EXPECT_EQ(lines.line_count(), 20u);
+  // both halves of a line leave the saddle for the boundary, except those of the six seeds on
+  // its axes (the sphere's edge midpoints), which run straight into the zero
+  EXPECT_GE(lines.stops[size_t(StopReason::boundary)], 34u - 2);
+  EXPECT_EQ(lines.stops[size_t(StopReason::lost)], 0u);
+  // fields with no isolated zero: none, and no seeds (not an error)
+  storage::TetMesh uniform = box_with_field(3, 0.2, [](double, double, double) { return Vec3{1, 0.5, 0}; });
+  auto uo = pair_faces(uniform.tets).opposite;
+  EXPECT_TRUE(lod::StreamlineTracer(uniform, uo, "v").critical_points().empty());
+  EXPECT_EQ(lod::StreamlineTracer(uniform, uo, "v").trace(spec, o).line_count(), 0u);
+}
+
+TEST(Streamlines, DegenerateFieldsGiveNoCriticalPointStorm) {
+  // a zero field and one zero along a whole line (v = (y - b, -(x - a), 0): a rotation, zero on
+  // the axis): no isolated zero, so no seeds - not one per tet
+  storage::TetMesh zero = box_with_field(4, 0.2, [](double, double, double) { return Vec3{0, 0, 0}; });
+  auto zo = pair_faces(zero.tets).opposite;
+  EXPECT_TRUE(lod::StreamlineTracer(zero, zo, "v").critical_points().empty());
+  storage::TetMesh rotation = box_with_field(4, 0.2, [](double x, double y, double) { return Vec3{y - 0.5, -(x - 0.5), 0}; });
+  auto ro = pair_faces(rotation.tets).opposite;
+  EXPECT_TRUE(lod::StreamlineTracer(rotation, ro, "v").critical_points().empty());
+  // a zero on the boundary (a no-slip wall, here the box's corner): not a critical point inside
+  storage::TetMesh corner = box_with_field(4, 0.2, [](double x, double y, double z) { return Vec3{x, y, 2 * z}; });
+  auto co = pair_faces(corner.tets).opposite;
+  EXPECT_TRUE(lod::StreamlineTracer(corner, co, "v").critical_points().empty());
+  for (const char* bad : {"critical:", "critical:0", "critical:33", "critical:3,0", "critical:3,-1", "critical:3,nan", "critical:3,2,1", "critical:3,1e9"})
+    EXPECT_THROW(lod::parse_seeds(bad), std::invalid_argument) << bad;
+}
+
 TEST(Streamlines, WrongFieldsAndMalformedSeedsAreClearErrors) {
   storage::TetMesh mesh = box_with_field(2, 0, [](double, double, double) { return Vec3{1, 0, 0}; });
   auto opposite = pair_faces(mesh.tets).opposite;

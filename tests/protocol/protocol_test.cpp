@@ -118,6 +118,10 @@ TEST(ProtocolVectors, LinesAndPointsMessagesCarryTheirFields) {
   EXPECT_FALSE(style.select) << "no select field: the selection stays";
   EXPECT_FALSE(style.field);
   EXPECT_EQ(style.ghost_opacity, 0.3);
+  EXPECT_FALSE(style.depth_correction);
+  const auto animation = std::get<LinesSet>(parse_message(R"({"type":"lines.set","id":2,"dash_phase":0.25,"depth_correction":0})", limits).message);
+  EXPECT_EQ(animation.dash_phase, 0.25);
+  EXPECT_EQ(animation.depth_correction, 0.0);
   const auto modes = std::get<ModeSet>(parse_message(R"({"type":"mode.set","id":3,"mode":"surface+lines+points"})", limits).message);
   EXPECT_TRUE(modes.surface && modes.lines && modes.points && !modes.dvr);
   const auto points = std::get<PointsSet>(parse_message(R"({"type":"points.set","id":4,"values":[1,2,3],"size":0})", limits).message);

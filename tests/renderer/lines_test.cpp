@@ -112,6 +112,118 @@ TEST(Lines, GhostedLinesWithHalosMatchTheirGoldenImage) {
   EXPECT_GT(differing_pixels(gl().render(dashes), plain_image, 30), 50u) << "dashes";
 }
 
+// Two identical straight lines along x, one 3 units from the eye, one 8 (§7.3.3 depth
+// correction, figure 7.12), seen head-on from (0, 0, 5): the near line in the upper half of
+// the image, the far one in the lower.
+std::shared_ptr<const renderer::LineSet> near_and_far_lines() {
+  auto set = std::make_shared<renderer::LineSet>();
+  const float ys[2] = {0.3f, -0.6f}, zs[2] = {2.0f, -3.0f};
+  for (int l = 0; l < 2; ++l) {
+    for (int i = 0; i <= 24; ++i) {
+      const float x = -0.3f + 0.6f * float(i) / 24;
+      set->xyz.insert(set->xyz.end(), {x, ys[l], zs[l]});
+      set->flow.insert(set->flow.end(), {1, 0, 0});
+      set->value.push_back(0.5f);
+    }
+    set->line_first.push_back(uint32_t(set->value.size()));
+  }
+  set->value_min = 0;
+  set->value_max = 1;
+  set->diagonal = std::sqrt(0.36 + 0.81 + 25);
+  set->field = "v";
+  return set;
+}
+
+bool halo_dark(const renderer::Image& im, uint32_t x, uint32_t y) {
+  const uint8_t* p = &im.rgba[4 * (size_t(y) * im.width + x)];
+  return std::max({p[0], p[1], p[2]}) < 16;  // the halo is near black, the background (26, 26, 31)
+}
+
+// Rows of the halo (dark pixels) in column x between rows y0 and y1, and the middle row of
+// the line (the bright run) there.
+std::pair<int, int> halo_rows(const renderer::Image& im, uint32_t x, uint32_t y0, uint32_t y1) {
+  int dark = 0, bright_sum = 0, bright = 0;
+  for (uint32_t y = y0; y < y1; ++y) {
+    const uint8_t* p = &im.rgba[4 * (size_t(y) * im.width + x)];
+    if (halo_dark(im, x, y)) ++dark;
+    if (std::max({p[0], p[1], p[2]}) > 60) {
+      bright_sum += int(y);
+      ++bright;
+    }
+  }
+  return {dark, bright ? bright_sum / bright : -1};
+}
+
+TEST(Lines, DepthCorrectionKeepsHalosAndArrowsTheirImageSizeAndWorldSizeWithout) {
+  storage::TetMesh m = swirl_box(2);  // not drawn; its box [-6, 6]^3 sets the near and far planes
+  for (size_t i = 0; i < m.vertex_count(); ++i) {
+    m.x[i] = 12 * m.x[i] - 6;
+    m.y[i] = 12 * m.y[i] - 6;
+    m.z[i] = 12 * m.z[i] - 6;
+  }
+  const auto scene = renderer::SceneMesh::from(m, "f");
+  gl().set_mesh(scene);
+  renderer::RenderSettings s;
+  s.width = s.height = 256;
+  s.camera.eye = {0, 0, 5};
+  s.camera.target = {0, 0, 0};
+  s.camera.up = {0, 1, 0};
+  s.tf.attribute = scene.attribute;
+  s.dvr = false;
+  s.lines = near_and_far_lines();
+  s.line_width = 4;
+  s.flow = renderer::FlowStyle::none;
+  const uint32_t mid = 128;
+  auto widths = [&](double correction) {
+    renderer::RenderSettings t = s;
+    t.depth_correction = correction;
+    const renderer::Image im = gl().render(t);
+    return std::pair{halo_rows(im, mid, 0, mid).first, halo_rows(im, mid, mid, 256).first};
+  };
+  // corrected (the default): both halos 1.5 line widths of dark rows (2.5x the line, less the line)
+  ASSERT_EQ(renderer::RenderSettings{}.depth_correction, 1.0);
+  const auto [near1, far1] = widths(1);
+  EXPECT_NEAR(near1, 6, 1.5);
+  EXPECT_NEAR(far1, near1, 1) << "corrected: the same halo width in the image at depth 3 and 8";
+  // uncorrected: a fixed world width, nominal at the target's depth 5: 10 px x 5/3 and x 5/8
+  const auto [near0, far0] = widths(0);
+  EXPECT_NEAR(near0, 10 * 5.0 / 3 - 4, 2) << "the near halo is wider";
+  EXPECT_LE(far0, 3) << "the far halo is narrower";
+  EXPECT_GT(near0, far0 + 6);
+  // half way between
+  const auto [near_half, far_half] = widths(0.5);
+  EXPECT_GT(near_half, near1);
+  EXPECT_LT(near_half, near0);
+  EXPECT_LT(far_half, far1);
+
+  // arrows: corrected, the near line (at 3/5 of the target's depth) holds 5/3 as many arrows
+  // (each as long in the image as at the target); uncorrected, as many as its arc length says
+  s.flow = renderer::FlowStyle::arrows;
+  s.flow_spacing = 0.1;  // 6 arrows on the 0.6 long line in the world
+  auto arrows = [&](double correction) {
+    renderer::RenderSettings t = s;
+    t.depth_correction = correction;
+    const renderer::Image im = gl().render(t);
+    const int row = halo_rows(im, mid, 0, mid).second;
+    EXPECT_GT(row, 0) << "the near line is drawn";
+    const uint32_t y = uint32_t(row + 3);  // inside the halo, beside the 4 px line
+    int runs = 0;
+    bool lit = false;
+    for (uint32_t x = 10; x < 246; ++x) {
+      const bool now = !halo_dark(im, x, y) && std::max({im.rgba[4 * (size_t(y) * 256 + x)], im.rgba[4 * (size_t(y) * 256 + x) + 1]}) > 40;
+      runs += now && !lit;
+      lit = now;
+    }
+    return runs;
+  };
+  const int arrows0 = arrows(0), arrows1 = arrows(1);
+  EXPECT_NEAR(arrows0, 6, 1) << "uncorrected: one arrow each 0.1 of arc length";
+  EXPECT_NEAR(arrows1, 10, 1.5) << "corrected: 6 x 5/3 arrows, each its nominal length in the image";
+  renderer::RenderSettings bad = s;
+  bad.depth_correction = 1.5;
+  EXPECT_THROW(gl().render(bad), std::invalid_argument);
+}
+
 TEST(Lines, OpaqueLinesOccludeTheVolumeBehindThem) {
   // a straight line in front of the box (z = 1.3, the camera above it looking down): where
   // the line is drawn the volume is hidden, so its pixels equal those of the line alone; a

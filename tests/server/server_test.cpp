@@ -263,6 +263,35 @@ TEST_F(ServerTest, StreamLinesOnAScalarOrMissingFieldAreRefusedAndLinesChangeThe
   EXPECT_FALSE(c.closed());
 }
 
+// The viewer's dash animation: a lines.set with only dash_phase is answered by an
+// interaction frame (cheap), and the dashes move (the still after it differs).
+TEST_F(ServerTest, ADashPhaseStepIsAnsweredWithAnInteractionFrameAndMovesTheDashes) {
+  start();
+  SessionClient c(ws_);
+  open(c);
+  next_still(c);
+  auto frame_for = [&](uint32_t id, bool still) {
+    for (;;) {
+      Frame f = still ? next_still(c) : next_frame(c);
+      if (f.header.width == 0 || f.header.message_id >= id) return f;
+    }
+  };
+  c.send("lines.set", {{"seeds", {{0, -5, 2}, {0, 5, 2}}}, {"count", 30}, {"flow", "dashes"}, {"halos", false}});
+  const Frame dashes = frame_for(c.send("mode.set", {{"mode", "lines"}}), true);
+  const uint32_t step = c.send("lines.set", {{"dash_phase", 0.5}});
+  const Frame interaction = frame_for(step, false);
+  EXPECT_FALSE(interaction.header.still) << "an animation step is not refined at once";
+  EXPECT_FALSE(interaction.header.refining);
+  const Frame moved = frame_for(step, true);
+  EXPECT_EQ(moved.header.message_id, step);
+  EXPECT_TRUE(moved.jpeg != dashes.jpeg) << "the dashes moved";
+  // a lines.set with more than the phase is a still as before
+  const uint32_t style = c.send("lines.set", {{"dash_phase", 0}, {"ghost_opacity", 0.3}});
+  const Frame back = frame_for(style, false);
+  EXPECT_TRUE(back.header.still || back.header.refining);
+  EXPECT_FALSE(c.closed());
+}
+
 TEST_F(ServerTest, AClientThatKeepsSendingGarbageIsClosedWithPolicyViolation) {
   auto o = options_for(data_dir());
   o.limits.max_bad_messages = 5;

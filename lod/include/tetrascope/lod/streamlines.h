@@ -42,14 +42,23 @@ struct StreamlineOptions {
 };
 
 // Seeds, parsed from a user's text (untrusted): line:x0,y0,z0,x1,y1,z1,N | plane:ox,oy,oz,ux,uy,uz,
-// vx,vy,vz,NU,NV | points:x,y,z;x,y,z… | dense:N. Throws std::invalid_argument with a message
-// naming the problem. `dense` sets dense_resolution and leaves points empty.
+// vx,vy,vz,NU,NV | points:x,y,z;x,y,z… | dense:N | critical:K[,R]. Throws std::invalid_argument
+// with a message naming the problem. `dense` sets dense_resolution and `critical` the
+// critical-point fields; both leave points empty (they need the mesh).
 struct SeedSpec {
   std::vector<Vec3> points;
   uint32_t dense_resolution = 0;  // cells along the longest side of the bounding box
+  // §7.3.1: seeds on a sphere about every critical point (zero of the field): the sphere from
+  // a tetrahedron whose faces are split K x K (2K^2 + 2 points), of R local cell sizes radius.
+  uint32_t critical_subdivision = 0;
+  double critical_radius_cells = 2;
 };
 constexpr uint32_t kMaxSeeds = 1'000'000;
 constexpr uint32_t kMaxDenseResolution = 256;  // the coverage grid has at most 256^3 cells
+constexpr uint32_t kMaxCriticalSubdivision = 32;
+constexpr double kMaxCriticalRadiusCells = 1000;
+// 2K^2 + 2 points evenly on the unit sphere: a tetrahedron's faces split K x K, projected.
+std::vector<Vec3> sphere_points(uint32_t subdivision);
 SeedSpec parse_seeds(const std::string& text);
 
 // The traced lines: points of all lines back to back, line l spanning
@@ -85,6 +94,19 @@ class StreamlineTracer {
   // §7.3.1: a grid of `resolution` cells along the longest side; a line is seeded (both
   // directions) at the centre of every cell inside the domain that no earlier line crossed.
   Streamlines trace_dense(uint32_t resolution, const StreamlineOptions& options) const;
+  // The isolated zeros of the field (linear in each tet): a point where the field vanishes
+  // inside or on a tet whose field is not degenerate (a tet with a constant or planar field
+  // has none isolated). Duplicates on shared faces merged; zeros on the domain's boundary
+  // (no-slip walls) left out; sorted by position.
+  struct CriticalPoint {
+    Vec3 position;
+    double cell_size;          // of its tet
+    bool on_boundary = false;  // (found on a boundary face; such points are not returned)
+  };
+  std::vector<CriticalPoint> critical_points() const;
+  // §7.3.1's spheres: seeds about every critical point. Throws std::invalid_argument when the
+  // seeds would be more than kMaxSeeds.
+  std::vector<Vec3> critical_seeds(uint32_t subdivision, double radius_cells) const;
   Streamlines trace(const SeedSpec& seeds, const StreamlineOptions& options) const;
 
   struct Impl;

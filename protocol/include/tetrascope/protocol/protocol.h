@@ -148,6 +148,8 @@ struct LinesSet {
   std::optional<double> ghost_opacity, line_width;
   std::optional<bool> halos;
   std::optional<std::string> flow;               // "arrows", "dashes" or "none"
+  std::optional<double> depth_correction;        // 0..1, §7.3.3 (RenderSettings::depth_correction)
+  std::optional<double> dash_phase;              // 0..1, moves dashes along the flow (the viewer animates it)
 };
 // Point isosurfaces (§7.2).
 struct PointsSet {

@@ -117,6 +117,13 @@ struct RenderSettings {
   FlowStyle flow = FlowStyle::arrows;
   double flow_spacing = 0;               // arc length between arrows or dashes; 0: 1/30 of the lines' diagonal
   double dash_phase = 0;                 // 0..1, moves dashes along the flow (animation)
+  // §7.3.3's depth correction, 0..1: the halo's world width is g(d) = g0 * ((1 - c) + c * d / d0)
+  // at view depth d (d0: the camera's distance to its target, where sizes are nominal), and the
+  // arrows' and dashes' pattern runs by arc length over the same factor. 1 (the dissertation's
+  // corrected halos and arrows): the same size in the image at every depth; 0: a fixed size in
+  // the world, so far halos are narrower and far arrows shorter, like the geometry. No effect
+  // in an orthographic view.
+  double depth_correction = 1;
   // point-based isosurfaces (§7.2): drawn when `points` is set
   bool points = false;
   std::vector<double> point_isovalues;   // attribute units; none: 8 regularly spaced over the colour range

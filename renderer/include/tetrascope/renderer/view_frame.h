@@ -40,6 +40,8 @@ struct LineRequest {
   double line_width = 2.5, ghost_opacity = 0.15;
   bool halos = true;
   FlowStyle flow = FlowStyle::arrows;
+  double depth_correction = 1;     // RenderSettings::depth_correction
+  double dash_phase = 0;           // RenderSettings::dash_phase
   bool operator==(const LineRequest&) const = default;
 };
 
