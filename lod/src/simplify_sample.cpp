@@ -13,6 +13,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <queue>
 #include <stdexcept>
 #include <string>
@@ -331,6 +332,11 @@ Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, con
   char switches[] = "pYQzJ";
   if (!behaviour.parse_commandline(switches)) throw std::runtime_error("tetgen: bad switches");
   behaviour.nostaticfilter = 1;  // the static filter is global state in TetGen: not shared between threads
+  // TetGen 1.5 is not safe to run on two threads at once even so: `preprocess --simplifier
+  // sample --threads 2` on the 5M blade crashed in TetGen's memory pools (tetgenmesh::
+  // freememory) while the other thread was inside recoversegments. One run at a time.
+  static std::mutex tetgen_mutex;
+  std::lock_guard one_at_a_time(tetgen_mutex);
   try {
     tetrahedralize(&behaviour, &in, &out);
   } catch (int code) {
