@@ -332,9 +332,9 @@ Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, con
   char switches[] = "pYQzJ";
   if (!behaviour.parse_commandline(switches)) throw std::runtime_error("tetgen: bad switches");
   behaviour.nostaticfilter = 1;  // the static filter is global state in TetGen: not shared between threads
-  // TetGen 1.5 is not safe to run on two threads at once even so: `preprocess --simplifier
-  // sample --threads 2` on the 5M blade crashed in TetGen's memory pools (tetgenmesh::
-  // freememory) while the other thread was inside recoversegments. One run at a time.
+  // TetGen 1.5 is not documented as safe to run on two threads at once (its predicates and
+  // tables are globals): one run at a time. (`preprocess --simplifier sample` on the 5M blade
+  // crashes inside TetGen's tetgenmesh::freememory with this lock too: an open finding.)
   static std::mutex tetgen_mutex;
   std::lock_guard one_at_a_time(tetgen_mutex);
   try {
