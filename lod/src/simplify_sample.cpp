@@ -309,6 +309,17 @@ struct Tetrahedralization {
 
 // Constrained Delaunay tetrahedralization of `points` (the border's vertices first) bounded by
 // `triangles` (indices into points), with no point added on the border (-Y).
+// The mesh simplified by quadric collapses instead, reported as such.
+SimplifyReport fall_back_to_qem(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked,
+                                const SimplifyReport& sampled) {
+  SimplifyOptions qem = options;
+  qem.method = SimplifyMethod::kQem;
+  SimplifyReport fallback = simplify(mesh, qem, locked);
+  fallback.fell_back_to_qem = true;
+  fallback.border_before = sampled.border_before;
+  return fallback;
+}
+
 Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, const std::vector<std::array<uint32_t, 3>>& triangles) {
   tetgenio in, out;
   in.firstnumber = 0;
@@ -424,6 +435,15 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
   for (size_t i = 0; i < facets.size(); ++i)
     for (int k = 0; k < 3; ++k) facets[i][k] = border_index[simplified.triangles[i][k]];
 
+  // A border that crosses itself (two faces the simplifier never touched, e.g. locked ones
+  // from neighbouring segments) makes TetGen fail, and TetGen 1.5 then crashes while freeing
+  // its memory (found on the 5M blade): such a mesh goes to the quadric simplifier instead.
+  {
+    std::vector<Point3> border_positions(border_points);
+    for (size_t i = 0; i < border_points; ++i) border_positions[i] = positions[input_vertex[i]];
+    if (!detail::self_intersections(border_positions, facets, 1).empty()) return fall_back_to_qem(mesh, options, locked, report);
+  }
+
   PointSampler sampler(positions, values, channels, extent);
   auto wanted_samples = [&](double tets_per_interior, double tets_per_border) -> uint64_t {
     if (!options.target_tets) return 0;
@@ -519,14 +539,7 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
   }
   // TetGen fills a cavity that the border encloses (no hole point marks it): the output's
   // border then lacks those facets. The mesh is left to the quadric simplifier instead.
-  if (border_triangles(out).size() != facets.size()) {
-    SimplifyOptions qem = options;
-    qem.method = SimplifyMethod::kQem;
-    SimplifyReport fallback = simplify(mesh, qem, locked);
-    fallback.fell_back_to_qem = true;
-    fallback.border_before = report.border_before;
-    return fallback;
-  }
+  if (border_triangles(out).size() != facets.size()) return fall_back_to_qem(mesh, options, locked, report);
   mesh = std::move(out);
   lap(report.output_seconds);
   report.tets_after = mesh.tet_count();

@@ -285,6 +285,29 @@ TEST(SimplifySample, ABorderEnclosingACavityFallsBackToQuadrics) {
   EXPECT_EQ(check_mesh(hollow).nonpositive, 0u);
 }
 
+TEST(SimplifySample, ABorderThatCrossesItselfFallsBackToQuadrics) {
+  // two boxes that overlap without sharing a vertex: their faces cross, which TetGen cannot
+  // mesh (and TetGen 1.5 then crashed freeing its memory, on a segment of the 5M blade); the
+  // sampler sees the crossing first and leaves the mesh to the quadric simplifier
+  storage::TetMesh a = kuhn_box(3, 0, [](float x, float, float) { return x; });
+  storage::TetMesh both = a;
+  const uint32_t offset = static_cast<uint32_t>(a.vertex_count());
+  for (size_t v = 0; v < a.vertex_count(); ++v) {
+    both.x.push_back(a.x[v] + 0.5f);
+    both.y.push_back(a.y[v] + 0.13f);
+    both.z.push_back(a.z[v] + 0.17f);
+  }
+  for (auto& attribute : both.attributes) attribute.values.insert(attribute.values.end(), attribute.values.begin(), attribute.values.end());
+  for (uint32_t v : a.tets) both.tets.push_back(v + offset);
+  lod::SimplifyOptions options;
+  options.target_tets = both.tet_count() / 2;
+  lod::SimplifyReport report;
+  ASSERT_NO_THROW(report = lod::simplify_sampled(both, options));
+  EXPECT_TRUE(report.fell_back_to_qem);
+  EXPECT_GT(both.tet_count(), 0u);
+  EXPECT_EQ(check_mesh(both).nonpositive, 0u);
+}
+
 TEST(SimplifySample, BadThresholdsAreRefused) {
   const storage::TetMesh box = kuhn_box(3, 0, [](float x, float, float) { return x; });
   auto refused = [&](auto set, const std::string& expected) {
