@@ -56,6 +56,9 @@ StoreWriter::StoreWriter(std::filesystem::path directory, bool replace, uint64_t
   std::filesystem::create_directories(temp_);
   fd_ = ::open((temp_ / "segments.bin").c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0) io_error(temp_ / "segments.bin", "cannot create");
+  // every byte, the struct's tail padding (92 bytes of fields, 96 written) included: a store
+  // is byte for byte the same for the same input and options
+  std::memset(static_cast<void*>(&header_), 0, sizeof header_);
   std::memcpy(header_.magic, kFileMagic, sizeof kFileMagic);
   header_.version = kFormatVersion;
   header_.header_bytes = sizeof(FileHeader);

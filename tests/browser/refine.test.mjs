@@ -5,49 +5,21 @@
 //   node --test tests/browser/refine.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn, execFileSync } from 'node:child_process';
-import { mkdtempSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
-import { join, dirname } from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
+import { startViewer, settled as settledOn } from './harness.mjs';
 
-const root = join(dirname(fileURLToPath(import.meta.url)), '..', '..');
-const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release', 'apps', 'tetrascope');
-const sample = join(root, 'data', 'samples', 'disk_out_ref.vtk');
-
-let data, server, url, browser, page;
+let viewer, url, page;
 
 before(async () => {
-  data = mkdtempSync(join(tmpdir(), 'tetrascope-refine-'));
-  execFileSync(binary, ['preprocess', sample, '-o', join(data, 'disk'), '--segment-tets', '2000', '--base-tets', '3000', '--progress', 'none']);
   // 5 ms frames, steps doubling: even the 45K-tet sample refines in several steps
-  server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1', '--frame-ms', '5', '--refine-growth', '2'], { stdio: ['ignore', 'pipe', 'inherit'] });
-  url = await new Promise((resolve, reject) => {
-    let out = '';
-    server.stdout.on('data', (chunk) => {
-      out += chunk;
-      const m = out.match(/open (http:\/\/\S+)/);
-      if (m) resolve(m[1]);
-    });
-    server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
-  });
-  browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
-  page = await browser.newPage({ viewport: { width: 1100, height: 700 } });
-  page.on('pageerror', (e) => console.error('page error:', e));
+  viewer = await startViewer({ prefix: 'tetrascope-refine-', serveArgs: ['--frame-ms', '5', '--refine-growth', '2'], viewport: { width: 1100, height: 700 } });
+  ({ url, page } = viewer);
 });
 
 after(async () => {
-  await browser?.close();
-  server?.kill('SIGTERM');
-  if (data) rmSync(data, { recursive: true, force: true });
+  await viewer?.stop();
 });
 
-const settled = () =>
-  page.waitForFunction(() => {
-    const s = window.tetrascope;
-    return s.lastFrame?.header.still && s.lastFrame.header.message_id === s.lastSentId;
-  }, null, { timeout: 60000 });
+const settled = () => settledOn(page, 0);
 
 test('refinement steps show progress and end in a still', async () => {
   await page.goto(url);
