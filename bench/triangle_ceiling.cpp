@@ -32,6 +32,7 @@
 
 #include "camera_math.h"
 #include "egl_context.h"
+#include "gl_shaders.h"
 #include "tetrascope/lod/view.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/mesh_stream.h"
@@ -80,21 +81,6 @@ Counts count(const st::TetMesh& mesh, const r::Frame& f) {
     }
   }
   return c;
-}
-
-GLuint shader(GLenum type, const char* source) {
-  const GLuint s = glCreateShader(type);
-  glShaderSource(s, 1, &source, nullptr);
-  glCompileShader(s);
-  GLint ok = 0;
-  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char log[2048];
-    glGetShaderInfoLog(s, sizeof log, nullptr, log);
-    std::fprintf(stderr, "shader: %s\n", log);
-    std::exit(1);
-  }
-  return s;
 }
 
 double cpu_ms() {
@@ -197,10 +183,8 @@ int main(int argc, char** argv) {
   }
   glBindFramebuffer(GL_FRAMEBUFFER, fb);
   glViewport(0, 0, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
-  const GLuint program = glCreateProgram();
-  glAttachShader(program, shader(GL_VERTEX_SHADER, "#version 450 core\nlayout(location = 0) in vec2 p;\nvoid main() { gl_Position = vec4(p, 0.5, 1); }\n"));
-  glAttachShader(program, shader(GL_FRAGMENT_SHADER, "#version 450 core\nout vec4 colour;\nvoid main() { colour = vec4(0.004, 0.004, 0.004, 0.01); }\n"));
-  glLinkProgram(program);
+  const GLuint program = r::link_program("#version 450 core\nlayout(location = 0) in vec2 p;\nvoid main() { gl_Position = vec4(p, 0.5, 1); }\n",
+                                         "#version 450 core\nout vec4 colour;\nvoid main() { colour = vec4(0.004, 0.004, 0.004, 0.01); }\n");
   glUseProgram(program);
   glEnable(GL_BLEND);
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
