@@ -22,7 +22,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 
 int run_serve(const Arguments& raw) {
   Args args(raw, {"--read-only"}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
-                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--worker-idle-release", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--frame-ms", "--refine-growth", "--web"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
@@ -51,6 +51,8 @@ int run_serve(const Arguments& raw) {
   o.max_connections = std::max(1u, args.number("--max-connections", o.max_connections));
   o.min_upload_bytes_per_second = args.number("--min-upload-rate", static_cast<uint32_t>(o.min_upload_bytes_per_second));
   o.hello_timeout = std::chrono::seconds(std::max(1u, args.number("--hello-timeout", static_cast<uint32_t>(o.hello_timeout.count() / 1000))));
+  // 0: a worker keeps its scene and buffers while idle
+  o.worker_idle_release = std::chrono::seconds(args.number("--worker-idle-release", static_cast<uint32_t>(o.worker_idle_release.count() / 1000)));
   o.job_memory_bytes = uint64_t(args.number("--job-memory-mb", static_cast<uint32_t>(o.job_memory_bytes >> 20))) << 20;
   o.job_cpu_seconds = args.number("--job-cpu-seconds", o.job_cpu_seconds);
   o.max_fps = args.positive("--max-fps", o.max_fps);

@@ -45,6 +45,7 @@ constexpr const char* kUsage =
     "                                [--interaction-scale S] [--frame-ms MS] [--refine-growth G] [--web DIR]\n"
     "                                [--max-queued-jobs N (16)] [--job-memory-mb M (physical memory)] [--job-cpu-seconds S (none)] [--max-connections N (256)]\n"
     "                                [--hello-timeout S (10)] [--min-upload-rate BYTES_PER_S (4096, over 10 s windows)]\n"
+    "                                [--worker-idle-release S (5; 0: never)]  a render worker idle that long gives back its scene and buffers\n"
     "                                [--read-only]  a replica beside a writer: no uploads, jobs or deletes (docs/deploy.md)\n"
     "                                the viewer: web client at /, REST API under /api/v1/, WebSocket sessions\n"
     "  loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random|orbit-pause]\n"
