@@ -7,64 +7,28 @@
 //   node --test tests/browser/viewer.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn, execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, readdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
-import { tmpdir } from 'node:os';
-import { join, dirname } from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
+import { existsSync, readdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { startViewer, sample, frameImage as imageOf, settled as settledOn } from './harness.mjs';
 
-const root = join(dirname(fileURLToPath(import.meta.url)), '..', '..');
-const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release', 'apps', 'tetrascope');
-const sample = join(root, 'data', 'samples', 'disk_out_ref.vtk');
 const shots = process.env.TETRA_SCREENSHOTS;  // a folder: keep screenshots for inspection
 
-let data, server, url, browser, page;
+let viewer, data, url, browser, page;
 
 before(async () => {
-  data = mkdtempSync(join(tmpdir(), 'tetrascope-browser-'));
-  execFileSync(binary, ['preprocess', sample, '-o', join(data, 'disk'), '--segment-tets', '2000', '--base-tets', '3000', '--progress', 'none']);
-  server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1'], { stdio: ['ignore', 'pipe', 'inherit'] });
-  url = await new Promise((resolve, reject) => {
-    let out = '';
-    server.stdout.on('data', (chunk) => {
-      out += chunk;
-      const m = out.match(/open (http:\/\/\S+)/);
-      if (m) resolve(m[1]);
-    });
-    server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
-  });
-  browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
-  page = await browser.newPage({ viewport: { width: 900, height: 560 } });
-  page.on('pageerror', (e) => console.error('page error:', e));
+  viewer = await startViewer({ prefix: 'tetrascope-browser-', viewport: { width: 900, height: 560 } });
+  ({ data, url, browser, page } = viewer);
 });
 
 after(async () => {
-  await browser?.close();
-  server?.kill('SIGTERM');
-  if (data) rmSync(data, { recursive: true, force: true });
+  await viewer?.stop();
 });
 
 // a digest of the canvas, so that a failed comparison prints two short strings
-const frameImage = () =>
-  page.evaluate(async () => {
-    const url = document.getElementById('frame').toDataURL('image/png');
-    const digest = await crypto.subtle.digest('SHA-256', new TextEncoder().encode(url));
-    return [...new Uint8Array(digest)].map((b) => b.toString(16).padStart(2, '0')).join('');
-  });
+const frameImage = () => imageOf(page);
 
 // until a still frame shows everything the page asked for
-async function settled(p = page) {
-  await p.waitForFunction(
-    () => {
-      const s = window.tetrascope;
-      return s.lastFrame?.header.still && s.lastFrame.header.message_id === s.lastSentId;
-    },
-    null,
-    { timeout: 60000 },
-  );
-  await p.waitForTimeout(200);  // the bitmap is drawn
-}
+const settled = (p = page) => settledOn(p);
 
 async function shot(name, p = page) {
   if (shots) await p.screenshot({ path: join(shots, `${name}.png`) });
