@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "rest_helpers.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/server/client.h"
 #include "tetrascope/server/frame_cost.h"
@@ -213,12 +214,7 @@ class RefinementTest : public ::testing::Test {
   void start(double refine_growth = 2) {
     data_ = scratch_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::copy(sample_store(), data_ / "disk", fs::copy_options::recursive);
-    ServerOptions o;
-    o.data_dir = data_;
-    o.web_root = source_dir() / "web-client";
-    o.protocol_root = source_dir() / "protocol";
-    o.port = 0;
-    o.render_workers = 1;
+    ServerOptions o = tetrascope::testing::test_server_options(data_);
     o.cache_bytes = 256ull << 20;
     o.still_budget = 100000;
     o.interaction_budget = 5000;

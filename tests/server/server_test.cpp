@@ -39,13 +39,7 @@ const fs::path& sample_store() {
 }
 
 ServerOptions options_for(const fs::path& data) {
-  ServerOptions o;
-  o.data_dir = data;
-  o.web_root = source_dir() / "web-client";
-  o.protocol_root = source_dir() / "protocol";
-  o.port = 0;
-  o.render_workers = 1;
-  o.job_binary = tetrascope_binary();
+  ServerOptions o = tetrascope::testing::test_server_options(data);
   o.cache_bytes = 256ull << 20;
   o.still_budget = 100000;
   o.interaction_budget = 5000;
