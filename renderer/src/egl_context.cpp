@@ -95,11 +95,14 @@ EglContext::EglContext() {
                     " and Mesa's surfaceless platform); install libegl-mesa0 and libgl1-mesa-dri, or the NVIDIA driver's EGL");
 }
 
+// The display is not terminated: other threads' contexts (the server's render workers) share
+// it, and eglTerminate would mark theirs for deletion. It stays initialised to exit, as the
+// server and `render` keep theirs (see RenderPool::run). Destroying the context alone gives
+// back what Mesa holds for it, the storage of deleted framebuffers included.
 EglContext::~EglContext() {
   if (!display_) return;
-  eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  if (eglGetCurrentContext() == context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
   if (context_) eglDestroyContext(display_, context_);
-  eglTerminate(display_);
 }
 
 }  // namespace tetrascope::renderer

@@ -9,9 +9,12 @@
 namespace tetrascope::server {
 namespace {
 
-// After a frame this large (2048^2 and up: a big PNG still) its image buffers, tens of MB, are
-// given back to the system; otherwise the allocator keeps them and the server's RSS stays up.
-constexpr uint64_t kTrimAfterPixels = uint64_t{2048} * 2048;
+// After a frame this large (2048^2 and up: a big PNG still) the worker's renderer is made
+// anew and its image buffers, tens of MB, are given back to the system. Mesa (llvmpipe) keeps
+// the storage of a context's deleted framebuffers (~36 bytes a pixel: 150 MB after a 2600^2
+// still) until the context goes; destroying it gives them back. The new context compiles its
+// shaders again and the next frame uploads the scene again, once after such a still.
+constexpr uint64_t kRenewAfterPixels = uint64_t{2048} * 2048;
 
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
@@ -30,7 +33,17 @@ uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protoco
 RenderedFrame FrameMaker::render(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
                                  uint32_t frame_number) {
   RenderedFrame frame = render_frame(state, plan, cost, options, worker, frame_number);
-  if (uint64_t{frame.header.width} * frame.header.height >= kTrimAfterPixels) ::malloc_trim(0);  // the image is freed by now
+  if (uint64_t{frame.header.width} * frame.header.height >= kRenewAfterPixels) {
+    worker.renderer.reset();  // the old context goes first: its GL objects are deleted while it is current
+    worker.scene_generation = 0;
+    ::malloc_trim(0);  // the image is freed by now
+    try {
+      worker.renderer = renderer::Renderer::create();
+    } catch (const std::exception&) {
+      // made at start already, so this should not fail; if it does, the next frame tries again
+      // and reports what is missing
+    }
+  }
   return frame;
 }
 
@@ -45,6 +58,7 @@ void FrameMaker::open(const std::shared_ptr<Dataset>& dataset) {
 RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
                                        uint32_t frame_number) {
   const auto start = Clock::now();
+  if (!worker.renderer) worker.renderer = renderer::Renderer::create();
   open(state.dataset);
   renderer::ViewRequest request = state.view;
   const lod::Camera camera = request.camera ? *request.camera : lod::default_camera(pipeline_->bounds());
@@ -76,7 +90,11 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
   }
   frame.budget = request.budget;
   frame.predicted_ms = cost.predict(double(std::max(request.budget, coarsest_tets_)), frame.covered_pixels);
-  renderer::RenderSettings settings = pipeline_->update(request, &frame.timings);
+  renderer::RenderSettings settings = pipeline_->update(request, &frame.timings, plan.refinement ? plan.should_stop : std::function<bool()>());
+  if (frame.timings.interrupted) {  // input came during the reassembly: no scene, no draw
+    frame.interrupted = true;
+    return frame;
+  }
   const uint64_t tets = pipeline_->scene().tets.size() / 4;
   const double estimated_error = pipeline_->cut_estimated_error().value_or(0);
   if (plan.refinement && !final_step) {

@@ -65,7 +65,7 @@ class FrameMaker {
   std::string probe(const ViewState& state, double x, double y, uint32_t id);
 
  private:
-  // render() without the memory return of large frames (malloc_trim after 2048^2 pixels and up)
+  // render() without the memory return of large frames (a new renderer after 2048^2 pixels and up)
   RenderedFrame render_frame(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
                              uint32_t frame_number);
   void open(const std::shared_ptr<Dataset>& dataset);
