@@ -408,7 +408,8 @@ CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const Tran
   return c;
 }
 
-CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency, std::span<const protocol::Plane> clip) {
+CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency, std::span<const protocol::Plane> clip,
+                     const std::function<bool()>& should_stop) {
   using storage::store::kMeshBoundary;
   using storage::store::kSegmentBorder;
   const Dag& dag = cut.dag();
@@ -420,6 +421,10 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   std::unordered_map<uint32_t, uint32_t> vertex_of;
   std::vector<OpenFace> open;  // faces glued to another patch's or segment's
   for (uint32_t p : out.patches) {
+    if (should_stop && should_stop()) {
+      out.interrupted = true;
+      return out;
+    }
     const dag::Patch& patch = dag.patch(p);
     auto segment = cache.get(patch.floor);
     const storage::SegmentView& s = segment->view();

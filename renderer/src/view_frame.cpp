@@ -129,7 +129,7 @@ void ViewPipeline::update_clip(const protocol::ClipSpec& clip, ViewTimings& timi
   timings.clip_ms = ms_since(start);
 }
 
-RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* timings) {
+RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* timings, const std::function<bool()>& should_stop) {
   RenderSettings s;
   s.dvr = request.dvr;
   s.iso = request.iso;
@@ -169,11 +169,18 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     start = Clock::now();
     // segments wholly clipped away are not read (a change of the clip may need others)
     std::optional<lod::CutMesh> assembled;
-    if (!scene_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute ||
-        !(assembled_clip_ == criteria.clip)) {
-      assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip);
+    if (!scene_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute ||
+        iso_color_attribute_ != request.iso_color_attribute || !(assembled_clip_ == criteria.clip)) {
+      assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip, should_stop);
+      if (assembled->interrupted || (should_stop && should_stop())) {
+        scene_stale_ = true;  // the next update assembles whatever its cut is
+        t.interrupted = true;
+        t.assemble_ms = ms_since(start);
+        return s;
+      }
       rebuild_scene(assembled->mesh, s.tf.attribute, request.iso_color_attribute);
       assembled_clip_ = criteria.clip;
+      scene_stale_ = false;
     }
     t.assemble_ms = ms_since(start);
     update_clip(request.clip, t);

@@ -178,5 +178,22 @@ TEST(Cut, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {
   EXPECT_EQ(refined.active_patches(), fresh.active_patches());
 }
 
+// Issue 15: a refinement step's assembly stops between patches when input comes.
+TEST(Cut, AnAssemblyStoppedBetweenPatchesIsMarkedPartial) {
+  const Built& b = built("sample");
+  auto store = storage::Store::open(b.store);
+  auto dag = lod::open_dag(*store);
+  storage::SegmentCache cache(*store, 1ull << 28);
+  lod::Cut cut(*dag);
+  cut.refine_all();
+  const lod::CutMesh whole = lod::assemble_cut(*store, cache, cut, false, {}, [] { return false; });
+  EXPECT_FALSE(whole.interrupted);
+  int asked = 0;
+  const lod::CutMesh part = lod::assemble_cut(*store, cache, cut, false, {}, [&] { return ++asked > 2; });
+  EXPECT_TRUE(part.interrupted);
+  EXPECT_EQ(part.patch_first_tet.size(), 2u) << "two patches before the stop";
+  EXPECT_LT(part.mesh.tet_count(), whole.mesh.tet_count());
+}
+
 }  // namespace
 }  // namespace tetrascope::testing

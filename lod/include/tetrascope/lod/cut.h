@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -137,10 +138,13 @@ struct CutMesh {
   std::vector<uint32_t> opposites;
   std::vector<uint32_t> patch_first_tet;  // per active patch (in active_patches() order)
   std::vector<uint32_t> patches;
+  bool interrupted = false;  // should_stop said so between two patches: the mesh is partial
 };
 // With `clip`, the patches of segments wholly clipped away (clipped_away) are not read.
+// `should_stop` (may be empty) is asked before each patch; when it says so the assembly ends
+// there, `interrupted` set (a refinement step given up for input, issue 15).
 CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true,
-                     std::span<const protocol::Plane> clip = {});
+                     std::span<const protocol::Plane> clip = {}, const std::function<bool()>& should_stop = {});
 
 // The criteria of a transfer function over a store's attribute (the manifest's range maps
 // the function's values onto the histogram bins), and of isosurfaces at `isovalues`

@@ -13,6 +13,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -71,6 +72,7 @@ struct ViewRequest {
 struct ViewTimings {
   double cut_ms = 0, assemble_ms = 0, upload_ms = 0, draw_ms = 0;
   double clip_ms = 0;  // clipping the scene (0 when neither the scene nor the planes changed)
+  bool interrupted = false;  // update's should_stop stopped the reassembly: do not draw
   FrameTimings draw;  // the renderer's own split
 };
 
@@ -93,8 +95,10 @@ class ViewPipeline {
 
   // Resolves the request, updates the cut and reassembles the scene when the cut or the
   // attributes changed; returns the settings to draw with. Throws std::invalid_argument for
-  // an attribute the dataset lacks.
-  RenderSettings update(const ViewRequest& request, ViewTimings* timings = nullptr);
+  // an attribute the dataset lacks. `should_stop` (may be empty) is asked between the
+  // patches of a reassembly: when it says so the scene stays the one before (reassembled at
+  // the next update) and the frame should not be drawn (ViewTimings::interrupted).
+  RenderSettings update(const ViewRequest& request, ViewTimings* timings = nullptr, const std::function<bool()>& should_stop = {});
   // Draws `settings` (from update; the camera may differ) with `renderer`, uploading the scene
   // first unless `renderer` holds it already: `held_generation` says which scene it holds
   // (0: none) and is updated.
@@ -141,6 +145,7 @@ class ViewPipeline {
   std::unique_ptr<const SceneMesh> clipped_;
   protocol::ClipSpec clip_;
   std::vector<protocol::Plane> assembled_clip_;  // the half-spaces the scene was assembled with
+  bool scene_stale_ = false;              // a reassembly was stopped: scene_ is not the cut's
   uint64_t clipped_from_ = 0;             // the scene generation clipped_ was cut from
   uint64_t drawn_generation_ = 0;         // of scene(): clipped_'s own or scene_generation_
 };
