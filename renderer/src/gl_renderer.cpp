@@ -525,7 +525,10 @@ class GlRenderer final : public Renderer {
   void draw_volume(const FrameSetup& setup, const RenderSettings& s, bool opaque, Stop& stop, FrameTimings& tm) {
     const SceneMesh& mesh = *mesh_;
     const double unit = s.unit_distance > 0 ? s.unit_distance : mesh.diagonal / 100;
-    update_table(s.tf, setup.lo, setup.hi, unit, mesh.max_edge);
+    // the table's length axis covers the scene's longest edge rounded up to a power of two:
+    // the cuts of one store differ in their longest edge, and a new table (tens of ms) for
+    // every cut change was a large share of an interaction frame (issue 15)
+    update_table(s.tf, setup.lo, setup.hi, unit, std::exp2(std::ceil(std::log2(std::max(mesh.max_edge, 1e-30)))));
     const std::vector<float> isos = volume_isovalues(s, setup.lo, setup.hi);
     visibility_.set_isovalues(isos);
     const auto sort_start = clock_type::now();

@@ -4,7 +4,9 @@
 // exact per-segment integral (integrate_segment) is the reference the table approximates.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <thread>
+#include <vector>
 
 #include "tetrascope/renderer/render.h"
 
@@ -60,23 +62,33 @@ PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, dou
   // linear there and logarithmic above
   table.length_scale = std::clamp(unit_distance / 16, max_length * 1e-9, max_length);
   table.rgba.resize(size_t{n} * n * lengths * 4);
-  // classified values on a fine grid, so the inner loop needs one exp a step
+  // classified values on a fine grid; a segment's steps read the grid at fixed points (the
+  // same for every length), and for one length a grid value's step opacity is one exp: so the
+  // exps are per length and grid value (1,025), not per table entry and step (393,216)
   const int fine = 1024;
+  const int steps = 24;
   std::vector<Classified> grid(fine + 1);
   for (int i = 0; i <= fine; ++i) grid[i] = classify(tf, lo, hi, unit_distance, double(i) / fine);
-  auto at = [&](double t) -> const Classified& { return grid[static_cast<size_t>(std::lround(std::clamp(t, 0.0, 1.0) * fine))]; };
+  std::vector<uint16_t> step_grid(size_t{n} * n * steps);  // [j][i][k]: the grid index step k reads
+  for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t i = 0; i < n; ++i) {
+      const double front = double(i) / (n - 1), back = double(j) / (n - 1);
+      for (int k = 0; k < steps; ++k)
+        step_grid[(size_t{j} * n + i) * steps + k] = static_cast<uint16_t>(std::lround(std::clamp(front + (back - front) * (k + 0.5) / steps, 0.0, 1.0) * fine));
+    }
   auto work = [&](uint32_t first_length, uint32_t step) {
-    const int steps = 24;
+    std::vector<double> step_alpha(fine + 1);
     for (uint32_t m = first_length; m < lengths; m += step) {
       const double length = table.length_at(m);
       const double dt = length / steps;
+      for (int g = 0; g <= fine; ++g) step_alpha[g] = 1 - std::exp(-grid[g].tau * dt);
       for (uint32_t j = 0; j < n; ++j)
         for (uint32_t i = 0; i < n; ++i) {
-          const double front = double(i) / (n - 1), back = double(j) / (n - 1);
+          const uint16_t* reads = &step_grid[(size_t{j} * n + i) * steps];
           double r = 0, g = 0, b = 0, a = 0;
           for (int k = 0; k < steps; ++k) {
-            const Classified& c = at(front + (back - front) * (k + 0.5) / steps);
-            const double alpha = 1 - std::exp(-c.tau * dt);
+            const Classified& c = grid[reads[k]];
+            const double alpha = step_alpha[reads[k]];
             const double w = (1 - a) * alpha;
             r += w * c.color[0];
             g += w * c.color[1];
