@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 namespace tetrascope::server {
 namespace {
@@ -30,6 +31,24 @@ uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protoco
 
 }  // namespace
 
+void warm_up(renderer::Renderer& r) {
+  storage::TetMesh one;
+  one.x = {0, 1, 0, 0};
+  one.y = {0, 0, 1, 0};
+  one.z = {0, 0, 0, 1};
+  one.tets = {0, 1, 2, 3};
+  storage::Attribute f;
+  f.info.name = "f";
+  f.values = {0, 1, 2, 3};
+  one.attributes.push_back(std::move(f));
+  const renderer::SceneMesh scene = renderer::SceneMesh::from(one, "f");
+  r.set_mesh(scene);
+  renderer::RenderSettings s;
+  s.width = s.height = 8;
+  r.render(s);
+  r.release_memory();  // forgets the scene (render needs a set_mesh again)
+}
+
 RenderedFrame FrameMaker::render(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,
                                  uint32_t frame_number) {
   RenderedFrame frame = render_frame(state, plan, cost, options, worker, frame_number);
@@ -39,6 +58,7 @@ RenderedFrame FrameMaker::render(const ViewState& state, const FramePlan& plan, 
     ::malloc_trim(0);  // the image is freed by now
     try {
       worker.renderer = renderer::Renderer::create();
+      warm_up(*worker.renderer);
     } catch (const std::exception&) {
       // made at start already, so this should not fail; if it does, the next frame tries again
       // and reports what is missing

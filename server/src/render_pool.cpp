@@ -58,6 +58,13 @@ void RenderPool::run(size_t index) {
     ++started_;
   }
   ready_.notify_all();
+  if (worker.renderer) {
+    try {
+      warm_up(*worker.renderer);  // after the pool is up: the server does not wait for it
+    } catch (const std::exception&) {
+      // a first frame will report what fails
+    }
+  }
   bool holds_memory = false;  // drawn since the last release
   for (;;) {
     Task task;

@@ -172,7 +172,7 @@ TEST(InterruptibleDraw, ShouldStopStopsTheVolumeBetweenChunksAndSaysSo) {
 
 const fs::path& sample_store() {
   static const fs::path store = [] {
-    const fs::path dir = scratch_dir("refinement-sample-store") / "disk";
+    const fs::path dir = tetrascope::testing::run_scratch_dir("refinement-sample-store") / "disk";
     const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + dir.string() +
                                 " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
     EXPECT_EQ(std::system(command.c_str()), 0);
