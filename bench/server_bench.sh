@@ -10,7 +10,9 @@
 #  - 4 and 16 clients orbit: fps per client (min/median) and latency p50/p99.
 # Each figure is the median of REPEATS runs (default 3), a fresh server per run. Results in
 # bench/results/server.json. The stores are read from STORES (default /work/bigdata/time:
-# blade1m.mt, blade5m.mt, onera_m6_potential.mt, made with `tetrascope preprocess IN -o OUT`).
+# blade1m.mt, blade5m.mt, onera_m6_potential.mt and, when there, blade20m.mt, made with
+# `tetrascope preprocess IN -o OUT`). Once per script, on the 5M blade: orbit 3 s, pause 30 s
+# (the still is reached), its refinement steps kept and compared with the still.
 #   DURATION=20 REPEATS=3 FRAME_MS=60 bench/server_bench.sh
 #   SWEEP="40 60 90" bench/server_bench.sh   only the 1-client orbit on the 5M blade per frame time
 #                                             (bench/results/server-frame-ms.json)
@@ -26,6 +28,12 @@ rm -rf "$out" && mkdir -p "$out/data"
 ln -sfn "$stores/blade1m.mt" "$out/data/blade1m"
 ln -sfn "$stores/blade5m.mt" "$out/data/blade5m"
 ln -sfn "$stores/onera_m6_potential.mt" "$out/data/onera_m6_potential"
+datasets=(blade1m blade5m onera_m6_potential)
+if [[ -d "$stores/blade20m.mt" ]]; then
+  ln -sfn "$stores/blade20m.mt" "$out/data/blade20m"
+  datasets+=(blade20m)
+fi
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 port=18080
 
 # run NAME FRAME_MS LOADTEST-ARGS...: a fresh server, one loadtest; prints the loadtest JSON
@@ -81,12 +89,10 @@ fi
 
 rows=()
 for r in $(seq "$repeats"); do
-  for dataset in blade1m blade5m onera_m6_potential; do
+  for dataset in "${datasets[@]}"; do
     rows+=("$(run "$frame_ms" --dataset $dataset --clients 1 --duration "$duration" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='orbit-1'; print(json.dumps(j))")")
     echo "${rows[-1]}"
-    save=()
-    if [[ $dataset == blade5m && $r == 1 ]]; then save=(--save-refinement "$out/steps-5m"); fi
-    rows+=("$(run "$frame_ms" --dataset $dataset --clients 1 --duration $((duration + 12)) --path orbit-pause --orbit 3 --pause 6 "${save[@]}" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='resume'; print(json.dumps(j))")")
+    rows+=("$(run "$frame_ms" --dataset $dataset --clients 1 --duration $((duration + 12)) --path orbit-pause --orbit 3 --pause 6 | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='resume'; print(json.dumps(j))")")
     echo "${rows[-1]}"
     for clients in 4 16; do
       rows+=("$(run "$frame_ms" --dataset $dataset --clients $clients --duration "$duration" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='orbit-$clients'; print(json.dumps(j))")")
@@ -95,19 +101,25 @@ for r in $(seq "$repeats"); do
   done
 done
 
-# the refinement steps of one pause on the 5M blade against its still (PSNR, dB)
+# one long pause on the 5M blade: release to the still, its steps kept
+rows+=("$(run "$frame_ms" --dataset blade5m --clients 1 --duration 36 --path orbit-pause --orbit 3 --pause 30 --save-refinement "$out/steps-5m" | python3 -c "import json,sys; j=json.load(sys.stdin); j['run']='long-pause'; print(json.dumps(j))")")
+echo "${rows[-1]}"
+load_after=$(cut -d' ' -f1-3 /proc/loadavg)
+
+# the refinement steps of that pause against its still (PSNR, dB)
 steps_json="[]"
 if [[ -f "$out/steps-5m/steps.json" ]]; then
   steps_json=$(pvpython bench/refine_psnr.py "$out/steps-5m" 2> /dev/null | tail -1)
 fi
 
-python3 - bench/results/server.json "$frame_ms" "$repeats" "$steps_json" "${rows[@]}" << 'PY'
+python3 - bench/results/server.json "$frame_ms" "$repeats" "$steps_json" "$load_before" "$load_after" "${rows[@]}" << 'PY'
 import json, sys, datetime, statistics
 frame_ms, repeats, steps = float(sys.argv[2]), int(sys.argv[3]), json.loads(sys.argv[4])
-runs = [json.loads(r) for r in sys.argv[5:]]
+load_before, load_after = sys.argv[5], sys.argv[6]
+runs = [json.loads(r) for r in sys.argv[7:]]
 med = statistics.median
 summary = {}
-for ds in ["blade1m", "blade5m", "onera_m6_potential"]:
+for ds in ["blade1m", "blade5m", "onera_m6_potential", "blade20m"]:
     s = {}
     o = [r for r in runs if r["dataset"] == ds and r["run"] == "orbit-1"]
     if o:
@@ -129,12 +141,16 @@ for ds in ["blade1m", "blade5m", "onera_m6_potential"]:
             s["orbit_%d_clients" % c] = {"min_client_fps": med(r["min_client_fps"] for r in m), "mean_client_fps": med(r["total_fps"] / c for r in m),
                                          "latency_p50_ms": med(r["latency_ms"]["p50"] for r in m), "latency_p99_ms": med(r["latency_ms"]["p99"] for r in m),
                                          "clients_without_frames": max(r["clients_without_frames"] for r in m), "runs": len(m)}
-    summary[ds] = s
+    if s:
+        summary[ds] = s
+long_pause = next((r for r in runs if r["run"] == "long-pause"), None)
+if long_pause:
+    summary["blade5m"]["long_pause_1_client"] = {k: long_pause[k] for k in ("release_to_first_refinement_ms", "release_to_still_ms", "pauses_reaching_the_still", "pauses")}
 first_within_35 = next((st for st in steps if st["still"] or (st.get("psnr_db_vs_still") or 0) >= 35), None)
 json.dump({"date": datetime.date.today().isoformat(),
-           "machine": "2 cores, Mesa llvmpipe, loopback; SHARED with six other helpers' builds and tests (load average 10-16 during the runs): times are inflated and noisy",
+           "machine": "2 cores, Mesa llvmpipe, loopback; load average (1, 5, 15 min) before: %s, after: %s" % (load_before, load_after),
            "server": "tetrascope serve --workers 2 --cache-mb 1024 --frame-ms %g (interaction: tets and pixels by the frame-time model, at most 15000 tets, scale 0.375, JPEG q60; refinement: steps of frame_ms*4^(k+1) ms up to 500000 tets, JPEG q90)" % frame_ms,
-           "stores": "default preprocess options (coarsest levels: blade1m, blade5m ~9K tets; see the manifests)",
+           "stores": "default preprocess options (see the manifests for the coarsest levels)",
            "repeats": repeats, "summary": summary,
            "refinement_5m_one_pause": {"steps": steps, "first_within_35db_of_still_ms": first_within_35["ms_since_release"] if first_within_35 else None},
            "runs": runs}, open(sys.argv[1], "w"), indent=1)
