@@ -70,11 +70,13 @@ void FrameCostModel::observe(double tets, double pixels, double ms, double predi
 // 3x3 normal equations, with Huber weights from the last pass's residuals (kRobustPasses
 // passes): frames far off the fit (a context compiling its shaders, a host busy with other
 // work) count less, so the model follows the typical frame. A coefficient the data drives
-// below a tenth of its prior is held there (a frame never gets cheaper with more tets or pixels).
+// below a tenth of its prior is held there and the others fitted again (a frame never gets
+// cheaper with more tets or pixels).
 void FrameCostModel::refit() {
   const std::array<double, 3> unit{1, kTetUnit, kPixelUnit};
-  std::array<double, 3> prior;
+  std::array<double, 3> prior, floor;
   for (int k = 0; k < 3; ++k) prior[k] = kPrior[k] * unit[k];
+  for (int k = 0; k < 3; ++k) floor[k] = prior[k] * 0.1;
   std::array<double, 3> scaled_fit;
   for (int k = 0; k < 3; ++k) scaled_fit[k] = coefficients_[k] * unit[k];
   std::vector<double> weight(window_.size(), 1.0), residual(window_.size());
@@ -89,32 +91,54 @@ void FrameCostModel::refit() {
       const double limit = std::max(1.5 * sorted[sorted.size() / 2], 0.5);  // ms
       for (size_t i = 0; i < window_.size(); ++i) weight[i] = residual[i] > limit ? limit / residual[i] : 1.0;
     }
-    double a[3][4] = {};
-    for (size_t i = 0; i < window_.size(); ++i) {
-      const Sample& s = window_[i];
-      const double x[3] = {1, s.tets / kTetUnit, s.pixels / kPixelUnit};
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) a[r][c] += weight[i] * x[r] * x[c];
-        a[r][3] += weight[i] * x[r] * s.ms;
+    // bounded least squares by active sets: a coefficient the unbounded fit drives below its
+    // floor is held at the floor and the others are fitted again with it fixed. (Clamping it
+    // alone, as before, over-predicted alike frames 2-5x: with tets and pixels nearly the same
+    // in every frame the terms trade off, the fit made one negative, and the clamp added it back.)
+    std::array<bool, 3> held{};
+    for (int round = 0; round < 3; ++round) {
+      double a[3][4] = {};
+      for (size_t i = 0; i < window_.size(); ++i) {
+        const Sample& s = window_[i];
+        const double x[3] = {1, s.tets / kTetUnit, s.pixels / kPixelUnit};
+        double target = s.ms;
+        for (int k = 0; k < 3; ++k)
+          if (held[k]) target -= floor[k] * x[k];
+        for (int r = 0; r < 3; ++r) {
+          for (int c = 0; c < 3; ++c) a[r][c] += weight[i] * x[r] * x[c];
+          a[r][3] += weight[i] * x[r] * target;
+        }
       }
-    }
-    for (int k = 0; k < 3; ++k) {
-      a[k][k] += kPriorWeight;
-      a[k][3] += kPriorWeight * prior[k];
-    }
-    for (int col = 0; col < 3; ++col) {  // Gauss-Jordan with partial pivoting
-      int pivot = col;
-      for (int r = col + 1; r < 3; ++r)
-        if (std::abs(a[r][col]) > std::abs(a[pivot][col])) pivot = r;
-      std::swap(a[col], a[pivot]);
-      if (std::abs(a[col][col]) < 1e-12) return;  // keep the last fit
-      for (int r = 0; r < 3; ++r) {
-        if (r == col) continue;
-        const double f = a[r][col] / a[col][col];
-        for (int c = col; c < 4; ++c) a[r][c] -= f * a[col][c];
+      for (int k = 0; k < 3; ++k) {
+        a[k][k] += kPriorWeight;
+        a[k][3] += kPriorWeight * prior[k];
       }
+      for (int k = 0; k < 3; ++k) {  // a held coefficient: the row says c_k = floor_k (solved for as 0 here)
+        if (!held[k]) continue;
+        for (int c = 0; c < 4; ++c) a[k][c] = c == k ? 1 : 0;
+        for (int r = 0; r < 3; ++r)
+          if (r != k) a[r][k] = 0;
+      }
+      for (int col = 0; col < 3; ++col) {  // Gauss-Jordan with partial pivoting
+        int pivot = col;
+        for (int r = col + 1; r < 3; ++r)
+          if (std::abs(a[r][col]) > std::abs(a[pivot][col])) pivot = r;
+        std::swap(a[col], a[pivot]);
+        if (std::abs(a[col][col]) < 1e-12) return;  // keep the last fit
+        for (int r = 0; r < 3; ++r) {
+          if (r == col) continue;
+          const double f = a[r][col] / a[col][col];
+          for (int c = col; c < 4; ++c) a[r][c] -= f * a[col][c];
+        }
+      }
+      bool more = false;
+      for (int k = 0; k < 3; ++k) {
+        scaled_fit[k] = held[k] ? floor[k] : a[k][3] / a[k][k];
+        if (!held[k] && scaled_fit[k] < floor[k]) held[k] = more = true;
+      }
+      if (!more) break;
     }
-    for (int k = 0; k < 3; ++k) scaled_fit[k] = std::max(a[k][3] / a[k][k], prior[k] * 0.1);
+    for (int k = 0; k < 3; ++k) scaled_fit[k] = std::max(scaled_fit[k], floor[k]);
     if (window_.size() < 3) break;
   }
   for (int k = 0; k < 3; ++k) coefficients_[k] = scaled_fit[k] / unit[k];

@@ -109,13 +109,15 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     final_step = tets >= still_budget;
   }
   frame.budget = request.budget;
-  frame.predicted_ms = cost.predict(double(std::max(request.budget, coarsest_tets_)), frame.covered_pixels);
   renderer::RenderSettings settings = pipeline_->update(request, &frame.timings, plan.refinement ? plan.should_stop : std::function<bool()>());
   if (frame.timings.interrupted) {  // input came during the reassembly: no scene, no draw
     frame.interrupted = true;
     return frame;
   }
   const uint64_t tets = pipeline_->scene().tets.size() / 4;
+  // the model's forecast for the cut it got (a view-adaptive cut may hold fewer tets than its
+  // budget: that is the cut's doing, not a cost the model failed to predict)
+  frame.predicted_ms = cost.predict(double(tets), frame.covered_pixels);
   const double estimated_error = pipeline_->cut_estimated_error().value_or(0);
   if (plan.refinement && !final_step) {
     // the last step: the error bound is met, the cut holds the whole dataset, or it did not
