@@ -557,16 +557,27 @@ class GlRenderer final : public Renderer {
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // back to front, premultiplied
     glDepthMask(GL_FALSE);
     const bool projected = s.volume == VolumeMethod::projected;
-    // [first, end) by the settings' method, a chunk a draw call; false when stopped
+    // [first, end) by the settings' method, a chunk a draw call; false when stopped. A frame
+    // that may be stopped finishes each chunk before asking, so a stop waits for one chunk at
+    // most (llvmpipe would otherwise still hold every chunk issued so far), and sizes its
+    // chunks to take about kStopCheckMs each: 65,536 tets at 1024x768 took about half a
+    // second on llvmpipe, which was the wait of a user who moved during a still.
+    uint32_t chunk = s.should_stop ? kFirstStopChunk : kTetsPerChunk;
     auto draw_range = [&](uint32_t first, uint32_t end) {
-      for (uint32_t slot = first; slot < end; slot += kTetsPerChunk) {
-        const uint32_t n = std::min(kTetsPerChunk, end - slot);
+      for (uint32_t slot = first; slot < end;) {
+        const uint32_t n = std::min(chunk, end - slot);
+        const auto chunk_start = clock_type::now();
         if (projected) draw_projected(setup, order.subspan(slot, n), !isos.empty(), tm);
         else draw_exact(slot, n, false);
         tm.tets_drawn += n;
-        // a frame that may be stopped finishes each chunk before asking, so a stop waits for
-        // one chunk at most (llvmpipe would otherwise still hold every chunk issued so far)
-        if (s.should_stop) glFinish();
+        slot += n;
+        if (s.should_stop) {
+          glFinish();
+          if (n == chunk) {  // a whole chunk: the next one sized by its time, at most doubling
+            const double ms = std::max(ms_since(chunk_start), 0.01);
+            chunk = static_cast<uint32_t>(std::clamp(chunk * std::min(2.0, kStopCheckMs / ms), double(kFirstStopChunk), double(kTetsPerChunk)));
+          }
+        }
         if (stop()) return false;
       }
       return true;

@@ -225,8 +225,16 @@ TEST(ProjectedTets, ShouldStopEndsTheFrameBetweenChunks) {
     renderer::FrameTimings part;
     const renderer::Image image = gl().render(s, &part);
     EXPECT_TRUE(part.interrupted);
-    EXPECT_EQ(part.tets_drawn, uint64_t{renderer::kTetsPerChunk});
+    EXPECT_EQ(part.tets_drawn, uint64_t{renderer::kFirstStopChunk}) << "a frame that may be stopped starts with a small chunk";
     EXPECT_EQ(image.width, 64u);
+    // three chunks, each at most twice the one before
+    asked = 0;
+    s.should_stop = [&] { return ++asked > 3; };
+    renderer::FrameTimings three;
+    gl().render(s, &three);
+    EXPECT_TRUE(three.interrupted);
+    EXPECT_GE(three.tets_drawn, uint64_t{3 * renderer::kFirstStopChunk});
+    EXPECT_LE(three.tets_drawn, uint64_t{7 * renderer::kFirstStopChunk});
     s.should_stop = [] { return false; };
     renderer::FrameTimings again;
     gl().render(s, &again);

@@ -94,8 +94,12 @@ constexpr double kMaxPointSize = 64;   // pixels
 enum class VolumeMethod { projected, exact };
 
 // Tets a volume draw call issues at most: between two, Renderer::render asks
-// RenderSettings::should_stop whether to go on.
+// RenderSettings::should_stop whether to go on. A frame that may be stopped draws smaller
+// chunks, sized as it goes so one takes about kStopCheckMs (from kFirstStopChunk tets, at most
+// doubling, up to kTetsPerChunk).
 constexpr uint32_t kTetsPerChunk = 65536;
+constexpr uint32_t kFirstStopChunk = 1024;
+constexpr double kStopCheckMs = 30;
 
 struct RenderSettings {
   bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
