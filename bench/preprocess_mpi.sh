@@ -36,7 +36,9 @@ run() {  # CONFIG RUN RANKS [THREADS OPTION...]
     cp "$work/rank.0" "$work/all"
   else
     # each rank under its own /usr/bin/time; the launch's wall time from the outer one
-    /usr/bin/time -f "%M %e" -o "$work/all" "$mpiexec" -np "$ranks" \
+    # --bind-to none: Open MPI binds each of 2 ranks to one core, which would hold a rank's
+    # threads on it and keep it off a core another program leaves idle
+    /usr/bin/time -f "%M %e" -o "$work/all" "$mpiexec" -np "$ranks" --bind-to none \
       sh -c 'exec /usr/bin/time -f "%M %e" -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$work/rank" \
       $bin preprocess "$mesh" -o "$store" --progress none --json "$@" > "$work/report.json"
   fi
@@ -89,7 +91,7 @@ print(json.dumps({
     "date": subprocess.run(["date", "-u", "+%Y-%m-%d"], capture_output=True, text=True).stdout.strip(),
     "machine": f"{os.cpu_count()} cores, {round(os.sysconf('SC_PAGE_SIZE') * os.sysconf('SC_PHYS_PAGES') / 2**30)} GB, shared with other work (see load_before)",
     "mesh": os.path.basename(sys.argv[2]), "mpi": mpirun,
-    "command": "tetrascope preprocess MESH -o STORE --json [--threads 1] against mpirun -np 2 (the same, every rank under /usr/bin/time)",
+    "command": "tetrascope preprocess MESH -o STORE --json [--threads 1] against mpirun -np 2 --bind-to none (the same, every rank under /usr/bin/time)",
     "speedup_2_ranks": {"threads1": speedup("serial-threads1", "mpi2-threads1"), "default_threads": speedup("serial", "mpi2")},
     "summary": summary, "runs": rows}, indent=2))
 PY

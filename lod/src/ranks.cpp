@@ -4,10 +4,12 @@
 #include "tetrascope/lod/ranks.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <stdexcept>
+#include <thread>
 
 #if TETRA_HAVE_MPI
 #include <mpi.h>
@@ -60,6 +62,7 @@ class MpiRanks final : public Ranks {
   int size() const override { return size_; }
 
   std::vector<std::vector<uint8_t>> all_gather(std::span<const uint8_t> mine) override {
+    wait_for_all();  // the ranks end their share of a level at different times
     uint64_t my_bytes = mine.size();
     std::vector<uint64_t> bytes(size_);
     MPI_Allgather(&my_bytes, 1, MPI_UINT64_T, bytes.data(), 1, MPI_UINT64_T, MPI_COMM_WORLD);
@@ -77,7 +80,7 @@ class MpiRanks final : public Ranks {
     return out;
   }
 
-  void barrier() override { MPI_Barrier(MPI_COMM_WORLD); }
+  void barrier() override { wait_for_all(); }
 
   [[noreturn]] void abort(const std::string& message, int exit_code) override {
     std::fprintf(stderr, "%s\n", message.c_str());
@@ -87,7 +90,20 @@ class MpiRanks final : public Ranks {
   }
 
  private:
+  // Waits for every rank, asleep: Open MPI's blocking collectives poll at full speed, which
+  // takes a core from the ranks still simplifying when ranks share a node (or the node is
+  // shared with other work).
+  void wait_for_all() {
+    MPI_Request request;
+    MPI_Ibarrier(MPI_COMM_WORLD, &request);
+    for (int done = 0;;) {
+      MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+      if (done) return;
+      std::this_thread::sleep_for(kIdlePoll);
+    }
+  }
   static constexpr uint64_t kPieceBytes = uint64_t{1} << 30;
+  static constexpr std::chrono::milliseconds kIdlePoll{2};
   int rank_ = 0, size_ = 1;
 };
 
