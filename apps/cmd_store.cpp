@@ -164,7 +164,7 @@ int run_preprocess(const Arguments& raw) {
     options.common_error = t == "error";
   }
   options.histogram_bins = args.number("--bins", options.histogram_bins);
-  options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
+
   options.seed = static_cast<int>(args.number("--seed", 1));
   options.replace = args.has("--force");
   options.simplifier = simplify_method(args.has("--simplifier") ? args.get("--simplifier") : "qem", "--simplifier");
@@ -174,6 +174,8 @@ int run_preprocess(const Arguments& raw) {
   // writes; not started by one, MPI is never touched
   lod::Ranks* ranks = lod::launched_ranks();
   options.ranks = ranks;
+  // by default the node's cores, shared among the ranks on it
+  options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency() / static_cast<unsigned>(ranks ? ranks->node_size() : 1)));
   const bool lead = !ranks || ranks->rank() == 0;
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
   // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them

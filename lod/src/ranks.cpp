@@ -56,10 +56,15 @@ class MpiRanks final : public Ranks {
     if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) throw std::runtime_error("MPI_Init_thread failed");
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    MPI_Comm node;
+    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node);
+    MPI_Comm_size(node, &node_size_);
+    MPI_Comm_free(&node);
   }
   ~MpiRanks() override { MPI_Finalize(); }
   int rank() const override { return rank_; }
   int size() const override { return size_; }
+  int node_size() const override { return node_size_; }
 
   std::vector<std::vector<uint8_t>> all_gather(std::span<const uint8_t> mine) override {
     wait_for_all();  // the ranks end their share of a level at different times
@@ -104,7 +109,7 @@ class MpiRanks final : public Ranks {
   }
   static constexpr uint64_t kPieceBytes = uint64_t{1} << 30;
   static constexpr std::chrono::milliseconds kIdlePoll{2};
-  int rank_ = 0, size_ = 1;
+  int rank_ = 0, size_ = 1, node_size_ = 1;
 };
 
 #endif

@@ -38,6 +38,7 @@ class ThreadRanks final : public lod::Ranks {
   ThreadRanks(Launch& launch, int rank) : launch_(launch), rank_(rank) {}
   int rank() const override { return rank_; }
   int size() const override { return launch_.size; }
+  int node_size() const override { return launch_.size; }
   std::vector<std::vector<uint8_t>> all_gather(std::span<const uint8_t> mine) override {
     launch_.slots[rank_].assign(mine.begin(), mine.end());
     barrier();  // every slot written

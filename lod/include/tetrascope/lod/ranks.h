@@ -21,6 +21,8 @@ class Ranks {
   virtual ~Ranks() = default;
   virtual int rank() const = 0;
   virtual int size() const = 0;
+  // The ranks on this rank's node (sharing its memory and cores), this one among them.
+  virtual int node_size() const = 0;
   // Every rank's bytes, in rank order (`mine` among them). Collective: every rank calls it,
   // in the same order of calls.
   virtual std::vector<std::vector<uint8_t>> all_gather(std::span<const uint8_t> mine) = 0;
