@@ -164,17 +164,36 @@ int run_preprocess(const Arguments& raw) {
     options.common_error = t == "error";
   }
   options.histogram_bins = args.number("--bins", options.histogram_bins);
-  options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency()));
+
   options.seed = static_cast<int>(args.number("--seed", 1));
   options.replace = args.has("--force");
   options.simplifier = simplify_method(args.has("--simplifier") ? args.get("--simplifier") : "qem", "--simplifier");
   if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
   if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
+  // started by mpirun (issue 21): the ranks share the levels' segments, rank 0 reports and
+  // writes; not started by one, MPI is never touched
+  lod::Ranks* ranks = lod::launched_ranks();
+  options.ranks = ranks;
+  // by default the node's cores, shared among the ranks on it
+  options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency() / static_cast<unsigned>(ranks ? ranks->node_size() : 1)));
+  const bool lead = !ranks || ranks->rank() == 0;
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
   // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them
-  storage::Progress progress(progress_mode(args), {{"read", 0.03}, {"partition", 0.01}, {"simplify", 0.86}, {"write", 0.10}});
-  auto report = lod::preprocess(args.positionals()[0], args.get("--output"), options, &progress);
-  lod::require_sound_store(args.get("--output"));  // a store that fails verify's checks is removed, never reported as written
+  storage::Progress progress(lead ? progress_mode(args) : storage::Progress::Mode::kNone,
+                             {{"read", 0.03}, {"partition", 0.01}, {"simplify", 0.86}, {"write", 0.10}});
+  lod::PreprocessReport report;
+  try {
+    report = lod::preprocess(args.positionals()[0], args.get("--output"), options, &progress);
+    if (lead) lod::require_sound_store(args.get("--output"));  // a store that fails verify's checks is removed, never reported as written
+  } catch (const std::exception& e) {
+    // the other ranks would wait for this one in the next exchange: end them all
+    if (ranks && ranks->size() > 1)
+      ranks->abort("tetrascope preprocess: rank " + std::to_string(ranks->rank()) + " of " + std::to_string(ranks->size()) + ": error: " + e.what(),
+                   dynamic_cast<const std::invalid_argument*>(&e) ? 2 : 1);
+    throw;
+  }
+  if (ranks) ranks->barrier();  // every rank ends once the store is written and checked
+  if (!lead) return 0;
   if (args.has("--json")) {
     std::cout << report.to_json().dump(2) << "\n";
   } else {

@@ -25,6 +25,8 @@ constexpr const char* kUsage =
     "                                [--simplifier qem|sample]  the levels' simplifier (qem)\n"
     "                                multiresolution store: segments, levels, DAG, error histograms (§6.3);\n"
     "                                the store passes verify's checks or is removed and the command fails\n"
+    "                                under `mpirun -np N` (a build with Open MPI): the levels' segments shared among N ranks,\n"
+    "                                rank 0 writes the same store\n"
     "  cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--json]\n"
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"

@@ -10,11 +10,13 @@
 // global id while its position and values are unchanged; a moved vertex gets a new id.
 //
 // The whole level-0 mesh is held in memory (16 bytes a tet plus the vertices); every later
-// level is smaller. Segment-wise work (simplification, error measure) runs on `threads`.
+// level is smaller. Segment-wise work (simplification, error measure) runs on `threads`, and
+// under MPI (options.ranks) is shared among the ranks, each of which holds the whole build.
 #include "tetrascope/lod/mt_build.h"
 
 #include <chrono>
 #include <future>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -59,7 +61,10 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   stage("read", 0);
   std::filesystem::path hashed = mesh_path;
   if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
-  storage::FileHasher sha256(hashed);  // checks the file is regular first; cancelled if reading fails
+  // under MPI every rank reads and builds, rank 0 alone hashes and writes
+  const bool writes = !options.ranks || options.ranks->rank() == 0;
+  std::optional<storage::FileHasher> sha256;
+  if (writes) sha256.emplace(hashed);  // checks the file is regular first; cancelled if reading fails
   mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path, options.read_limits);
   report.input_vertices = mesh.input_vertices;
   report.input_tets = mesh.input_tets;
@@ -71,9 +76,14 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   report.segment_seconds = hierarchy.partition_seconds;
   report.simplify_seconds = seconds_since(levels_start) - hierarchy.partition_seconds;
 
+  if (!writes) {
+    report.seconds = seconds_since(start);
+    return report;
+  }
+
   const auto write_start = clock::now();
   stage("write", 0);
-  const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256.get(); }}, stage);
+  const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256->get(); }}, stage);
   report.levels = written.levels;
   report.segments = static_cast<uint32_t>(hierarchy.nodes.size());
   report.patches = static_cast<uint32_t>(arcs.size());

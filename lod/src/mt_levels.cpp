@@ -5,6 +5,10 @@
 // and simplifies every ceiling with its border vertices locked. Once a level is one segment
 // the next ones are too, each the whole mesh simplified again, until the base is met.
 //
+// Under MPI (ranks.h) every rank builds the same partitions and patches; each simplifies the
+// ceilings it owns (mt_share.cpp) and, once the results are exchanged, every rank adds the
+// level in ceiling order, as one rank alone would.
+//
 // Every original vertex is followed down the levels (the tet of the current level that holds
 // it), so that each ceiling's error histograms (mt_histograms.cpp) are measured at the
 // original vertices it covers.
@@ -98,16 +102,16 @@ std::vector<std::vector<uint32_t>> partition_level(const std::vector<const std::
   return region;
 }
 
-// What simplifying one ceiling segment produced.
-struct CeilingResult {
-  storage::TetMesh mesh;         // simplified, local vertex ids
-  std::vector<uint32_t> global;  // per output vertex: kept global id, or kNone (new)
-  CeilingError error;
-};
-
 // A ceiling's tets: ranges of floor segments' tets.
 struct CeilingPatch {
   uint32_t floor, begin, count;
+};
+
+// Which rank works on each ceiling of a level, and the ceilings of this rank (all of them
+// when the build runs alone).
+struct CeilingShare {
+  std::vector<uint32_t> owner;
+  std::vector<uint32_t> mine;
 };
 
 // State carried from level to level.
@@ -201,17 +205,21 @@ class LevelBuilder {
     const std::vector<std::vector<CeilingPatch>> ceiling_patches = cut_into_patches(first, last, regions, region);
     const std::vector<std::vector<uint32_t>> ceiling_vertices = follow_vertices(first, regions, region);
     lock_ceiling_borders(ceiling_patches);
-    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets);
+    const CeilingShare share = share_ceilings(ceiling_patches);
+    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets, share);
     std::vector<CeilingResult> results(regions);
     const double work_before = work_done_, work = level_work(double(tets));
+    const size_t mine = share.mine.size();
     std::atomic<uint32_t> simplified_ceilings{0};
     std::mutex reporting;
-    parallel_for(regions, options_.threads, [&](size_t k, unsigned) {
+    parallel_for(mine, options_.threads, [&](size_t i, unsigned) {
+      const uint32_t k = share.mine[i];
       results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k], targets[k]);
       const uint32_t done = ++simplified_ceilings;
       std::unique_lock report(reporting, std::try_to_lock);  // a ceiling's end is reported by one worker at a time
-      if (report) stage_("simplify", simplify_fraction(work_before + work * done / regions));
+      if (report) stage_("simplify", simplify_fraction(work_before + work * done / double(mine)));
     });
+    if (shared()) share_results(*options_.ranks, share.owner, results, mesh_.attributes);
     work_done_ = work_before + work;
     add_ceilings(level + 1, results, ceiling_vertices);
     std::fill(vertex_region_.begin(), vertex_region_.end(), kNone);  // reset the border marks
@@ -287,12 +295,13 @@ class LevelBuilder {
   // The tets each ceiling is simplified to (0: the level ratio of its own tets). With
   // common_error, every ceiling is first simplified far with its collapse costs traced, and
   // the level's tets (level_ratio of `tets`) go where the costs are highest (level_targets.h).
-  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets) const {
+  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets, const CeilingShare& share) const {
     std::vector<uint64_t> targets(ceiling_patches.size(), 0);
     // the common error is that of QEM's collapse costs: the sampler's levels keep the ratio
     if (!options_.common_error || options_.simplifier == SimplifyMethod::kSample || ceiling_patches.size() < 2) return targets;
     std::vector<CeilingTrace> traces(ceiling_patches.size());
-    parallel_for(traces.size(), options_.threads, [&](size_t k, unsigned) {
+    parallel_for(share.mine.size(), options_.threads, [&](size_t i, unsigned) {
+      const uint32_t k = share.mine[i];
       CeilingMesh c = gather_ceiling(ceiling_patches[k]);
       traces[k].tets = c.mesh.tet_count();
       // traced down to level_ratio² of its tets: a smooth ceiling may give up a whole level more
@@ -300,9 +309,27 @@ class LevelBuilder {
       so.trace_costs = true;
       traces[k].steps = simplify(c.mesh, so, c.locked).cost_trace;
     });
+    if (shared()) share_traces(*options_.ranks, share.owner, traces);
     // every ceiling simplified at least to √level_ratio of its tets (halfway to the ratio, in
     // steps of the ladder), so that every node of the level is coarser than its children
     return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), std::sqrt(options_.level_ratio));
+  }
+
+  // Whether the level's ceilings are shared among the ranks of an MPI launch.
+  bool shared() const { return options_.ranks && options_.ranks->size() > 1; }
+
+  // Who simplifies which ceiling: all of them here when alone; else shared by their tets
+  // (mt_share.cpp), the same on every rank.
+  CeilingShare share_ceilings(const std::vector<std::vector<CeilingPatch>>& ceiling_patches) const {
+    CeilingShare share;
+    std::vector<uint64_t> work(ceiling_patches.size(), 0);
+    for (size_t k = 0; k < ceiling_patches.size(); ++k)
+      for (const CeilingPatch& p : ceiling_patches[k]) work[k] += p.count;
+    share.owner = ceiling_owners(work, shared() ? static_cast<uint32_t>(options_.ranks->size()) : 1);
+    const uint32_t me = shared() ? static_cast<uint32_t>(options_.ranks->rank()) : 0;
+    for (uint32_t k = 0; k < share.owner.size(); ++k)
+      if (share.owner[k] == me) share.mine.push_back(k);
+    return share;
   }
 
   // A ceiling's patches gathered into a mesh of local ids, its border vertices marked locked.

@@ -5,6 +5,8 @@
 //   measure_ceiling_error, dag_arcs            error histograms at the original vertices, made
 //                       (mt_histograms.cpp)    monotone along the DAG's arcs
 //   write_mt_store      (mt_store_writer.cpp)  segments.bin, dag.bin and manifest.json
+// Under MPI (ranks.h) every rank runs every stage but the last; the segments of a level are
+// shared among them (mt_share.cpp), and rank 0 writes the store.
 // Private to lod/.
 #pragma once
 
@@ -17,7 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "tetrascope/lod/level_targets.h"
 #include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/ranks.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/progress.h"
 
@@ -118,16 +122,38 @@ struct Hierarchy {
   }
 };
 
-// Level 0 and every coarser level, until the base budget, one segment or max_levels. Grows
-// mesh.table with the vertices simplification moves; consumes mesh.tets. Options are checked.
-Hierarchy build_levels(IngestedMesh& mesh, const PreprocessOptions& options, const StageProgress& stage);
-
-// ---- histograms ----
-
+// The error of a simplified ceiling at the original vertices it covers (mt_histograms.cpp).
 struct CeilingError {
   std::vector<float> field, spatial;   // [channel][bin]
   std::vector<uint32_t> located_tet;   // per original vertex given: the ceiling's tet holding it
 };
+
+// What simplifying one ceiling segment produced.
+struct CeilingResult {
+  storage::TetMesh mesh;         // simplified, local vertex ids
+  std::vector<uint32_t> global;  // per output vertex: kept global id, or kNone (new)
+  CeilingError error;
+};
+
+// Level 0 and every coarser level, until the base budget, one segment or max_levels. Grows
+// mesh.table with the vertices simplification moves; consumes mesh.tets. Options are checked.
+Hierarchy build_levels(IngestedMesh& mesh, const PreprocessOptions& options, const StageProgress& stage);
+
+// ---- sharing a level among the ranks of an MPI launch (mt_share.cpp) ----
+
+// The rank that works on each ceiling, given its work (its tets): the largest first, each to
+// the rank with the least work so far, ties to the lower rank. Every rank computes the same.
+std::vector<uint32_t> ceiling_owners(std::span<const uint64_t> work, uint32_t ranks);
+
+// After each rank has filled results[k] for the ceilings it owns, every rank holds them all.
+// `attributes` are the mesh's (the results' attribute values travel without their names).
+// Collective: every rank calls it with the same `owner`.
+void share_results(Ranks& ranks, std::span<const uint32_t> owner, std::vector<CeilingResult>& results, const std::vector<storage::AttributeInfo>& attributes);
+
+// The same for the cost traces of the common-error targets (level_targets.h).
+void share_traces(Ranks& ranks, std::span<const uint32_t> owner, std::vector<CeilingTrace>& traces);
+
+// ---- histograms ----
 
 // The field and spatial error of a simplified ceiling segment (local vertex ids) at the
 // original vertices it covers, binned by their normalised value.

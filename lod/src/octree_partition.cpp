@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -169,6 +170,11 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
     for (size_t e = 0; e < adjncy.size(); ++e) adjwgt[e] = 1 + static_cast<idx_t>(std::lround(1000.0 * distance[e] / longest));
     idx_t nvtxs = static_cast<idx_t>(leaves), nparts = static_cast<idx_t>(parts), objval = 0;
     std::vector<idx_t> part(leaves);
+    // METIS draws from GKlib's random generator, one for the whole process and seeded by each
+    // call: two partitions at once (ranks played by threads in mt_share_test) would draw from
+    // one stream and cut differently from the same seed
+    static std::mutex metis_mutex;
+    const std::lock_guard metis_lock(metis_mutex);
     idx_t metis_options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(metis_options);
     metis_options[METIS_OPTION_SEED] = options.seed;

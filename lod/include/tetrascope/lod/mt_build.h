@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/lod/ranks.h"
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/progress.h"
@@ -38,6 +39,11 @@ struct PreprocessOptions {
   SimplifyMethod simplifier = SimplifyMethod::kQem;
   bool replace = false;
   storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
+  // The ranks of an MPI launch that share the build (launched_ranks(), ranks.h); null: this
+  // process alone. Every rank calls preprocess with the same options; each simplifies its
+  // share of every level's segments, and rank 0 alone writes the store, the same bytes as a
+  // build on one rank.
+  Ranks* ranks = nullptr;
 };
 
 struct LevelReport {
@@ -58,7 +64,9 @@ struct PreprocessReport {
 // other level, §6.3.2), patches, simplify every new segment with its border locked, error
 // histograms -> store, written atomically (NAME.tmp/ renamed to NAME/ when complete).
 // Throws storage::MeshError for a bad mesh, std::invalid_argument for bad options,
-// std::runtime_error otherwise; on failure no store directory is left behind.
+// std::runtime_error otherwise; on failure no store directory is left behind. With
+// options.ranks, every rank must call it; on ranks other than 0 it writes nothing and
+// returns a report of the input only.
 PreprocessReport preprocess(const std::filesystem::path& mesh, const std::filesystem::path& store, const PreprocessOptions& options,
                             storage::Progress* progress = nullptr);
 
