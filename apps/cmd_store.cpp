@@ -10,6 +10,8 @@
 #include "tetrascope/lod/mt_build.h"
 #include "tetrascope/lod/store_check.h"
 #include "tetrascope/lod/segmentation.h"
+#include "tetrascope/storage/segment_codec.h"
+#include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
@@ -148,9 +150,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -170,6 +172,7 @@ int run_preprocess(const Arguments& raw) {
   options.simplifier = simplify_method(args.has("--simplifier") ? args.get("--simplifier") : "qem", "--simplifier");
   if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
   if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
+  if (args.has("--compress-segments")) options.compression = storage::parse_compression(args.get("--compress-segments"));
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
   // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them
   storage::Progress progress(progress_mode(args), {{"read", 0.03}, {"partition", 0.01}, {"simplify", 0.86}, {"write", 0.10}});

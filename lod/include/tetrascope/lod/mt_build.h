@@ -12,6 +12,7 @@
 #include "tetrascope/lod/simplify.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/progress.h"
+#include "tetrascope/storage/store_format.h"
 
 namespace tetrascope::lod {
 
@@ -37,6 +38,8 @@ struct PreprocessOptions {
   // segment's locked border faces kept exactly, only its free interior and border resampled)
   SimplifyMethod simplifier = SimplifyMethod::kQem;
   bool replace = false;
+  // how segments.bin keeps each segment's tets (store_format.h, segment_codec.h)
+  storage::store::Compression compression = storage::store::Compression::kNone;
   storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
 };
 
