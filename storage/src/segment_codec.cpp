@@ -6,12 +6,14 @@
 // Where it differs from §6.3.3: the store fixes the order of a segment's tets (grouped by
 // patch, dag.bin addresses them by range, opposites and links by index) and the vertex order
 // inside each tet (VTK order, positive orientation), so the coder does not choose a traversal;
-// it codes the tets in their stored order. The gate of tet t is the most recent earlier tet it
-// shares a face with, named by its distance back and its face; the other faces it shares
-// with earlier tets are named the same way, which gives the decoder every opposite without a
-// face hash map. The free vertex is either a vertex of one of the 7 previous tets (the
-// analogue of Flip/Top/Close/Join: already on the cut border) or an explicit local id, coded
-// as the difference to the previous explicit one (the analogue of New Vertex). No entropy
+// it codes the tets in their stored order (`preprocess` stores them in a depth-first order
+// inside each patch when it writes this coding, mt_tet_order.cpp). The gate of tet t is the
+// most recent earlier tet it shares a face with, named by its distance back and its face; the
+// other faces it shares with earlier tets are named the same way, which gives the decoder
+// every opposite without a face hash map. The free vertex lies on each of those other faces,
+// so when there is one it is named by its slot there (the analogue of Flip/Top/Close: already
+// on the cut border); otherwise it is a vertex of one of the 7 previous tets or an explicit
+// local id, coded as the difference to the previous explicit one (New Vertex). No entropy
 // coding: byte-aligned symbols and LEB128 varints, decoded at tens of millions of tets/s.
 //
 // Per tet:
@@ -20,10 +22,11 @@
 //                             to face g's; code 24: a tet with no earlier neighbour, four
 //                             explicit vertices follow and mask is 0. mask bit i: the i-th of
 //                             the other three faces (ascending) meets an earlier tet
-//   byte   free               (gate tets) 0: explicit; 1..28: vertex (free-1) % 4 of tet
-//                             t - 1 - (free-1) / 4
-//   varint (back - 1) << 2 | f'   the gate: face f' of tet t - back; then one such varint per
-//                             mask bit
+//   varint (back - 1) << 2 | f'   the gate: face f' of tet t - back
+//   mask != 0: varint (back - 1) << 4 | f' << 2 | slot   the first other face, and the free
+//                             vertex: vertex `slot` (0..2) of that face f' in kTetFace order
+//              varint (back - 1) << 2 | f'   each further mask bit
+//   mask == 0: byte free      0: explicit; 1..28: vertex (free-1) % 4 of tet t-1-(free-1)/4
 //   varint zigzag(v - last)   each explicit vertex; `last` starts at 0
 #include "tetrascope/storage/segment_codec.h"
 
@@ -120,116 +123,163 @@ void encode_tets(std::span<const uint32_t> tets, std::span<const uint32_t> oppos
       ++bit;
     }
     out.push_back(static_cast<uint8_t>((gate * 6 + permutation) | mask << 5));
+    put_varint(out, (gate_back - 1) << 2 | (gate_face % 4));
     const uint32_t free = tet[gate];
+    bool first = true;
+    for (int f = 0; f < 4; ++f) {
+      if (f == gate || !earlier[f]) continue;
+      const uint32_t o = opposites[4 * t + f];
+      const uint64_t ref = (t - o / 4 - 1) << 2 | (o % 4);
+      if (!first) {
+        put_varint(out, ref);
+        continue;
+      }
+      // face f holds vertex `gate`, so the face it meets does too
+      const FaceVertices across = face_of(&tets[4 * size_t{o / 4}], int(o % 4));
+      const uint64_t slot = across[0] == free ? 0 : across[1] == free ? 1 : across[2] == free ? 2 : 3;
+      if (slot == 3) throw std::invalid_argument("encode_tets: tet " + std::to_string(t) + " face " + std::to_string(f) + " and its opposite have different vertices");
+      put_varint(out, ref << 2 | slot);
+      first = false;
+    }
+    if (mask != 0) continue;
     uint32_t recent = 0;
     for (uint32_t k = 1; k <= kRecentTets && k <= t && recent == 0; ++k)
       for (uint32_t s = 0; s < 4 && recent == 0; ++s)
         if (tets[4 * (t - k) + s] == free) recent = (k - 1) * 4 + s + 1;
     out.push_back(static_cast<uint8_t>(recent));
-    put_varint(out, (gate_back - 1) << 2 | (gate_face % 4));
-    for (int f = 0; f < 4; ++f) {
-      if (f == gate || !earlier[f]) continue;
-      const uint32_t o = opposites[4 * t + f];
-      put_varint(out, (t - o / 4 - 1) << 2 | (o % 4));
-    }
     if (recent == 0) put_vertex(free);
   }
 }
+
+namespace {
+
+// The three ids of a face sorted, to compare faces whatever their orientation.
+inline FaceVertices sorted(FaceVertices f) {
+  if (f[0] > f[1]) std::swap(f[0], f[1]);
+  if (f[1] > f[2]) std::swap(f[1], f[2]);
+  if (f[0] > f[1]) std::swap(f[0], f[1]);
+  return f;
+}
+
+// The most bytes one tet takes (a free tet: a byte and four 5-byte varints); the last tets are
+// decoded from a zero-padded copy, so that the loop reads without a bounds check a byte.
+constexpr size_t kMaxTetBytes = 1 + 4 * kMaxVarintBytes;
+constexpr size_t kTailPadding = 2 * kMaxTetBytes;
+
+// Reads a varint of at most kMaxVarintBytes; the caller guarantees that many readable bytes.
+inline bool read_varint(const uint8_t*& p, uint64_t& value) {
+  uint8_t b = *p++;
+  value = b & 0x7Fu;
+  if (b < 0x80) [[likely]] return true;
+  for (int i = 1; i < kMaxVarintBytes; ++i) {
+    b = *p++;
+    value |= uint64_t{b & 0x7Fu} << (7 * i);
+    if (b < 0x80) return true;
+  }
+  return false;
+}
+
+}  // namespace
 
 std::string decode_tets(std::span<const uint8_t> stream, uint32_t vertex_count, uint32_t tet_count, std::span<const BorderLink> links,
                         std::span<uint32_t> tets, std::span<uint32_t> opposites) {
   if (tets.size() != 4 * uint64_t{tet_count} || opposites.size() != tets.size()) return "decode_tets: output spans of the wrong size";
   std::fill(opposites.begin(), opposites.end(), kMeshBoundary);
   const uint8_t* p = stream.data();
-  const uint8_t* const end = p + stream.size();
+  const uint8_t* end = p + stream.size();
+  uint8_t tail[kMaxTetBytes + kTailPadding] = {};
+  bool in_tail = false;
   uint32_t last = 0;
   uint32_t t = 0;
-  std::string error;
-  auto fail = [&](const std::string& what) {
-    error = "tet " + std::to_string(t) + ": " + what;
-    return false;
-  };
-  auto read_varint = [&](uint64_t& value) {
-    value = 0;
-    for (int i = 0; i < kMaxVarintBytes; ++i) {
-      if (p == end) return fail("stream ends early");
-      const uint8_t b = *p++;
-      value |= uint64_t{b & 0x7Fu} << (7 * i);
-      if (b < 0x80) return true;
-    }
-    return fail("varint longer than " + std::to_string(kMaxVarintBytes) + " bytes");
-  };
-  auto read_vertex = [&](uint32_t& v) {
-    uint64_t z;
-    if (!read_varint(z)) return false;
-    const int64_t value = int64_t{last} + unzigzag(z);
-    if (value < 0 || value >= int64_t{vertex_count}) return fail("vertex " + std::to_string(value) + " out of range (" + std::to_string(vertex_count) + " vertices)");
-    v = last = static_cast<uint32_t>(value);
-    return true;
-  };
-  // a face of t named by the stream: (back - 1) << 2 | f' -> face 4 * (t - back) + f'
-  auto read_face = [&](uint32_t& face) {
-    uint64_t ref;
-    if (!read_varint(ref)) return false;
-    const uint64_t back = (ref >> 2) + 1;
-    if (back > t) return fail("refers to tet " + std::to_string(back) + " back, before the first");
-    face = static_cast<uint32_t>(4 * (t - back) + (ref & 3));
-    return true;
-  };
-  auto pair = [&](uint32_t a, uint32_t b) {
-    if (opposites[b] != kMeshBoundary) return fail("face " + std::to_string(b) + " is paired twice");
-    opposites[a] = b;
-    opposites[b] = a;
-    return true;
-  };
+  // a tet that ran into the zero padding is a truncated stream, whatever the zeros then said
+  auto fail = [&](const std::string& what) { return "tet " + std::to_string(t) + ": " + (in_tail && p > end ? std::string("stream ends early") : what); };
+  uint32_t* const out = tets.data();
+  uint32_t* const opposite = opposites.data();
   for (; t < tet_count; ++t) {
-    uint32_t* tet = &tets[4 * size_t{t}];
-    if (p == end) return fail("stream ends early"), error;
+    if (static_cast<size_t>(end - p) < kMaxTetBytes && !in_tail) {
+      // fewer bytes left than a tet may take: go on in the zero-padded copy
+      const size_t left = static_cast<size_t>(end - p);
+      std::copy(p, end, tail);
+      p = tail;
+      end = tail + left;
+      in_tail = true;
+    }
+    if (p >= end) [[unlikely]] return fail("stream ends early");
+    uint32_t* tet = out + 4 * size_t{t};
     const uint32_t code = *p & 31u, mask = *p >> 5;
     ++p;
-    if (code == kFreeTet) {
-      if (mask != 0) return fail("a tet without neighbours names earlier faces"), error;
-      for (int i = 0; i < 4; ++i)
-        if (!read_vertex(tet[i])) return error;
+    uint64_t ref;
+    if (code == kFreeTet) [[unlikely]] {
+      if (mask != 0) return fail("a tet without neighbours names earlier faces");
+      for (int i = 0; i < 4; ++i) {
+        if (!read_varint(p, ref)) return fail("varint longer than " + std::to_string(kMaxVarintBytes) + " bytes");
+        const int64_t value = int64_t{last} + unzigzag(ref);
+        if (value < 0 || value >= int64_t{vertex_count}) return fail("vertex " + std::to_string(value) + " out of range (" + std::to_string(vertex_count) + " vertices)");
+        tet[i] = last = static_cast<uint32_t>(value);
+      }
+      if (p > end) return fail("stream ends early");
       continue;
     }
-    if (code >= kGateCodes) return fail("unknown symbol " + std::to_string(code)), error;
+    if (code >= kGateCodes) [[unlikely]] return fail("unknown symbol " + std::to_string(code));
     const int gate = int(code / 6);
     const uint8_t* permutation = kPermutation[code % 6];
-    if (p == end) return fail("stream ends early"), error;
-    const uint32_t recent = *p++;
-    if (recent > kRecentCodes) return fail("unknown free-vertex symbol " + std::to_string(recent)), error;
-    uint32_t gate_face;
-    if (!read_face(gate_face)) return error;
-    const FaceVertices from = face_of(&tets[4 * size_t{gate_face / 4}], int(gate_face % 4));
-    for (int i = 0; i < 3; ++i) tet[kTetFace[gate][i]] = from[permutation[i]];
-    if (!pair(4 * t + uint32_t(gate), gate_face)) return error;
-    // the other faces that meet earlier tets; their vertices are known once the free vertex is
-    uint32_t named[3];
-    int named_faces[3];
-    int named_count = 0;
+    // the gate: (back - 1) << 2 | f'
+    if (!read_varint(p, ref)) [[unlikely]] return fail("varint longer than " + std::to_string(kMaxVarintBytes) + " bytes");
+    if ((ref >> 2) >= t) [[unlikely]] return fail("refers to tet " + std::to_string((ref >> 2) + 1) + " back, before the first");
+    const uint32_t gate_face = static_cast<uint32_t>(4 * (t - (ref >> 2) - 1) + (ref & 3));
+    const uint32_t* from = out + 4 * size_t{gate_face / 4};
+    const int* from_face = kTetFace[gate_face % 4];
+    const uint32_t a[3] = {from[from_face[0]], from[from_face[1]], from[from_face[2]]};
+    tet[kTetFace[gate][0]] = a[permutation[0]];
+    tet[kTetFace[gate][1]] = a[permutation[1]];
+    tet[kTetFace[gate][2]] = a[permutation[2]];
+    if (opposite[gate_face] != kMeshBoundary) [[unlikely]] return fail("face " + std::to_string(gate_face) + " is paired twice");
+    opposite[gate_face] = 4 * t + uint32_t(gate);
+    opposite[4 * t + uint32_t(gate)] = gate_face;
+    if (mask == 0) {
+      if (p >= end) [[unlikely]] return fail("stream ends early");
+      const uint32_t recent = *p++;
+      if (recent == 0) {
+        if (!read_varint(p, ref)) [[unlikely]] return fail("varint longer than " + std::to_string(kMaxVarintBytes) + " bytes");
+        const int64_t value = int64_t{last} + unzigzag(ref);
+        if (value < 0 || value >= int64_t{vertex_count}) [[unlikely]] return fail("vertex " + std::to_string(value) + " out of range (" + std::to_string(vertex_count) + " vertices)");
+        tet[gate] = last = static_cast<uint32_t>(value);
+      } else {
+        const uint32_t back = (recent - 1) / 4 + 1;
+        if (recent > kRecentCodes || back > t) [[unlikely]] return fail("free vertex refers to tet " + std::to_string(back) + " back, before the first");
+        tet[gate] = out[4 * size_t{t - back} + (recent - 1) % 4];
+      }
+      if (p > end) [[unlikely]] return fail("stream ends early");
+      continue;
+    }
+    // the other faces that meet earlier tets; the first names the free vertex
+    bool first = true;
     for (int f = 0, bit = 0; f < 4; ++f) {
       if (f == gate) continue;
-      if (mask >> bit & 1) {
-        if (!read_face(named[named_count])) return error;
-        named_faces[named_count++] = f;
+      if (!(mask >> bit++ & 1)) continue;
+      if (!read_varint(p, ref)) [[unlikely]] return fail("varint longer than " + std::to_string(kMaxVarintBytes) + " bytes");
+      uint32_t slot = 0;
+      if (first) {
+        slot = ref & 3;
+        ref >>= 2;
+        if (slot == 3) [[unlikely]] return fail("free vertex in slot 3 of a face");
       }
-      ++bit;
-    }
-    if (recent == 0) {
-      if (!read_vertex(tet[gate])) return error;
-    } else {
-      const uint32_t back = (recent - 1) / 4 + 1;
-      if (back > t) return fail("free vertex refers to tet " + std::to_string(back) + " back, before the first"), error;
-      tet[gate] = tets[4 * size_t{t - back} + (recent - 1) % 4];
-    }
-    for (int i = 0; i < named_count; ++i) {
-      const uint32_t face = named[i];
-      if (face_key(face_of(tet, named_faces[i])) != face_key(face_of(&tets[4 * size_t{face / 4}], int(face % 4)))) {
-        return fail("face " + std::to_string(named_faces[i]) + " is paired with a face of other vertices"), error;
+      if ((ref >> 2) >= t) [[unlikely]] return fail("refers to tet " + std::to_string((ref >> 2) + 1) + " back, before the first");
+      const uint32_t face = static_cast<uint32_t>(4 * (t - (ref >> 2) - 1) + (ref & 3));
+      const uint32_t* across = out + 4 * size_t{face / 4};
+      const int* across_face = kTetFace[face % 4];
+      if (first) {
+        tet[gate] = across[across_face[slot]];
+        first = false;
       }
-      if (!pair(4 * t + uint32_t(named_faces[i]), face)) return error;
+      const FaceVertices here = {tet[kTetFace[f][0]], tet[kTetFace[f][1]], tet[kTetFace[f][2]]};
+      const FaceVertices there = {across[across_face[0]], across[across_face[1]], across[across_face[2]]};
+      if (sorted(here) != sorted(there)) [[unlikely]] return fail("face " + std::to_string(f) + " is paired with a face of other vertices");
+      if (opposite[face] != kMeshBoundary) [[unlikely]] return fail("face " + std::to_string(face) + " is paired twice");
+      opposite[face] = 4 * t + uint32_t(f);
+      opposite[4 * t + uint32_t(f)] = face;
     }
+    if (p > end) [[unlikely]] return fail("stream ends early");
   }
   if (p != end) return "stream has " + std::to_string(end - p) + " bytes after the last tet";
   for (size_t k = 0; k < links.size(); ++k) {
