@@ -55,8 +55,8 @@ int print_store_info(const std::string& path, bool json) {
     for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
     const double input_tets = mr["input"]["tetrahedra"].get<double>();
     const double bytes = j["files"]["segments.bin"]["bytes"].get<double>() + j["files"]["dag.bin"]["bytes"].get<double>();
-    std::printf("files       segments.bin %.1f MB, dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
-                j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
+    std::printf("files       segments.bin %.1f MB (segments: %s), dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
+                storage::compression_name(store->compression()), j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
     return 0;
   }
   std::printf("store       %s (format %u)\n", path.c_str(), m.version);
