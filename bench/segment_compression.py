@@ -6,7 +6,8 @@
 
 Builds DIR/NAME.none, DIR/NAME.index16 and DIR/NAME.cutborder with `tetrascope preprocess`
 (default options; kept if they exist), then runs segment_codec_bench pinned to one core
---runs times (default 3) and reports the median of each figure, with `uptime` before and after.
+--runs times (default 3) and reports the median of each figure, with `uptime` before and after;
+and cut_bench's swap rate (wall time, every segment mapped from a warm page cache) as often.
 """
 import argparse
 import json
@@ -78,6 +79,13 @@ def main():
                 cmd += ["--store", f"{m}={os.path.join(args.stores, f'{name}.{m}')}"]
             out = subprocess.run(cmd + ["--benchmark_format=json", "--benchmark_min_time=0.5"], stdout=subprocess.PIPE, text=True, check=True).stdout
             runs.append({b["name"]: b for b in json.loads(out)["benchmarks"]})
+        for mode in MODES:
+            rates = []
+            for _ in range(args.runs):
+                out = subprocess.run(["taskset", "-c", args.cpu, os.path.join(args.bin, "bench", "cut_bench"), os.path.join(args.stores, f"{name}.{mode}")],
+                                     stdout=subprocess.PIPE, text=True, check=True).stdout
+                rates.append(json.loads(out)["swap"]["tets_per_second"] / 1e6)
+            entry["modes"][mode]["cut_bench_swap_m_tets_per_second"] = {"median": statistics.median(rates), "runs": rates}
         for bench_name in runs[0]:
             kind, mode = bench_name.split("/")
             m = entry["modes"][mode]
