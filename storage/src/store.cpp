@@ -164,8 +164,10 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
     if (r.offset % kPageBytes != 0 || r.offset > file_bytes || r.bytes > file_bytes - r.offset) fail(segments_path, where + "offset/size out of the file");
     if (r.tet_count > kMaxSegmentTets || r.boundary_tet_count > r.tet_count || r.owned_vertex_count > r.vertex_count) fail(segments_path, where + "invalid counts");
     const uint64_t fixed_bytes = segment_layout(r.vertex_count, r.tet_count, r.link_count, floats, compression).bytes;
-    // a connectivity stream takes what is left, at least one byte a tet
-    if (compression == Compression::kCutBorder ? r.bytes < fixed_bytes + r.tet_count || r.bytes - fixed_bytes > 0xFFFFFFFFu : fixed_bytes != r.bytes) {
+    // a connectivity stream takes what is left, at least kMinStreamBytesPerTet a tet: that
+    // bounds what decoding the segment may allocate (32 bytes a tet) by 16 times its stream
+    if (compression == Compression::kCutBorder ? r.bytes < fixed_bytes + kMinStreamBytesPerTet * uint64_t{r.tet_count} || r.bytes - fixed_bytes > 0xFFFFFFFFu
+                                               : fixed_bytes != r.bytes) {
       fail(segments_path, where + "size does not match its counts");
     }
     if (uint64_t{r.neighbour_begin} + r.neighbour_count > h.neighbour_total) fail(segments_path, where + "neighbour list out of range");

@@ -319,6 +319,32 @@ TEST(HostileStore, CutBorderStreamDamagedUnderValidChecksumsIsRefused) {
   }
 }
 
+TEST(HostileStore, CutBorderRecordClaimingMoreTetsThanItsStreamCanHoldIsRefused) {
+  // a segment's tet count bounds what decoding it allocates (32 bytes a tet); a record may
+  // claim at most one tet for every kMinStreamBytesPerTet bytes of its stream
+  const auto dir = scratch_dir("segment_codec_tet_bomb");
+  std::filesystem::copy(sample_store(Compression::kCutBorder), dir / "s");
+  std::string file = read_file(dir / "s" / "segments.bin");
+  storage::store::FileHeader h;
+  std::memcpy(&h, file.data(), sizeof h);
+  storage::store::SegmentRecord r;
+  std::memcpy(&r, file.data() + h.directory_offset, sizeof r);
+  const auto fixed = storage::store::segment_layout(r.vertex_count, r.tet_count, r.link_count, h.floats_per_vertex, Compression::kCutBorder);
+  ASSERT_GE(r.bytes - fixed.bytes, storage::store::kMinStreamBytesPerTet * r.tet_count);  // the real record is within the limit
+  r.tet_count = static_cast<uint32_t>((r.bytes - fixed.bytes) / storage::store::kMinStreamBytesPerTet + 1);
+  std::memcpy(file.data() + h.directory_offset, &r, sizeof r);
+  h.directory_crc = storage::crc32_of(file.data() + h.directory_offset, size_t{h.segment_count} * sizeof r);
+  h.header_crc = storage::crc32_of(&h, offsetof(storage::store::FileHeader, header_crc));
+  std::memcpy(file.data(), &h, sizeof h);
+  write_file(dir / "s" / "segments.bin", file);
+  try {
+    storage::Store::open(dir / "s");
+    ADD_FAILURE() << "opened";
+  } catch (const storage::StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find("segment 0: size does not match its counts"), std::string::npos) << e.what();
+  }
+}
+
 TEST(HostileStore, CompressedStoreClaimingVersion1IsRefused) {
   const auto dir = scratch_dir("segment_codec_version");
   std::filesystem::copy(sample_store(Compression::kCutBorder), dir / "s");

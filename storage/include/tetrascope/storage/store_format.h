@@ -25,6 +25,9 @@ constexpr uint32_t kCompressedFormatVersion = 2;
 // by a connectivity stream (segment_codec.h) after the other arrays.
 enum class Compression : uint32_t { kNone = 0, kIndex16 = 1, kCutBorder = 2 };
 constexpr uint32_t kMaxIndex16Vertices = 65536;
+// The shortest a tet's code in a kCutBorder stream can be (a symbol byte and the gate), so a
+// record's size bounds its tet count and what decoding it allocates.
+constexpr uint64_t kMinStreamBytesPerTet = 2;
 constexpr uint64_t kPageBytes = 4096;
 constexpr char kFileMagic[8] = {'T', 'E', 'T', 'R', 'A', 'S', 'E', 'G'};
 constexpr uint32_t kSegmentMagic = 0x47455354;  // "TSEG"
