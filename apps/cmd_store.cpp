@@ -10,6 +10,8 @@
 #include "tetrascope/lod/mt_build.h"
 #include "tetrascope/lod/store_check.h"
 #include "tetrascope/lod/segmentation.h"
+#include "tetrascope/storage/segment_codec.h"
+#include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
@@ -53,8 +55,8 @@ int print_store_info(const std::string& path, bool json) {
     for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
     const double input_tets = mr["input"]["tetrahedra"].get<double>();
     const double bytes = j["files"]["segments.bin"]["bytes"].get<double>() + j["files"]["dag.bin"]["bytes"].get<double>();
-    std::printf("files       segments.bin %.1f MB, dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
-                j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
+    std::printf("files       segments.bin %.1f MB (segments: %s), dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
+                storage::compression_name(store->compression()), j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
     return 0;
   }
   std::printf("store       %s (format %u)\n", path.c_str(), m.version);
@@ -148,9 +150,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -177,6 +179,7 @@ int run_preprocess(const Arguments& raw) {
   // by default the node's cores, shared among the ranks on it
   options.threads = args.number("--threads", std::max(1u, std::thread::hardware_concurrency() / static_cast<unsigned>(ranks ? ranks->node_size() : 1)));
   const bool lead = !ranks || ranks->rank() == 0;
+  if (args.has("--compress-segments")) options.compression = storage::parse_compression(args.get("--compress-segments"));
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
   // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them
   storage::Progress progress(lead ? progress_mode(args) : storage::Progress::Mode::kNone,

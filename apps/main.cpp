@@ -23,6 +23,7 @@ constexpr const char* kUsage =
     "                                [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n"
     "                                [--max-inflate-ratio R]  compressed input may inflate to R x its size + 64 MiB (100)\n"
     "                                [--simplifier qem|sample]  the levels' simplifier (qem)\n"
+    "                                [--compress-segments none|index16|cutborder]  how segments.bin keeps the tets (cutborder)\n"
     "                                multiresolution store: segments, levels, DAG, error histograms (§6.3);\n"
     "                                the store passes verify's checks or is removed and the command fails\n"
     "                                under `mpirun -np N` (a build with Open MPI): the levels' segments shared among N ranks,\n"

@@ -83,6 +83,7 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
 
   const auto write_start = clock::now();
   stage("write", 0);
+  if (options.compression == storage::store::Compression::kCutBorder) mt::order_patches_depth_first(hierarchy, arcs, options.threads);
   const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256->get(); }}, stage);
   report.levels = written.levels;
   report.segments = static_cast<uint32_t>(hierarchy.nodes.size());

@@ -4,6 +4,7 @@
 //                                              then coarser levels: partition, patches, simplify
 //   measure_ceiling_error, dag_arcs            error histograms at the original vertices, made
 //                       (mt_histograms.cpp)    monotone along the DAG's arcs
+//   order_patches_depth_first (mt_tet_order.cpp) with --compress-segments cutborder only
 //   write_mt_store      (mt_store_writer.cpp)  segments.bin, dag.bin and manifest.json
 // Under MPI (ranks.h) every rank runs every stage but the last; the segments of a level are
 // shared among them (mt_share.cpp), and rank 0 writes the store.
@@ -166,6 +167,10 @@ CeilingError measure_ceiling_error(const storage::TetMesh& ceiling, std::span<co
 std::vector<PatchRange> dag_arcs(Hierarchy& hierarchy, uint32_t values_per_node);
 
 // ---- store ----
+
+// Reorders the tets inside every patch depth first over their shared faces, for the cut-border
+// coding of segments.bin (mt_tet_order.cpp); patch ranges stay valid.
+void order_patches_depth_first(Hierarchy& hierarchy, std::span<const PatchRange> arcs, unsigned threads);
 
 struct StoreInput {
   const IngestedMesh& mesh;

@@ -271,7 +271,7 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
   std::vector<uint32_t> write_order = order.order;
   for (uint32_t n = level0; n < node_count; ++n) write_order.push_back(n);
 
-  storage::StoreWriter writer(in.store_path, in.options.replace, vertex_total, node_count, table.floats);
+  storage::StoreWriter writer(in.store_path, in.options.replace, vertex_total, node_count, table.floats, in.options.compression);
   std::vector<uint32_t> local(vertex_total, kNone);
   uint64_t written = 0;
   for (uint32_t n : write_order) {

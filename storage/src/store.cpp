@@ -1,5 +1,7 @@
 #include "tetrascope/storage/store.h"
 
+#include "tetrascope/storage/segment_codec.h"
+
 #include <fcntl.h>
 #include <libdeflate.h>
 #include <sys/mman.h>
@@ -81,12 +83,18 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   std::snprintf(hex, sizeof hex, "%08x", crc32_of(text.data(), text.size()));
   if (stored != hex) fail(manifest_path, "checksum mismatch (the file was changed or damaged)");
   StoreManifest& m = s->manifest_;
+  std::string manifest_compression = "none";
   try {
     m.json = nlohmann::json::parse(text);
     const auto& j = m.json;
     if (j.at("format") != "tetrascope-store") fail(manifest_path, "not a tetrascope store manifest");
     m.version = j.at("version").get<uint32_t>();
-    if (m.version != kFormatVersion) fail(manifest_path, "format version " + std::to_string(m.version) + ", this build reads " + std::to_string(kFormatVersion));
+    if (m.version != kFormatVersion && m.version != kCompressedFormatVersion) {
+      fail(manifest_path, "format version " + std::to_string(m.version) + ", this build reads " + std::to_string(kFormatVersion) + " and " + std::to_string(kCompressedFormatVersion));
+    }
+    if (j.contains("files") && j.at("files").contains("segments.bin") && j.at("files").at("segments.bin").contains("compression")) {
+      manifest_compression = j.at("files").at("segments.bin").at("compression").get<std::string>();
+    }
     m.source_file = j.at("source").at("file").get<std::string>();
     m.source_bytes = j.at("source").at("bytes").get<uint64_t>();
     m.source_sha256 = j.at("source").at("sha256").get<std::string>();
@@ -115,8 +123,17 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   FileHeader& h = s->header_;
   pread_exact(s->fd_, segments_path, 0, &h, sizeof h, "header");
   if (std::memcmp(h.magic, kFileMagic, sizeof kFileMagic) != 0) fail(segments_path, "header: wrong magic (not a tetrascope segments file)");
-  if (h.version != kFormatVersion) fail(segments_path, "header: format version " + std::to_string(h.version) + ", this build reads " + std::to_string(kFormatVersion));
+  if (h.version != kFormatVersion && h.version != kCompressedFormatVersion) {
+    fail(segments_path, "header: format version " + std::to_string(h.version) + ", this build reads " + std::to_string(kFormatVersion) + " and " + std::to_string(kCompressedFormatVersion));
+  }
   if (crc32_of(&h, offsetof(FileHeader, header_crc)) != h.header_crc) fail(segments_path, "header: checksum mismatch");
+  // version 1 is uncompressed; version 2 names its compression, and manifest.json the same
+  const bool known_compression = h.compression == uint32_t(Compression::kIndex16) || h.compression == uint32_t(Compression::kCutBorder);
+  if (h.version == kFormatVersion ? h.compression != 0 : !known_compression) fail(segments_path, "header: unknown segment compression " + std::to_string(h.compression));
+  if (h.version != m.version || manifest_compression != compression_name(static_cast<Compression>(h.compression))) {
+    fail(segments_path, "header: version or compression disagrees with manifest.json");
+  }
+  const auto compression = static_cast<Compression>(h.compression);
   if (h.header_bytes != sizeof(FileHeader)) fail(segments_path, "header: unexpected header size");
   if (h.file_bytes != file_bytes) fail(segments_path, "header: file is " + std::to_string(file_bytes) + " bytes, expected " + std::to_string(h.file_bytes) + " (truncated?)");
   if (h.segment_count != m.segment_count || h.vertex_count != m.vertex_count || h.tet_count != m.tet_count) {
@@ -146,7 +163,13 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
     const std::string where = "segment " + std::to_string(i) + ": ";
     if (r.offset % kPageBytes != 0 || r.offset > file_bytes || r.bytes > file_bytes - r.offset) fail(segments_path, where + "offset/size out of the file");
     if (r.tet_count > kMaxSegmentTets || r.boundary_tet_count > r.tet_count || r.owned_vertex_count > r.vertex_count) fail(segments_path, where + "invalid counts");
-    if (segment_layout(r.vertex_count, r.tet_count, r.link_count, floats).bytes != r.bytes) fail(segments_path, where + "size does not match its counts");
+    const uint64_t fixed_bytes = segment_layout(r.vertex_count, r.tet_count, r.link_count, floats, compression).bytes;
+    // a connectivity stream takes what is left, at least kMinStreamBytesPerTet a tet: that
+    // bounds what decoding the segment may allocate (32 bytes a tet) by 16 times its stream
+    if (compression == Compression::kCutBorder ? r.bytes < fixed_bytes + kMinStreamBytesPerTet * uint64_t{r.tet_count} || r.bytes - fixed_bytes > 0xFFFFFFFFu
+                                               : fixed_bytes != r.bytes) {
+      fail(segments_path, where + "size does not match its counts");
+    }
     if (uint64_t{r.neighbour_begin} + r.neighbour_count > h.neighbour_total) fail(segments_path, where + "neighbour list out of range");
     for (uint32_t k = 0; k < r.neighbour_count; ++k) {
       uint32_t n = s->neighbours_[r.neighbour_begin + k];
@@ -189,12 +212,15 @@ std::shared_ptr<const MappedSegment> Store::map_segment(uint32_t segment) const 
   if (crc32_of(bytes, length) != r.crc) fail(file, where + "checksum mismatch");
   SegmentHeader sh;
   std::memcpy(&sh, bytes, sizeof sh);
-  if (sh.magic != kSegmentMagic || sh.version != kFormatVersion) fail(file, where + "wrong magic or version");
+  const auto compression = static_cast<Compression>(header_.compression);
+  const uint64_t stream_bytes = compression == Compression::kCutBorder ? r.bytes - segment_layout(r.vertex_count, r.tet_count, r.link_count, header_.floats_per_vertex, compression).bytes : 0;
+  if (sh.magic != kSegmentMagic || sh.version != header_.version) fail(file, where + "wrong magic or version");
+  if (sh.compression != header_.compression || sh.stream_bytes != stream_bytes) fail(file, where + "compression or stream size disagrees with the directory");
   if (sh.segment != segment || sh.vertex_count != r.vertex_count || sh.owned_vertex_count != r.owned_vertex_count || sh.tet_count != r.tet_count ||
       sh.boundary_tet_count != r.boundary_tet_count || sh.link_count != r.link_count || sh.floats_per_vertex != header_.floats_per_vertex) {
     fail(file, where + "header disagrees with the directory");
   }
-  const SegmentLayout l = segment_layout(r.vertex_count, r.tet_count, r.link_count, header_.floats_per_vertex);
+  const SegmentLayout l = segment_layout(r.vertex_count, r.tet_count, r.link_count, header_.floats_per_vertex, compression, stream_bytes);
   SegmentView v;
   v.id = segment;
   v.vertex_count = r.vertex_count;
@@ -207,20 +233,41 @@ std::shared_ptr<const MappedSegment> Store::map_segment(uint32_t segment) const 
   v.y = floats(l.y, r.vertex_count);
   v.z = floats(l.z, r.vertex_count);
   v.attributes = floats(l.attributes, uint64_t{r.vertex_count} * header_.floats_per_vertex);
-  v.tets = words(l.tets, 4 * uint64_t{r.tet_count});
-  v.opposites = words(l.opposites, 4 * uint64_t{r.tet_count});
   v.links = std::span<const BorderLink>(reinterpret_cast<const BorderLink*>(bytes + l.links), r.link_count);
-  v.global_ids = words(l.global_ids, r.vertex_count);
-  // every index, once
-  for (size_t i = 0; i < v.tets.size(); ++i) {
-    if (v.tets[i] >= r.vertex_count) fail(file, where + "tets: vertex index " + std::to_string(v.tets[i]) + " out of range");
+  const size_t tet_words = 4 * size_t{r.tet_count};
+  std::vector<uint32_t> decoded;
+  if (l.tet_index_bytes == 4) {
+    v.tets = words(l.tets, tet_words);
+    v.opposites = words(l.opposites, tet_words);
+  } else if (l.tet_index_bytes == 2) {
+    decoded.resize(tet_words);
+    const auto* narrow = reinterpret_cast<const uint16_t*>(bytes + l.tets);
+    std::copy(narrow, narrow + tet_words, decoded.begin());
+    v.tets = decoded;
+    v.opposites = words(l.opposites, tet_words);
+  } else {
+    decoded.resize(2 * tet_words);
+    const std::span<uint32_t> tets(decoded.data(), tet_words), opposites(decoded.data() + tet_words, tet_words);
+    const std::string error = decode_tets(std::span<const uint8_t>(bytes + l.tets, stream_bytes), r.vertex_count, r.tet_count, v.links, tets, opposites);
+    if (!error.empty()) fail(file, where + "connectivity stream: " + error);
+    v.tets = tets;
+    v.opposites = opposites;
   }
-  uint32_t borders = 0;
+  v.global_ids = words(l.global_ids, r.vertex_count);
+  // every index, once; the cut-border decoder has checked the tets and opposites it wrote
+  // (ids in range, opposites in range and symmetric, one border face a link, no face twice)
+  uint32_t borders = r.link_count;
   const uint32_t faces = 4 * r.tet_count;
-  for (uint32_t f = 0; f < faces; ++f) {
-    uint32_t o = v.opposites[f];
-    if (o == kSegmentBorder) ++borders;
-    else if (o != kMeshBoundary && o >= faces) fail(file, where + "opposites: face " + std::to_string(f) + " points to " + std::to_string(o) + ", out of range");
+  if (compression != Compression::kCutBorder) {
+    for (size_t i = 0; i < v.tets.size(); ++i) {
+      if (v.tets[i] >= r.vertex_count) fail(file, where + "tets: vertex index " + std::to_string(v.tets[i]) + " out of range");
+    }
+    borders = 0;
+    for (uint32_t f = 0; f < faces; ++f) {
+      uint32_t o = v.opposites[f];
+      if (o == kSegmentBorder) ++borders;
+      else if (o != kMeshBoundary && o >= faces) fail(file, where + "opposites: face " + std::to_string(f) + " points to " + std::to_string(o) + ", out of range");
+    }
   }
   if (borders != r.link_count) fail(file, where + "links: " + std::to_string(r.link_count) + " links for " + std::to_string(borders) + " border faces");
   for (uint32_t k = 0; k < r.link_count; ++k) {
@@ -239,7 +286,7 @@ std::shared_ptr<const MappedSegment> Store::map_segment(uint32_t segment) const 
   for (float c : v.y) if (!std::isfinite(c)) fail(file, where + "coordinates: not finite");
   for (float c : v.z) if (!std::isfinite(c)) fail(file, where + "coordinates: not finite");
   guard.address = nullptr;
-  return std::make_shared<MappedSegment>(address, length, v);
+  return std::make_shared<MappedSegment>(address, length, v, std::move(decoded));
 }
 
 }  // namespace tetrascope::storage

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::storage {
@@ -43,7 +44,7 @@ void write_manifest(const std::filesystem::path& path, nlohmann::json manifest) 
 }
 
 StoreWriter::StoreWriter(std::filesystem::path directory, bool replace, uint64_t vertex_count,
-                         uint32_t segment_count, uint32_t floats_per_vertex)
+                         uint32_t segment_count, uint32_t floats_per_vertex, Compression compression)
     : directory_(std::move(directory)), replace_(replace) {
   if (directory_.filename().empty()) directory_ = directory_.parent_path();
   temp_ = directory_;
@@ -60,7 +61,8 @@ StoreWriter::StoreWriter(std::filesystem::path directory, bool replace, uint64_t
   // is byte for byte the same for the same input and options
   std::memset(static_cast<void*>(&header_), 0, sizeof header_);
   std::memcpy(header_.magic, kFileMagic, sizeof kFileMagic);
-  header_.version = kFormatVersion;
+  header_.version = compression == Compression::kNone ? kFormatVersion : kCompressedFormatVersion;
+  header_.compression = static_cast<uint32_t>(compression);
   header_.header_bytes = sizeof(FileHeader);
   header_.vertex_count = vertex_count;
   header_.segment_count = segment_count;
@@ -96,11 +98,17 @@ void StoreWriter::add_segment(const SegmentData& s) {
   if (s.id >= records_.size() || added_[s.id]) throw std::logic_error("segment added twice or out of range");
   const uint64_t vertices = s.x.size(), tets = s.tets.size() / 4;
   if (tets > kMaxSegmentTets) throw std::runtime_error("segment " + std::to_string(s.id) + " has too many tets");
-  const SegmentLayout l = segment_layout(vertices, tets, s.links.size(), header_.floats_per_vertex);
+  const auto compression = static_cast<Compression>(header_.compression);
+  stream_.clear();
+  if (compression == Compression::kCutBorder) encode_tets(s.tets, s.opposites, stream_);
+  if (stream_.size() > 0xFFFFFFFFu) throw std::runtime_error("segment " + std::to_string(s.id) + ": connectivity stream too large");
+  const SegmentLayout l = segment_layout(vertices, tets, s.links.size(), header_.floats_per_vertex, compression, stream_.size());
   buffer_.assign(static_cast<size_t>(l.bytes), 0);
   SegmentHeader h{};
   h.magic = kSegmentMagic;
-  h.version = kFormatVersion;
+  h.version = header_.version;
+  h.compression = header_.compression;
+  h.stream_bytes = static_cast<uint32_t>(stream_.size());
   h.segment = s.id;
   h.vertex_count = static_cast<uint32_t>(vertices);
   h.owned_vertex_count = s.owned_vertex_count;
@@ -116,8 +124,16 @@ void StoreWriter::add_segment(const SegmentData& s) {
   put(l.y, s.y);
   put(l.z, s.z);
   put(l.attributes, s.attributes);
-  put(l.tets, s.tets);
-  put(l.opposites, s.opposites);
+  if (l.tet_index_bytes == 4) {
+    put(l.tets, s.tets);
+  } else if (l.tet_index_bytes == 2) {
+    narrow_.resize(s.tets.size());
+    for (size_t i = 0; i < s.tets.size(); ++i) narrow_[i] = static_cast<uint16_t>(s.tets[i]);  // every id < kMaxIndex16Vertices
+    put(l.tets, narrow_);
+  } else {
+    put(l.tets, stream_);
+  }
+  if (l.tet_index_bytes != 0) put(l.opposites, s.opposites);
   put(l.links, s.links);
   put(l.global_ids, s.global_ids);
   SegmentRecord& r = records_[s.id];
@@ -161,6 +177,10 @@ void StoreWriter::finish(const std::vector<std::vector<uint32_t>>& neighbours, n
   ::close(fd_);
   fd_ = -1;
   manifest["files"]["segments.bin"] = {{"bytes", header_.file_bytes}};
+  if (header_.compression != 0) {
+    manifest["version"] = kCompressedFormatVersion;
+    manifest["files"]["segments.bin"]["compression"] = compression_name(static_cast<Compression>(header_.compression));
+  }
   write_manifest(temp_ / "manifest.json", std::move(manifest));
   sync_directory(temp_);
   std::filesystem::path old;

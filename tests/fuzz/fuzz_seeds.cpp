@@ -1,10 +1,13 @@
 // Writes a seed corpus for each fuzz target: small valid files in every variant.
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 
 #include "fixture_writers.h"
 #include "tetrascope/lod/mt_build.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/segment_codec.h"
+#include "tetrascope/storage/store.h"
 
 using namespace tetrascope::testing;
 
@@ -54,16 +57,39 @@ int main(int argc, char** argv) {
   write_file(out / "tetgen/pair", read_file(out / "tetgen/t.node") + "#ele\n" + read_file(out / "tetgen/t.ele"));
   std::filesystem::remove(out / "tetgen/t.node");
   std::filesystem::remove(out / "tetgen/t.ele");
-  // the store loader: a small multiresolution store, its files joined as fuzz_store expects
+  // the store loader: a small multiresolution store in every segment compression, its files
+  // joined as fuzz_store expects
   std::filesystem::create_directories(out / "store");
+  std::filesystem::create_directories(out / "segment_codec");
   const auto store = out / "store.tmp";
-  std::filesystem::remove_all(store);
-  tetrascope::lod::PreprocessOptions options;
-  options.threads = 1;
-  tetrascope::lod::preprocess(out / "off/a.off", store, options, nullptr);
-  write_file(out / "store/multires", read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin") +
-                                         "\n#dag.bin\n" + read_file(store / "dag.bin"));
-  write_file(out / "store/no_dag", read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin"));
+  for (auto compression : {tetrascope::storage::store::Compression::kNone, tetrascope::storage::store::Compression::kIndex16,
+                           tetrascope::storage::store::Compression::kCutBorder}) {
+    const std::string name = tetrascope::storage::compression_name(compression);
+    std::filesystem::remove_all(store);
+    tetrascope::lod::PreprocessOptions options;
+    options.threads = 1;
+    options.compression = compression;
+    tetrascope::lod::preprocess(out / "off/a.off", store, options, nullptr);
+    write_file(out / "store" / ("multires_" + name), read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin") +
+                                                         "\n#dag.bin\n" + read_file(store / "dag.bin"));
+    write_file(out / "store" / ("no_dag_" + name), read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin"));
+    if (compression != tetrascope::storage::store::Compression::kCutBorder) continue;
+    // fuzz_segment_codec: each segment's stream with its counts and link faces in front
+    auto opened = tetrascope::storage::Store::open(store);
+    for (uint32_t s = 0; s < opened->segment_count(); ++s) {
+      const auto& r = opened->record(s);
+      const std::string bytes = read_file(store / "segments.bin").substr(r.offset, r.bytes);
+      const auto layout = tetrascope::storage::store::segment_layout(r.vertex_count, r.tet_count, r.link_count, opened->header().floats_per_vertex, compression);
+      std::string seed;
+      for (uint32_t v : {r.vertex_count, r.tet_count}) seed += {static_cast<char>(v & 0xFF), static_cast<char>(v >> 8 & 0xFF)};
+      const auto mapped = opened->map_segment(s);
+      const auto links = mapped->view().links;
+      const size_t link_count = std::min<size_t>(links.size(), 255);
+      seed += static_cast<char>(link_count);
+      for (size_t k = 0; k < link_count; ++k) seed += {static_cast<char>(links[k].face & 0xFF), static_cast<char>(links[k].face >> 8 & 0xFF)};
+      write_file(out / "segment_codec" / ("segment" + std::to_string(s)), seed + bytes.substr(layout.bytes));
+    }
+  }
   std::filesystem::remove_all(store);
   return 0;
 }

@@ -59,20 +59,24 @@ struct SegmentView {
   std::span<const store::BorderLink> links;
 };
 
-// One segment mapped from segments.bin; unmapped when the last reference goes.
+// One segment mapped from segments.bin; unmapped when the last reference goes. In a compressed
+// store the view's tets (and, for kCutBorder, opposites) point into `decoded`, owned here.
 class MappedSegment {
  public:
-  MappedSegment(void* address, size_t length, SegmentView view) : address_(address), length_(length), view_(view) {}
+  MappedSegment(void* address, size_t length, SegmentView view, std::vector<uint32_t> decoded = {})
+      : address_(address), length_(length), view_(view), decoded_(std::move(decoded)) {}
   ~MappedSegment();
   MappedSegment(const MappedSegment&) = delete;
   MappedSegment& operator=(const MappedSegment&) = delete;
   const SegmentView& view() const { return view_; }
-  size_t mapped_bytes() const { return length_; }
+  // what the segment holds in memory: the mapping and the decoded arrays
+  size_t mapped_bytes() const { return length_ + decoded_.size() * sizeof(uint32_t); }
 
  private:
   void* address_;
   size_t length_;
   SegmentView view_;
+  std::vector<uint32_t> decoded_;
 };
 
 class Store {
@@ -86,6 +90,7 @@ class Store {
   const std::filesystem::path& path() const { return path_; }
   const StoreManifest& manifest() const { return manifest_; }
   const store::FileHeader& header() const { return header_; }
+  store::Compression compression() const { return static_cast<store::Compression>(header_.compression); }
   uint32_t segment_count() const { return header_.segment_count; }
   const store::SegmentRecord& record(uint32_t segment) const { return records_.at(segment); }
   std::span<const uint32_t> neighbours(uint32_t segment) const;

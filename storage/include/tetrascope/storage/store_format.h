@@ -14,6 +14,20 @@
 namespace tetrascope::storage::store {
 
 constexpr uint32_t kFormatVersion = 1;
+// Stores whose tets are compressed (FileHeader::compression != kNone) carry this version in
+// manifest.json, the file header and every segment header, so a reader built before
+// compression refuses them by version instead of misreading the tets.
+constexpr uint32_t kCompressedFormatVersion = 2;
+
+// How a store keeps its segments' tets (FileHeader::compression, manifest files.segments.bin
+// .compression). kIndex16 stores uint16 local indices in segments of at most
+// kMaxIndex16Vertices vertices (others stay uint32); kCutBorder replaces tets and opposites
+// by a connectivity stream (segment_codec.h) after the other arrays.
+enum class Compression : uint32_t { kNone = 0, kIndex16 = 1, kCutBorder = 2 };
+constexpr uint32_t kMaxIndex16Vertices = 65536;
+// The shortest a tet's code in a kCutBorder stream can be (a symbol byte and the gate), so a
+// record's size bounds its tet count and what decoding it allocates.
+constexpr uint64_t kMinStreamBytesPerTet = 2;
 constexpr uint64_t kPageBytes = 4096;
 constexpr char kFileMagic[8] = {'T', 'E', 'T', 'R', 'A', 'S', 'E', 'G'};
 constexpr uint32_t kSegmentMagic = 0x47455354;  // "TSEG"
@@ -38,7 +52,8 @@ struct FileHeader {  // at offset 0
   uint64_t neighbour_total;
   uint32_t directory_crc;
   uint32_t neighbours_crc;
-  uint32_t reserved[2];
+  uint32_t compression;        // Compression; 0 in version 1
+  uint32_t reserved;
   uint32_t header_crc;         // of every byte above
 };
 
@@ -66,7 +81,9 @@ struct SegmentHeader {  // first bytes of every segment
   uint32_t boundary_tet_count;
   uint32_t link_count;
   uint32_t floats_per_vertex;
-  uint32_t reserved[3];
+  uint32_t compression;        // the file's Compression; 0 in version 1
+  uint32_t stream_bytes;       // kCutBorder: bytes of the connectivity stream; else 0
+  uint32_t reserved;
 };
 
 // A face on a segment border and the face it meets in the neighbouring segment.
@@ -80,17 +97,22 @@ struct BorderLink {
 struct SegmentLayout {
   uint64_t x, y, z;        // float[vertex_count] each
   uint64_t attributes;     // float[vertex_count * floats_per_vertex], attribute-major
-  uint64_t tets;           // uint32[4 * tet_count]
-  uint64_t opposites;      // uint32[4 * tet_count]
+  uint64_t tets;           // uint32[4 * tet_count], uint16 when tet_index_bytes is 2; kCutBorder: the stream
+  uint64_t opposites;      // uint32[4 * tet_count]; kCutBorder: none (rebuilt by the decoder)
   uint64_t links;          // BorderLink[link_count]
   uint64_t global_ids;     // uint32[vertex_count]
   uint64_t bytes;          // total, not padded to a page
+  uint32_t tet_index_bytes;  // 4 or 2; 0 for kCutBorder
 };
 
 inline uint64_t align16(uint64_t v) { return (v + 15) & ~uint64_t{15}; }
 inline uint64_t align_page(uint64_t v) { return (v + kPageBytes - 1) & ~(kPageBytes - 1); }
 
-inline SegmentLayout segment_layout(uint64_t vertices, uint64_t tets, uint64_t links, uint64_t floats_per_vertex) {
+// The layout of version 1 and of kNone/kIndex16: header, x, y, z, attributes, tets, opposites,
+// links, global ids. kCutBorder: header, x, y, z, attributes, links, global ids, then the
+// stream of `stream_bytes` (known from the record's size, checked against the header).
+inline SegmentLayout segment_layout(uint64_t vertices, uint64_t tets, uint64_t links, uint64_t floats_per_vertex,
+                                    Compression compression = Compression::kNone, uint64_t stream_bytes = 0) {
   SegmentLayout l{};
   uint64_t at = align16(sizeof(SegmentHeader));
   l.x = at;
@@ -101,8 +123,20 @@ inline SegmentLayout segment_layout(uint64_t vertices, uint64_t tets, uint64_t l
   at = align16(at + 4 * vertices);
   l.attributes = at;
   at = align16(at + 4 * vertices * floats_per_vertex);
+  if (compression == Compression::kCutBorder) {
+    l.links = at;
+    at = align16(at + sizeof(BorderLink) * links);
+    l.global_ids = at;
+    at = align16(at + 4 * vertices);
+    l.tets = at;
+    l.opposites = at;
+    l.bytes = at + stream_bytes;
+    l.tet_index_bytes = 0;
+    return l;
+  }
+  l.tet_index_bytes = compression == Compression::kIndex16 && vertices <= kMaxIndex16Vertices ? 2 : 4;
   l.tets = at;
-  at = align16(at + 16 * tets);
+  at = align16(at + 4 * uint64_t{l.tet_index_bytes} * tets);
   l.opposites = at;
   at = align16(at + 16 * tets);
   l.links = at;

@@ -29,8 +29,10 @@ struct SegmentData {
 class StoreWriter {
  public:
   // Fails if `directory` exists and `replace` is false. A stale NAME.tmp/ is removed.
+  // `compression` other than kNone writes a version-2 store (store_format.h).
   StoreWriter(std::filesystem::path directory, bool replace, uint64_t vertex_count,
-              uint32_t segment_count, uint32_t floats_per_vertex);
+              uint32_t segment_count, uint32_t floats_per_vertex,
+              store::Compression compression = store::Compression::kNone);
   ~StoreWriter();  // removes NAME.tmp/ unless finish() completed
   StoreWriter(const StoreWriter&) = delete;
   StoreWriter& operator=(const StoreWriter&) = delete;
@@ -55,6 +57,8 @@ class StoreWriter {
   std::vector<uint8_t> added_;
   uint64_t next_offset_ = 0;
   std::vector<uint8_t> buffer_;
+  std::vector<uint8_t> stream_;
+  std::vector<uint16_t> narrow_;
 };
 
 // Writes `manifest` to `path` with a "checksum" field over the file's exact bytes.
