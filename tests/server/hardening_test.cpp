@@ -553,7 +553,7 @@ TEST_F(HardeningTest, RepeatedLargePngStillsDoNotAccumulateMemory) {
 // a view drawn afterwards uploads again and is the same image a fresh server drew.
 TEST_F(HardeningTest, AnIdleServerGivesBackItsRenderWorkersMemory) {
   if (!kAddressSpaceLimitWorks) GTEST_SKIP() << "ASan's allocator keeps freed memory in quarantine; malloc_trim cannot return it (the release run checks this)";
-  constexpr uint64_t kReleasedAtLeast = 54ull << 20;
+  constexpr uint64_t kReleasedAtLeast = 20ull << 20;
   preprocess_sample(data_dir());
   ServerOptions o = options();
   o.worker_idle_release = 2s;
@@ -574,9 +574,10 @@ TEST_F(HardeningTest, AnIdleServerGivesBackItsRenderWorkersMemory) {
   std::this_thread::sleep_for(o.worker_idle_release + 3s);  // the session closed, the worker released (and the server's 5 s trim ran)
   const uint64_t idle = resident_bytes();
   ASSERT_GT(served, started + (60ull << 20)) << "serving a 1600x1200 view should take the worker's framebuffers: " << (started >> 20) << " -> " << (served >> 20) << " MB";
-  // Measured (one worker, this view): 77 MB started, 233 serving; idle 195 MB without the
-  // release (the server's malloc_trim alone), 163 MB with it (3 runs). The projected
-  // tetrahedra's vertex ring alone is 27 MB.
+  // Measured (one worker, this view, 2 runs each): 100 MB started (the worker's warm-up draw
+  // compiles its shaders before the server is used), 199 serving; idle 196 MB without the
+  // release (the server's malloc_trim alone), 163 MB with it. (Before the warm-up: 77 MB
+  // started, 233 serving, idle 195 / 163 MB.) The projected tetrahedra's vertex ring alone is 27 MB.
   EXPECT_GT(served - std::min(served, idle), kReleasedAtLeast)
       << "resident memory: " << (started >> 20) << " MB started, " << (served >> 20) << " MB serving, " << (idle >> 20) << " MB idle";
   // and a view drawn afterwards is the one a fresh server drew
