@@ -80,7 +80,7 @@ for fm in sorted({r["frame_ms"] for r in runs}):
     rs = [r for r in runs if r["frame_ms"] == fm]
     table[str(fm)] = {"latency_p50_ms": statistics.median(r["latency_ms"]["p50"] for r in rs), "latency_p99_ms": statistics.median(r["latency_ms"]["p99"] for r in rs),
                       "fps": statistics.median(r["total_fps"] for r in rs), "runs": len(rs)}
-json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, Mesa llvmpipe, loopback; SHARED with other builds (load average 10-16)",
+json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, Mesa llvmpipe, loopback; load average (1, 5, 15 min) at the end: " + open("/proc/loadavg").read().split(" ", 3)[:3].__str__(),
            "what": "1 client orbit on the 5M blade (default store), 1024x768, per --frame-ms; medians of the runs", "by_frame_ms": table, "runs": runs},
           open(sys.argv[1], "w"), indent=1)
 PY

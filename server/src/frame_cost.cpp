@@ -160,6 +160,11 @@ std::array<double, 3> FrameCostModel::coefficients() const {
   return coefficients_;
 }
 
+double shared_frame_ms(double frame_ms, size_t waiting, size_t workers) {
+  const double per_worker = double(waiting) / double(std::max<size_t>(workers, 1));
+  return frame_ms / std::clamp(1.0 + per_worker, 1.0, 4.0);
+}
+
 double covered_pixels(const lod::Camera& camera, const storage::Bounds& bounds, uint32_t width, uint32_t height) {
   const double all = double(width) * height;
   const Vec3 forward = normalise(camera.target - camera.eye);

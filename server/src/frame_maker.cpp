@@ -86,6 +86,9 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
   bool final_step = false;
   if (!plan.refinement) {
     // the most tets within frame_ms at this size; where even the coarsest cut is over, fewer pixels
+    // (the frame's size from the configured frame time; a share of it, with many sessions
+    // waiting, lowers the tets only)
+    const double target_ms = plan.frame_ms > 0 ? plan.frame_ms : options.frame_ms;
     double scale = state.interaction_scale;
     request.width = scaled(state.view.width, scale);
     request.height = scaled(state.view.height, scale);
@@ -97,7 +100,7 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
       request.height = scaled(state.view.height, scale);
       frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
     }
-    request.budget = cost.tets_for(options.frame_ms, frame.covered_pixels, coarsest_tets_, state.interaction_budget);
+    request.budget = cost.tets_for(target_ms, frame.covered_pixels, coarsest_tets_, state.interaction_budget);
   } else {
     // step k aims at frame_ms * growth^(k+1), at least twice the step before, up to the still budget
     frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);

@@ -58,6 +58,7 @@ struct FramePlan {
   uint32_t step = 0;
   uint64_t previous_budget = 0;        // of the step before (refinement): this one's is at least twice it
   std::function<bool()> should_stop;   // empty: never
+  double frame_ms = 0;                 // interaction: the time to aim at (0: options.frame_ms)
 };
 
 class FrameMaker {

@@ -35,6 +35,9 @@ class RenderPool {
   // Whether an interaction task is waiting for a worker: a running refinement step gives its
   // worker up (RenderSettings::should_stop) when one is.
   bool interaction_waiting() const { return interaction_queued_.load(std::memory_order_relaxed) > 0; }
+  // Interaction frames waiting for a worker, and the workers.
+  size_t interaction_queued() const { return interaction_queued_.load(std::memory_order_relaxed); }
+  size_t workers() const { return threads_.size(); }
 
  private:
   void run(size_t index);

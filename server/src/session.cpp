@@ -16,6 +16,7 @@
 //    waiting for a worker (the step is queued again); a refinement task still queued when
 //    input comes is overtaken by an interaction task;
 //  - outgoing: replies in order; frames latest-wins, one in flight and one waiting.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -403,6 +404,13 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       plan.should_stop = [this, epoch, pool = server_.pool.get()] {
         return input_epoch_.load(std::memory_order_relaxed) != epoch || pool->interaction_waiting();
       };
+    }
+    if (!plan.refinement) {
+      // more interaction frames waiting than workers: each aims at a share of the frame time
+      // (down to a quarter), so many sessions keep moving with coarser frames rather than
+      // every session's frames coming slowly (issue 15: 16 clients)
+      const RenderPool& pool = *server_.pool;
+      plan.frame_ms = shared_frame_ms(server_.options.frame_ms, pool.interaction_queued(), pool.workers());
     }
     const auto start = Clock::now();
     if (!plan.refinement)

@@ -88,6 +88,14 @@ TEST(FrameCostModel, AlikeFastFramesArePredicted) {
   EXPECT_GT(c[2], 0);
 }
 
+// With more interaction frames waiting than workers, each aims at a share of the frame time.
+TEST(FrameCostModel, ManySessionsWaitingShareTheFrameTime) {
+  EXPECT_DOUBLE_EQ(shared_frame_ms(60, 0, 2), 60);   // nothing waits: the whole frame time
+  EXPECT_DOUBLE_EQ(shared_frame_ms(60, 2, 2), 30);   // one frame waiting per worker: half
+  EXPECT_DOUBLE_EQ(shared_frame_ms(60, 14, 2), 15);  // 16 sessions on 2 workers: a quarter at least
+  EXPECT_DOUBLE_EQ(shared_frame_ms(60, 3, 0), 15);   // no workers counted: as one
+}
+
 TEST(FrameCostModel, CoveredPixelsFollowTheViewOfTheBox) {
   const storage::Bounds box{{-1, -1, -1}, {1, 1, 1}};
   lod::Camera far;

@@ -57,6 +57,12 @@ class FrameCostModel {
   std::deque<double> errors_, signed_errors_;
 };
 
+// The time an interaction frame aims at when `waiting` interaction frames wait for `workers`
+// render workers: frame_ms / (1 + waiting / workers), at least a quarter of frame_ms. With
+// many sessions moving at once each gets coarser frames sooner rather than all getting
+// frames slowly.
+double shared_frame_ms(double frame_ms, size_t waiting, size_t workers);
+
 // The share of a width x height view that the box covers on screen (its corners' projected
 // bounding rectangle, clipped to the view), in pixels; the whole view when the eye is inside
 // the box or a corner lies behind the eye.
