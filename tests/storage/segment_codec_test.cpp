@@ -319,6 +319,20 @@ TEST(HostileStore, CutBorderStreamDamagedUnderValidChecksumsIsRefused) {
   }
 }
 
+// Puts header `h` (its checksum recomputed) at the start of `file`, writes it as the store's
+// segments.bin and expects opening the store to fail with a message containing `expected`.
+void write_header_and_expect_refused(const std::filesystem::path& store, std::string& file, storage::store::FileHeader h, const std::string& expected) {
+  h.header_crc = storage::crc32_of(&h, offsetof(storage::store::FileHeader, header_crc));
+  std::memcpy(file.data(), &h, sizeof h);
+  write_file(store / "segments.bin", file);
+  try {
+    storage::Store::open(store);
+    ADD_FAILURE() << "opened";
+  } catch (const storage::StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+  }
+}
+
 TEST(HostileStore, CutBorderRecordClaimingMoreTetsThanItsStreamCanHoldIsRefused) {
   // a segment's tet count bounds what decoding it allocates (32 bytes a tet); a record may
   // claim at most one tet for every kMinStreamBytesPerTet bytes of its stream
@@ -334,15 +348,7 @@ TEST(HostileStore, CutBorderRecordClaimingMoreTetsThanItsStreamCanHoldIsRefused)
   r.tet_count = static_cast<uint32_t>((r.bytes - fixed.bytes) / storage::store::kMinStreamBytesPerTet + 1);
   std::memcpy(file.data() + h.directory_offset, &r, sizeof r);
   h.directory_crc = storage::crc32_of(file.data() + h.directory_offset, size_t{h.segment_count} * sizeof r);
-  h.header_crc = storage::crc32_of(&h, offsetof(storage::store::FileHeader, header_crc));
-  std::memcpy(file.data(), &h, sizeof h);
-  write_file(dir / "s" / "segments.bin", file);
-  try {
-    storage::Store::open(dir / "s");
-    ADD_FAILURE() << "opened";
-  } catch (const storage::StoreError& e) {
-    EXPECT_NE(std::string(e.what()).find("segment 0: size does not match its counts"), std::string::npos) << e.what();
-  }
+  write_header_and_expect_refused(dir / "s", file, h, "segment 0: size does not match its counts");
 }
 
 TEST(HostileStore, CompressedStoreClaimingVersion1IsRefused) {
@@ -353,15 +359,7 @@ TEST(HostileStore, CompressedStoreClaimingVersion1IsRefused) {
   storage::store::FileHeader h;
   std::memcpy(&h, file.data(), sizeof h);
   h.version = storage::store::kFormatVersion;
-  h.header_crc = storage::crc32_of(&h, offsetof(storage::store::FileHeader, header_crc));
-  std::memcpy(file.data(), &h, sizeof h);
-  write_file(dir / "s" / "segments.bin", file);
-  try {
-    storage::Store::open(dir / "s");
-    ADD_FAILURE() << "opened";
-  } catch (const storage::StoreError& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown segment compression 2"), std::string::npos) << e.what();
-  }
+  write_header_and_expect_refused(dir / "s", file, h, "unknown segment compression 2");
 }
 
 }  // namespace
