@@ -58,3 +58,8 @@ export async function settled(page, pause = 200) {
   );
   if (pause > 0) await page.waitForTimeout(pause);
 }
+
+// The body of the last message of `type` the page sent (undefined when none), and the errors
+// the page's client recorded.
+export const lastSent = (page, type) => page.evaluate((t) => window.tetrascope.sent.filter((m) => m.type === t).at(-1)?.body, type);
+export const clientErrors = (page) => page.evaluate(() => window.tetrascope.errors);

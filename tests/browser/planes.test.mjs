@@ -5,7 +5,7 @@
 //   node --test tests/browser/planes.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { startViewer, frameImage as imageOf, settled as settledOn } from './harness.mjs';
+import { startViewer, frameImage as imageOf, settled as settledOn, lastSent as lastSentOn, clientErrors } from './harness.mjs';
 
 let viewer, url, page, browser;
 
@@ -21,8 +21,8 @@ after(async () => {
 const frameImage = () => imageOf(page);
 const settled = () => settledOn(page);
 
-const lastSent = (type) => page.evaluate((t) => window.tetrascope.sent.filter((m) => m.type === t).at(-1)?.body, type);
-const errors = () => page.evaluate(() => window.tetrascope.errors);
+const lastSent = (type) => lastSentOn(page, type);
+const errors = () => clientErrors(page);
 
 test('adding a clip plane and dragging it along its normal changes the image', async () => {
   await page.goto(url);

@@ -9,7 +9,7 @@ import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync, readdirSync, readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { startViewer, sample, frameImage as imageOf, settled as settledOn } from './harness.mjs';
+import { startViewer, sample, frameImage as imageOf, settled as settledOn, lastSent as lastSentOn } from './harness.mjs';
 
 const shots = process.env.TETRA_SCREENSHOTS;  // a folder: keep screenshots for inspection
 
@@ -55,7 +55,7 @@ const canvasStats = (p = page) =>
 // mean absolute difference of two thumbnails, in grey levels
 const thumbDistance = (a, b) => a.thumb.reduce((sum, v, k) => sum + Math.abs(v - b.thumb[k]), 0) / a.thumb.length;
 
-const lastSent = (type, p = page) => p.evaluate((t) => window.tetrascope.sent.filter((m) => m.type === t).at(-1)?.body, type);
+const lastSent = (type, p = page) => lastSentOn(p, type);
 
 // the dimensions in a PNG's IHDR
 const pngSize = (bytes) => [bytes.readUInt32BE(16), bytes.readUInt32BE(20)];
