@@ -11,11 +11,9 @@ export const root = join(dirname(fileURLToPath(import.meta.url)), '..', '..');
 export const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release', 'apps', 'tetrascope');
 export const sample = join(root, 'data', 'samples', 'disk_out_ref.vtk');
 
-// Preprocesses the sample as "disk", starts the server (one worker, `serveArgs` added) and a
-// page of `viewport`. Returns { data, url, browser, page, stop }.
-export async function startViewer({ prefix, serveArgs = [], viewport = { width: 900, height: 700 } }) {
-  const data = mkdtempSync(join(tmpdir(), prefix));
-  execFileSync(binary, ['preprocess', sample, '-o', join(data, 'disk'), '--segment-tets', '2000', '--base-tets', '3000', '--progress', 'none']);
+// Starts `tetrascope serve --data DATA` (one worker, `serveArgs` added) on a free port;
+// resolves to { server, url } once it prints its address.
+export async function startServer(data, serveArgs = []) {
   const server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1', ...serveArgs], { stdio: ['ignore', 'pipe', 'inherit'] });
   const url = await new Promise((resolve, reject) => {
     let out = '';
@@ -26,6 +24,15 @@ export async function startViewer({ prefix, serveArgs = [], viewport = { width: 
     });
     server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
   });
+  return { server, url };
+}
+
+// Preprocesses the sample as "disk", starts the server (one worker, `serveArgs` added) and a
+// page of `viewport`. Returns { data, url, browser, page, stop }.
+export async function startViewer({ prefix, serveArgs = [], viewport = { width: 900, height: 700 } }) {
+  const data = mkdtempSync(join(tmpdir(), prefix));
+  execFileSync(binary, ['preprocess', sample, '-o', join(data, 'disk'), '--segment-tets', '2000', '--base-tets', '3000', '--progress', 'none']);
+  const { server, url } = await startServer(data, serveArgs);
   const browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
   const page = await browser.newPage({ viewport });
   page.on('pageerror', (e) => console.error('page error:', e));

@@ -2,25 +2,13 @@
 //   node tests/browser/shoot.mjs DATA_DIR OUT_DIR 'name|#fragment' ...
 // starts `tetrascope serve --data DATA_DIR`, opens each fragment (a view link) at 1000x640,
 // waits for the still that shows it, and writes OUT_DIR/name.png.
-import { spawn } from 'node:child_process';
-import { join, dirname } from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { join } from 'node:path';
 import { chromium } from 'playwright-core';
+import { startServer } from './harness.mjs';
 
-const root = join(dirname(fileURLToPath(import.meta.url)), '..', '..');
-const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release', 'apps', 'tetrascope');
 const [data, out, ...shots] = process.argv.slice(2);
-const server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1'], { stdio: ['ignore', 'pipe', 'inherit'] });
+const { server, url } = await startServer(data);
 try {
-  const url = await new Promise((resolve, reject) => {
-    let text = '';
-    server.stdout.on('data', (chunk) => {
-      text += chunk;
-      const m = text.match(/open (http:\/\/\S+)/);
-      if (m) resolve(m[1]);
-    });
-    server.on('exit', (code) => reject(new Error(`server exited with ${code}`)));
-  });
   const browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
   const width = Number(process.env.SHOT_WIDTH ?? 1000), height = Number(process.env.SHOT_HEIGHT ?? 640);
   for (const shot of shots) {
