@@ -560,8 +560,8 @@ class GlRenderer final : public Renderer {
     // [first, end) by the settings' method, a chunk a draw call; false when stopped. A frame
     // that may be stopped finishes each chunk before asking, so a stop waits for one chunk at
     // most (llvmpipe would otherwise still hold every chunk issued so far), and sizes its
-    // chunks to take about kStopCheckMs each: 65,536 tets at 1024x768 took about half a
-    // second on llvmpipe, which was the wait of a user who moved during a still.
+    // chunks to take about kStopCheckMs each: 65,536 tets at 1024x768 took over a second on
+    // llvmpipe under load, which was the wait of a user who moved during a still.
     uint32_t chunk = s.should_stop ? kFirstStopChunk : kTetsPerChunk;
     auto draw_range = [&](uint32_t first, uint32_t end) {
       for (uint32_t slot = first; slot < end;) {
