@@ -150,12 +150,14 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
+  // a level whose tets take more than a quarter of M is kept in a spill file beside the store
+  options.memory_mb = args.number("--memory-mb", static_cast<uint32_t>(options.memory_mb));
   options.base_tets = args.number("--base-tets", static_cast<uint32_t>(options.base_tets));
   options.segment_tets = args.number("--segment-tets", options.segment_tets);
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));

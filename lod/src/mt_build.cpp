@@ -9,8 +9,9 @@
 // its border vertices locked. Stop at the base budget or one segment. A vertex keeps its
 // global id while its position and values are unchanged; a moved vertex gets a new id.
 //
-// The whole level-0 mesh is held in memory (16 bytes a tet plus the vertices); every later
-// level is smaller. Segment-wise work (simplification, error measure) runs on `threads`, and
+// The vertices are held in memory (the table, and a few ids per vertex); the tets of a level
+// are held in memory when they fit a quarter of --memory-mb, else in a spill file read a
+// segment at a time (NodeTets), so that the input need never be whole in memory. Segment-wise work (simplification, error measure) runs on `threads`, and
 // under MPI (options.ranks) is shared among the ranks, each of which holds the whole build.
 #include "tetrascope/lod/mt_build.h"
 
@@ -31,7 +32,7 @@ nlohmann::json PreprocessReport::to_json() const {
   nlohmann::json levels_json = nlohmann::json::array();
   for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
-          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"seconds", seconds},
+          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"seconds", seconds},
           {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
 }
 
@@ -65,7 +66,9 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   const bool writes = !options.ranks || options.ranks->rank() == 0;
   std::optional<storage::FileHasher> sha256;
   if (writes) sha256.emplace(hashed);  // checks the file is regular first; cancelled if reading fails
-  mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path, options.read_limits);
+  const std::filesystem::path spill_directory = store_path.has_parent_path() ? store_path.parent_path() : std::filesystem::path(".");
+  mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path, options, spill_directory);
+  report.spilled_bytes = mesh.tets.spilled_bytes();
   report.input_vertices = mesh.input_vertices;
   report.input_tets = mesh.input_tets;
   report.read_seconds = seconds_since(start);
@@ -75,6 +78,7 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   const std::vector<mt::PatchRange> arcs = mt::dag_arcs(hierarchy, static_cast<uint32_t>(mesh.channels.size()) * options.histogram_bins);
   report.segment_seconds = hierarchy.partition_seconds;
   report.simplify_seconds = seconds_since(levels_start) - hierarchy.partition_seconds;
+  report.spilled_bytes += hierarchy.nodes.spilled_bytes();
 
   if (!writes) {
     report.seconds = seconds_since(start);
@@ -83,7 +87,6 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
 
   const auto write_start = clock::now();
   stage("write", 0);
-  if (options.compression == storage::store::Compression::kCutBorder) mt::order_patches_depth_first(hierarchy, arcs, options.threads);
   const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256->get(); }}, stage);
   report.levels = written.levels;
   report.segments = static_cast<uint32_t>(hierarchy.nodes.size());

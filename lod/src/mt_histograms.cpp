@@ -170,7 +170,7 @@ std::vector<PatchRange> dag_arcs(Hierarchy& h, uint32_t values_per_node) {
   const uint32_t node_count = static_cast<uint32_t>(h.nodes.size());
   // the coarsest segments hang from the root; patches grouped by ceiling, roots first
   std::vector<PatchRange> all;
-  for (uint32_t n = h.level_first[levels - 1]; n < node_count; ++n) all.push_back({dag::kRoot, n, 0, static_cast<uint32_t>(h.nodes[n].tets.size() / 4)});
+  for (uint32_t n = h.level_first[levels - 1]; n < node_count; ++n) all.push_back({dag::kRoot, n, 0, static_cast<uint32_t>(h.nodes.tet_count(n))});
   std::stable_sort(h.patches.begin(), h.patches.end(), [](const PatchRange& a, const PatchRange& b) { return a.ceiling < b.ceiling; });
   all.insert(all.end(), h.patches.begin(), h.patches.end());
   std::vector<PatchRange>().swap(h.patches);

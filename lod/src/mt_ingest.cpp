@@ -1,6 +1,7 @@
-// Stage 1 of `tetrascope preprocess`: the whole input mesh in memory (16 bytes a tet plus the
-// vertices), its vertices in one table that later levels extend, and the normalisation of
-// every attribute (histogram channels, simplifier ranges).
+// Stage 1 of `tetrascope preprocess`: the input's vertices in one table that later levels
+// extend, the normalisation of every attribute (histogram channels, simplifier ranges), and
+// the tets as they stream in: in memory, or for a mesh over the memory budget in a spill file,
+// so that level 0 is never whole in memory (issue 21).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -11,21 +12,19 @@
 namespace tetrascope::lod::mt {
 namespace {
 
-// Channels and simplifier ranges from the input's attribute values; copies them into the table.
-void add_attributes(const storage::TetMesh& input, IngestedMesh& out) {
+// Channels and simplifier ranges from the table's input values.
+void add_channels(IngestedMesh& out) {
   const uint32_t n0 = out.input_vertices;
-  VertexTable& table = out.table;
+  const VertexTable& table = out.table;
   uint32_t base = 0;
-  for (const auto& a : input.attributes) {
-    const uint32_t c = a.info.components;
+  for (const auto& info : out.attributes) {
+    const uint32_t c = info.components;
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (uint32_t v = 0; v < n0; ++v) {
+      const float* value = &table.values[size_t{v} * table.floats + base];
       double m = 0;
-      for (uint32_t k = 0; k < c; ++k) {
-        table.values[size_t{v} * table.floats + base + k] = a.values[size_t{v} * c + k];
-        m += double(a.values[size_t{v} * c + k]) * a.values[size_t{v} * c + k];
-      }
-      m = c == 1 ? double(a.values[v]) : std::sqrt(m);
+      for (uint32_t k = 0; k < c; ++k) m += double(value[k]) * value[k];
+      m = c == 1 ? double(value[0]) : std::sqrt(m);
       if (!std::isfinite(m)) continue;
       lo = std::min(lo, m);
       hi = std::max(hi, m);
@@ -40,35 +39,97 @@ void add_attributes(const storage::TetMesh& input, IngestedMesh& out) {
   }
 }
 
+// Removes the vertices no tet uses from the table and renumbers the tets (a file may hold
+// millions of points and one tet). Returns how many were removed.
+uint64_t drop_unused(IngestedMesh& out, const std::vector<uint8_t>& used) {
+  VertexTable& table = out.table;
+  const size_t count = table.size();
+  std::vector<uint32_t> renumber(count, kNone);
+  uint32_t kept = 0;
+  for (size_t v = 0; v < count; ++v)
+    if (used[v]) renumber[v] = kept++;
+  if (kept == count) return 0;
+  for (size_t v = 0; v < count; ++v) {
+    if (renumber[v] == kNone || renumber[v] == v) continue;
+    std::copy_n(table.xyz.begin() + static_cast<std::ptrdiff_t>(3 * v), 3, table.xyz.begin() + static_cast<std::ptrdiff_t>(3 * size_t{renumber[v]}));
+    std::copy_n(table.values.begin() + static_cast<std::ptrdiff_t>(v * table.floats), table.floats,
+                table.values.begin() + static_cast<std::ptrdiff_t>(size_t{renumber[v]} * table.floats));
+  }
+  table.xyz.resize(3 * size_t{kept});
+  table.xyz.shrink_to_fit();
+  table.values.resize(size_t{kept} * table.floats);
+  table.values.shrink_to_fit();
+  // the tets, a chunk at a time
+  constexpr uint64_t kChunk = 1 << 16;
+  std::vector<uint32_t> buffer, renumbered;
+  for (uint64_t begin = 0; begin < out.tets.tet_count(0); begin += kChunk) {
+    const uint64_t n = std::min(kChunk, out.tets.tet_count(0) - begin);
+    const std::span<const uint32_t> ids = out.tets.read(0, begin, n, buffer);
+    renumbered.resize(ids.size());
+    for (size_t i = 0; i < ids.size(); ++i) renumbered[i] = renumber[ids[i]];
+    out.tets.write(0, begin, renumbered);
+  }
+  return count - kept;
+}
+
 }  // namespace
 
-IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const storage::ReadLimits& limits) {
+IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const PreprocessOptions& options, const std::filesystem::path& spill_directory) {
   IngestedMesh out;
-  storage::TetMesh input = storage::load_mesh(mesh_path, &out.read_stats, limits);
-  out.dropped_unused_vertices = storage::drop_unused_vertices(input);
-  if (input.tet_count() == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
-  if (input.vertex_count() >= 0x7FFFFFFFu) throw std::runtime_error(mesh_path.string() + ": too many vertices for one store");
-  const uint32_t n0 = static_cast<uint32_t>(input.vertex_count());
-  out.input_vertices = n0;
-  out.input_tets = input.tet_count();
+  auto stream = storage::MeshStream::open(mesh_path, options.read_limits);
+  const storage::MeshHeader& header = stream->header();
   VertexTable& table = out.table;
-  table.xyz.resize(3 * size_t{n0});
-  for (uint32_t v = 0; v < n0; ++v) {
-    table.xyz[3 * size_t{v}] = input.x[v];
-    table.xyz[3 * size_t{v} + 1] = input.y[v];
-    table.xyz[3 * size_t{v} + 2] = input.z[v];
+  for (const auto& info : header.attributes) {
+    out.attributes.push_back(info);
+    table.floats += info.components;
   }
-  for (const auto& a : input.attributes) {
-    out.attributes.push_back(a.info);
-    table.floats += a.info.components;
+  table.values.reserve(header.vertex_count * table.floats);
+  storage::VertexChunk vertices;
+  while (stream->next_vertices(vertices)) {
+    const size_t at = table.values.size();
+    table.values.resize(at + vertices.count * table.floats);
+    uint32_t base = 0;
+    for (size_t a = 0; a < vertices.attributes.size(); ++a) {
+      const uint32_t c = out.attributes[a].components;
+      for (size_t v = 0; v < vertices.count; ++v)
+        for (uint32_t k = 0; k < c; ++k) table.values[at + v * table.floats + base + k] = vertices.attributes[a][v * c + k];
+      base += c;
+    }
   }
-  table.values.resize(size_t{n0} * table.floats);
-  add_attributes(input, out);
-  out.bounds = storage::compute_bounds(input);
-  const storage::Bounds& bounds = out.bounds;
+  const std::span<const float> xyz = stream->xyz();
+  table.xyz.assign(xyz.begin(), xyz.end());
+  if (table.size() >= 0x7FFFFFFFu) throw std::runtime_error(mesh_path.string() + ": too many vertices for one store");
+
+  // the tets as they come, in memory or spilled (the file's cells bound its tets loosely)
+  out.spill_directory = spill_directory;
+  out.tets = NodeTets(spill_directory);
+  out.tets.add(0, uint64_t{0}, options.memory_mb > 0 && spill_level(header.cell_count, options));
+  std::vector<uint8_t> used(table.size(), 0);
+  storage::TetChunk chunk;
+  while (stream->next_tets(chunk)) {
+    for (uint32_t v : chunk.tets) used[v] = 1;
+    out.tets.append(chunk.tets);
+  }
+  out.read_stats = stream->stats();
+  stream.reset();
+  out.input_tets = out.tets.tet_count(0);
+  if (out.input_tets == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
+  out.dropped_unused_vertices = drop_unused(out, used);
+  out.input_vertices = static_cast<uint32_t>(table.size());
+  add_channels(out);
+
+  storage::Bounds& bounds = out.bounds;
+  for (int k = 0; k < 3; ++k) {
+    float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+    for (size_t v = 0; v < table.size(); ++v) {
+      lo = std::min(lo, table.xyz[3 * v + size_t(k)]);
+      hi = std::max(hi, table.xyz[3 * v + size_t(k)]);
+    }
+    bounds.min[size_t(k)] = lo;
+    bounds.max[size_t(k)] = hi;
+  }
   out.diagonal = std::max(1e-30, std::sqrt(std::pow(bounds.max[0] - bounds.min[0], 2) + std::pow(bounds.max[1] - bounds.min[1], 2) +
                                            std::pow(bounds.max[2] - bounds.min[2], 2)));
-  out.tets = std::move(input.tets);
   return out;
 }
 

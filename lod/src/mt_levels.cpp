@@ -55,51 +55,69 @@ void rotate_45(std::vector<float>& xyz) {
   }
 }
 
-// Regions of one level: partition_segments over the vertices its tets use, each tet to the
-// lowest region among its vertices, regions left without tets dropped. `lists` are the
-// level's tet lists; `local_of` is all kNone on entry and on return. Returns the region of
-// every tet, list by list.
-std::vector<std::vector<uint32_t>> partition_level(const std::vector<const std::vector<uint32_t>*>& lists, const VertexTable& table, uint32_t parts,
-                                                   bool rotate, int seed, std::vector<uint32_t>& local_of, uint32_t* region_count) {
+// Calls fn(ids) for node n's tets, a chunk at a time (all at once when in memory).
+template <class Fn>
+void for_each_chunk(const NodeTets& nodes, uint32_t n, std::vector<uint32_t>& buffer, Fn&& fn) {
+  constexpr uint64_t kChunk = 1 << 16;
+  const uint64_t count = nodes.tet_count(n);
+  const uint64_t step = nodes.spilled(n) ? kChunk : std::max<uint64_t>(count, 1);
+  for (uint64_t begin = 0; begin < count; begin += step) fn(nodes.read(n, begin, std::min(step, count - begin), buffer));
+}
+
+// The regions of one level: partition_segments over the vertices its tets use; a tet goes to
+// the lowest region among its vertices, and regions left without tets are dropped.
+struct LevelPartition {
+  std::vector<uint32_t> segment_of;  // per global vertex the level uses: partition segment
+  std::vector<uint32_t> compact;     // partition segment -> region
+  uint32_t regions = 0;
+  uint32_t region(const uint32_t* tet) const {
+    uint32_t r = kNone;
+    for (int k = 0; k < 4; ++k) r = std::min(r, segment_of[tet[k]]);
+    return compact[r];
+  }
+};
+
+// Partitions the vertices of nodes [first, last) into about `parts` regions.
+LevelPartition partition_level(const NodeTets& nodes, uint32_t first, uint32_t last, const VertexTable& table, uint32_t parts, bool rotate, int seed) {
+  std::vector<uint32_t> buffer;
+  LevelPartition out;
+  // the vertices used, ascending (local ids first, then their segments)
+  std::vector<uint32_t>& local_of = out.segment_of;
+  local_of.assign(table.size(), kNone);
+  for (uint32_t n = first; n < last; ++n)
+    for_each_chunk(nodes, n, buffer, [&](std::span<const uint32_t> ids) {
+      for (uint32_t g : ids) local_of[g] = 0;
+    });
   std::vector<uint32_t> used;
-  for (const auto* list : lists)
-    for (uint32_t g : *list)
-      if (local_of[g] == kNone) {
-        local_of[g] = 0;
-        used.push_back(g);
-      }
-  std::sort(used.begin(), used.end());
-  for (uint32_t i = 0; i < used.size(); ++i) local_of[used[i]] = i;
+  for (uint32_t g = 0; g < local_of.size(); ++g)
+    if (local_of[g] == 0) {
+      local_of[g] = static_cast<uint32_t>(used.size());
+      used.push_back(g);
+    }
   std::vector<float> xyz(3 * used.size());
   for (size_t i = 0; i < used.size(); ++i)
-    for (int k = 0; k < 3; ++k) xyz[3 * i + k] = table.xyz[3 * size_t{used[i]} + k];
+    for (int k = 0; k < 3; ++k) xyz[3 * i + size_t(k)] = table.xyz[3 * size_t{used[i]} + size_t(k)];
   if (rotate && !used.empty()) rotate_45(xyz);
+  // each vertex weighs a quarter of its tets
   std::vector<float> tets_per_vertex(used.size(), 0.0f);
-  for (const auto* list : lists)
-    for (uint32_t g : *list) tets_per_vertex[local_of[g]] += 0.25f;
+  for (uint32_t n = first; n < last; ++n)
+    for_each_chunk(nodes, n, buffer, [&](std::span<const uint32_t> ids) {
+      for (uint32_t g : ids) tets_per_vertex[local_of[g]] += 0.25f;
+    });
   const SegmentPartition partition = partition_segments(xyz, parts, 0, seed, tets_per_vertex);
-  std::vector<std::vector<uint32_t>> region(lists.size());
-  std::vector<uint8_t> has_tets(partition.segments, 0);
-  for (size_t l = 0; l < lists.size(); ++l) {
-    const auto& tets = *lists[l];
-    region[l].resize(tets.size() / 4);
-    for (size_t t = 0; t < tets.size() / 4; ++t) {
-      uint32_t r = kNone;
-      for (int k = 0; k < 4; ++k) r = std::min(r, partition.segment_of_vertex[local_of[tets[4 * t + k]]]);
-      region[l][t] = r;
-      has_tets[r] = 1;
-    }
-  }
+  for (size_t i = 0; i < used.size(); ++i) out.segment_of[used[i]] = partition.segment_of_vertex[i];
   // a region may end up without tets (all its vertices' tets went to lower regions): renumber
-  std::vector<uint32_t> compact(partition.segments, kNone);
+  out.compact.resize(partition.segments);
+  std::iota(out.compact.begin(), out.compact.end(), 0u);
+  std::vector<uint8_t> has_tets(partition.segments, 0);
+  for (uint32_t n = first; n < last; ++n)
+    for_each_chunk(nodes, n, buffer, [&](std::span<const uint32_t> ids) {
+      for (size_t t = 0; t < ids.size() / 4; ++t) has_tets[out.region(&ids[4 * t])] = 1;
+    });
   uint32_t next = 0;
-  for (size_t r = 0; r < has_tets.size(); ++r)
-    if (has_tets[r]) compact[r] = next++;
-  for (auto& list : region)
-    for (uint32_t& r : list) r = compact[r];
-  for (uint32_t g : used) local_of[g] = kNone;
-  *region_count = next;
-  return region;
+  for (size_t r = 0; r < has_tets.size(); ++r) out.compact[r] = has_tets[r] ? next++ : kNone;
+  out.regions = next;
+  return out;
 }
 
 // A ceiling's tets: ranges of floor segments' tets.
@@ -148,35 +166,56 @@ class LevelBuilder {
  private:
   uint32_t channel_values() const { return static_cast<uint32_t>(mesh_.channels.size()) * options_.histogram_bins; }
 
-  // Level 0: the input mesh, partitioned as `tetrascope segment` partitions it.
+  // Level 0: the input mesh, partitioned as `tetrascope segment` partitions it, its tets
+  // streamed from the input's node into one node per region (input order kept in each).
   void partition_level0() {
     const uint32_t n0 = mesh_.input_vertices;
-    local_of_.assign(n0, kNone);
     located_node_.assign(n0, kNone);
     located_tet_.assign(n0, kNone);
     vertex_region_.assign(n0, kNone);
-    std::vector<uint32_t>& level0_tets = mesh_.tets;
-    const uint64_t parts = std::max<uint64_t>(1, (level0_tets.size() / 4 + options_.segment_tets / 2) / options_.segment_tets);
-    uint32_t count = 0;
-    std::vector<const std::vector<uint32_t>*> lists{&level0_tets};
-    auto region = partition_level(lists, mesh_.table, static_cast<uint32_t>(std::min<uint64_t>(parts, storage::store::kMaxSegments)), false, options_.seed,
-                                  local_of_, &count);
-    out_.nodes.resize(count);
+    const NodeTets& input = mesh_.tets;
+    const uint64_t input_tets = input.tet_count(0);
+    const uint64_t parts = std::max<uint64_t>(1, (input_tets + options_.segment_tets / 2) / options_.segment_tets);
+    const LevelPartition partition =
+        partition_level(input, 0, 1, mesh_.table, static_cast<uint32_t>(std::min<uint64_t>(parts, storage::store::kMaxSegments)), false, options_.seed);
+    const uint32_t count = partition.regions;
+    std::vector<uint32_t> buffer;
     std::vector<uint64_t> size(count, 0);
-    for (uint32_t r : region[0]) ++size[r];
-    for (uint32_t r = 0; r < count; ++r) out_.nodes[r].tets.reserve(4 * size[r]);
-    for (size_t t = 0; t < region[0].size(); ++t) {
-      auto& list = out_.nodes[region[0][t]].tets;
-      for (int k = 0; k < 4; ++k) {
-        const uint32_t g = level0_tets[4 * t + k];
-        if (located_node_[g] == kNone) {
-          located_node_[g] = region[0][t];
-          located_tet_[g] = static_cast<uint32_t>(list.size() / 4);
+    for_each_chunk(input, 0, buffer, [&](std::span<const uint32_t> ids) {
+      for (size_t t = 0; t < ids.size() / 4; ++t) ++size[partition.region(&ids[4 * t])];
+    });
+    out_.nodes = NodeTets(mesh_.spill_directory);
+    const bool spill = spilled_level(input_tets);
+    for (uint32_t r = 0; r < count; ++r) out_.nodes.add(0, size[r], spill);
+    // every node filled through a small buffer (4 KB a node)
+    constexpr size_t kBuffered = 256;
+    std::vector<std::vector<uint32_t>> pending(count);
+    std::vector<uint64_t> filled(count, 0), written(count, 0);
+    auto flush = [&](uint32_t r) {
+      out_.nodes.write(r, written[r], pending[r]);
+      written[r] += pending[r].size() / 4;
+      pending[r].clear();
+    };
+    for_each_chunk(input, 0, buffer, [&](std::span<const uint32_t> ids) {
+      for (size_t t = 0; t < ids.size() / 4; ++t) {
+        const uint32_t r = partition.region(&ids[4 * t]);
+        for (size_t k = 0; k < 4; ++k) {
+          const uint32_t g = ids[4 * t + k];
+          if (located_node_[g] == kNone) {
+            located_node_[g] = r;
+            located_tet_[g] = static_cast<uint32_t>(filled[r]);
+          }
         }
+        pending[r].insert(pending[r].end(), ids.begin() + static_cast<std::ptrdiff_t>(4 * t), ids.begin() + static_cast<std::ptrdiff_t>(4 * t + 4));
+        ++filled[r];
+        if (pending[r].size() >= 4 * kBuffered) flush(r);
       }
-      list.insert(list.end(), level0_tets.begin() + 4 * t, level0_tets.begin() + 4 * t + 4);
+    });
+    for (uint32_t r = 0; r < count; ++r) {
+      flush(r);
+      std::vector<uint32_t>().swap(pending[r]);
     }
-    std::vector<uint32_t>().swap(level0_tets);
+    mesh_.tets = NodeTets();  // the input's copy (and its spill file) goes
     // owners: the segment of the vertex's first tet; unused vertices go to segment 0
     out_.level0_owner = located_node_;
     for (uint32_t& o : out_.level0_owner)
@@ -188,23 +227,22 @@ class LevelBuilder {
       if (located_node_[v] != kNone) followed_.push_back(v);
   }
 
+  // Whether a level of `tets` tets is kept in the spill file (--memory-mb).
+  bool spilled_level(uint64_t tets) const { return options_.memory_mb > 0 && spill_level(tets, options_); }
+
   // Level `level` + 1 from the mesh of `level` (`tets` tets).
   void build_level(uint32_t level, uint64_t tets) {
     const uint32_t first = out_.level_first[level], last = out_.level_first[level + 1];
-    // partition M(level) into the ceiling segments of level + 1
-    std::vector<const std::vector<uint32_t>*> lists;
-    for (uint32_t n = first; n < last; ++n) lists.push_back(&out_.nodes[n].tets);
-    if (local_of_.size() < mesh_.table.size()) local_of_.resize(mesh_.table.size(), kNone);
-    // ceilings of about segment_tets once simplified; the mesh turned on odd levels (§6.3.2)
+    // partition M(level) into the ceiling segments of level + 1: of about segment_tets once
+    // simplified, the mesh turned on odd levels (§6.3.2)
     const double simplified = double(tets) * options_.level_ratio;
     const uint64_t parts = std::max<uint64_t>({1, static_cast<uint64_t>(std::llround(simplified / options_.segment_tets)),
                                                std::min<uint64_t>(options_.min_segments, static_cast<uint64_t>(simplified / std::max(1u, options_.min_segment_tets)))});
-    uint32_t regions = 0;
-    auto region = partition_level(lists, mesh_.table, static_cast<uint32_t>(parts), level % 2 == 1, options_.seed + static_cast<int>(level) + 1, local_of_,
-                                  &regions);
-    const std::vector<std::vector<CeilingPatch>> ceiling_patches = cut_into_patches(first, last, regions, region);
-    const std::vector<std::vector<uint32_t>> ceiling_vertices = follow_vertices(first, regions, region);
-    lock_ceiling_borders(ceiling_patches);
+    const LevelPartition partition =
+        partition_level(out_.nodes, first, last, mesh_.table, static_cast<uint32_t>(parts), level % 2 == 1, options_.seed + static_cast<int>(level) + 1);
+    const uint32_t regions = partition.regions;
+    std::vector<std::vector<uint32_t>> ceiling_vertices(regions);
+    const std::vector<std::vector<CeilingPatch>> ceiling_patches = cut_into_patches(first, last, partition, ceiling_vertices);
     const CeilingShare share = share_ceilings(ceiling_patches);
     const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets, share);
     std::vector<CeilingResult> results(regions);
@@ -225,71 +263,56 @@ class LevelBuilder {
     std::fill(vertex_region_.begin(), vertex_region_.end(), kNone);  // reset the border marks
   }
 
-  // Groups every floor segment's tets by ceiling (the patches, appended to out_.patches);
-  // `region` becomes, per floor, old tet index -> new index. Returns each ceiling's patches.
-  std::vector<std::vector<CeilingPatch>> cut_into_patches(uint32_t first, uint32_t last, uint32_t regions, std::vector<std::vector<uint32_t>>& region) {
+  // Groups every floor segment's tets by ceiling, one floor at a time (the patches, appended
+  // to out_.patches), and returns each ceiling's patches. On the way every followed original
+  // vertex moves to its tet's new index and is listed under that tet's ceiling
+  // (`ceiling_vertices`, ascending), and the vertices on a border between ceilings are marked
+  // locked (vertex_region_).
+  std::vector<std::vector<CeilingPatch>> cut_into_patches(uint32_t first, uint32_t last, const LevelPartition& partition,
+                                                          std::vector<std::vector<uint32_t>>& ceiling_vertices) {
     const uint32_t ceiling_base = last;
-    std::vector<std::vector<CeilingPatch>> ceiling_patches(regions);
-    floor_patches_.assign(last - first, {0, 0});
+    std::vector<std::vector<CeilingPatch>> ceiling_patches(partition.regions);
+    if (vertex_region_.size() < mesh_.table.size()) vertex_region_.resize(mesh_.table.size(), kNone);
+    std::vector<std::vector<uint32_t>> followed_in(last - first);  // per floor, ascending
+    for (uint32_t v : followed_) followed_in[located_node_[v] - first].push_back(v);
+    std::vector<uint32_t> buffer, sorted, order, position, region, sorted_region;
     for (uint32_t n = first; n < last; ++n) {
-      const auto& r = region[n - first];
-      const uint32_t count = static_cast<uint32_t>(r.size());
-      std::vector<uint32_t> order(count);
+      const std::span<const uint32_t> ids = out_.nodes.read(n, buffer);
+      const uint32_t count = static_cast<uint32_t>(ids.size() / 4);
+      region.resize(count);
+      for (uint32_t t = 0; t < count; ++t) region[t] = partition.region(&ids[4 * size_t{t}]);
+      order.resize(count);
       std::iota(order.begin(), order.end(), 0u);
-      std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return r[a] < r[b]; });
-      std::vector<uint32_t> sorted(out_.nodes[n].tets.size()), position(count);
+      std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return region[a] < region[b]; });
+      sorted.resize(ids.size());
+      position.resize(count);
+      sorted_region.resize(count);
       for (uint32_t i = 0; i < count; ++i) {
-        std::copy_n(out_.nodes[n].tets.begin() + 4 * size_t{order[i]}, 4, sorted.begin() + 4 * size_t{i});
+        std::copy_n(ids.begin() + 4 * std::ptrdiff_t{order[i]}, 4, sorted.begin() + 4 * std::ptrdiff_t{i});
         position[order[i]] = i;
+        sorted_region[i] = region[order[i]];
       }
-      out_.nodes[n].tets.swap(sorted);
-      floor_patches_[n - first] = {static_cast<uint32_t>(out_.patches.size()), 0};
+      out_.nodes.write(n, 0, sorted);
       for (uint32_t i = 0; i < count;) {
         uint32_t j = i;
-        while (j < count && r[order[j]] == r[order[i]]) ++j;
-        ceiling_patches[r[order[i]]].push_back({n, i, j - i});
-        out_.patches.push_back({ceiling_base + r[order[i]], n, i, j - i});
-        ++floor_patches_[n - first][1];
+        while (j < count && sorted_region[j] == sorted_region[i]) ++j;
+        ceiling_patches[sorted_region[i]].push_back({n, i, j - i});
+        out_.patches.push_back({ceiling_base + sorted_region[i], n, i, j - i});
         i = j;
       }
-      region[n - first].swap(position);
-    }
-    return ceiling_patches;
-  }
-
-  // Moves every followed original vertex to its tet's new index; returns the original
-  // vertices per ceiling, in `followed_` order.
-  std::vector<std::vector<uint32_t>> follow_vertices(uint32_t first, uint32_t regions, const std::vector<std::vector<uint32_t>>& new_index) {
-    const uint32_t ceiling_base = out_.level_first.back();
-    std::vector<std::vector<uint32_t>> ceiling_vertices(regions);
-    for (uint32_t v : followed_) {
-      const uint32_t n = located_node_[v];
-      const uint32_t t = new_index[n - first][located_tet_[v]];
-      located_tet_[v] = t;
-      // the ceiling of tet t: the patch range that holds it
-      uint32_t ceiling = 0;
-      const auto [fp, fc] = floor_patches_[n - first];
-      for (uint32_t p = fp; p < fp + fc; ++p) {
-        const PatchRange& q = out_.patches[p];
-        if (t >= q.begin && t < q.begin + q.count) {
-          ceiling = q.ceiling - ceiling_base;
-          break;
-        }
+      for (uint32_t v : followed_in[n - first]) {
+        located_tet_[v] = position[located_tet_[v]];
+        ceiling_vertices[sorted_region[located_tet_[v]]].push_back(v);
       }
-      ceiling_vertices[ceiling].push_back(v);
-    }
-    return ceiling_vertices;
-  }
-
-  // Vertices on the border between ceilings are locked.
-  void lock_ceiling_borders(const std::vector<std::vector<CeilingPatch>>& ceiling_patches) {
-    if (vertex_region_.size() < mesh_.table.size()) vertex_region_.resize(mesh_.table.size(), kNone);
-    for (uint32_t k = 0; k < ceiling_patches.size(); ++k)
-      for (const auto& [n, begin, count] : ceiling_patches[k])
-        for (size_t i = 4 * size_t{begin}; i < 4 * (size_t{begin} + count); ++i) {
-          uint32_t& vr = vertex_region_[out_.nodes[n].tets[i]];
-          vr = vr == kNone || vr == k ? k : kMany;
+      std::vector<uint32_t>().swap(followed_in[n - first]);
+      for (uint32_t i = 0; i < count; ++i)
+        for (size_t k = 0; k < 4; ++k) {
+          uint32_t& vr = vertex_region_[sorted[4 * size_t{i} + k]];
+          vr = vr == kNone || vr == sorted_region[i] ? sorted_region[i] : kMany;
         }
+    }
+    for (auto& list : ceiling_vertices) std::sort(list.begin(), list.end());
+    return ceiling_patches;
   }
 
   // The tets each ceiling is simplified to (0: the level ratio of its own tets). With
@@ -343,8 +366,11 @@ class LevelBuilder {
     const auto& attribute_info = mesh_.attributes;
     CeilingMesh out;
     std::vector<uint32_t>& global = out.global;
-    for (const auto& [n, begin, count] : patches)
-      global.insert(global.end(), out_.nodes[n].tets.begin() + 4 * size_t{begin}, out_.nodes[n].tets.begin() + 4 * (size_t{begin} + count));
+    std::vector<uint32_t> buffer;
+    for (const auto& [n, begin, count] : patches) {
+      const std::span<const uint32_t> ids = out_.nodes.read(n, begin, count, buffer);
+      global.insert(global.end(), ids.begin(), ids.end());
+    }
     std::vector<uint32_t> tets_global = global;
     std::sort(global.begin(), global.end());
     global.erase(std::unique(global.begin(), global.end()), global.end());
@@ -422,6 +448,9 @@ class LevelBuilder {
   void add_ceilings(uint32_t level, std::vector<CeilingResult>& results, const std::vector<std::vector<uint32_t>>& ceiling_vertices) {
     VertexTable& table = mesh_.table;
     const size_t values = channel_values();
+    uint64_t level_tets = 0;
+    for (const CeilingResult& res : results) level_tets += res.mesh.tet_count();
+    const bool spill = spilled_level(level_tets);
     out_.field.resize(out_.field.size() + results.size() * values, 0.0f);
     out_.spatial.resize(out_.spatial.size() + results.size() * values, 0.0f);
     for (uint32_t k = 0; k < results.size(); ++k) {
@@ -437,12 +466,9 @@ class LevelBuilder {
         }
       }
       if (table.size() >= 0xFFFFFFF0u) throw std::runtime_error("too many vertices for one store");
-      BuildNode node;
-      node.level = level;
-      node.tets.resize(m.tets.size());
-      for (size_t i = 0; i < m.tets.size(); ++i) node.tets[i] = res.global[m.tets[i]];
-      const uint32_t id = static_cast<uint32_t>(out_.nodes.size());
-      out_.nodes.push_back(std::move(node));
+      std::vector<uint32_t> tets(m.tets.size());
+      for (size_t i = 0; i < m.tets.size(); ++i) tets[i] = res.global[m.tets[i]];
+      const uint32_t id = out_.nodes.add(level, std::move(tets), spill);
       std::copy(res.error.field.begin(), res.error.field.end(), out_.field.begin() + size_t{id} * values);
       std::copy(res.error.spatial.begin(), res.error.spatial.end(), out_.spatial.begin() + size_t{id} * values);
       for (size_t i = 0; i < ceiling_vertices[k].size(); ++i) {
@@ -464,11 +490,9 @@ class LevelBuilder {
   const StageProgress& stage_;
   double work_total_ = 0, work_done_ = 0;  // simplify's work, predicted and done
   Hierarchy out_;
-  std::vector<uint32_t> local_of_;                          // scratch of partition_level
   std::vector<uint32_t> located_node_, located_tet_;        // where every original vertex is: node, tet in it
   std::vector<uint32_t> followed_;                          // original vertices that lie in the mesh
   std::vector<uint32_t> vertex_region_;                     // ceiling of a vertex, kMany on a border
-  std::vector<std::array<uint32_t, 2>> floor_patches_;      // per floor of the level: (first patch, count)
 };
 
 }  // namespace

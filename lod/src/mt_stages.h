@@ -16,8 +16,10 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tetrascope/lod/level_targets.h"
@@ -76,11 +78,67 @@ struct StageProgress {
   }
 };
 
+// ---- where the tets live ----
+
+// The tets (4 vertex ids each) of every node the build makes, in memory, or for a level too
+// large for the memory budget (spill_level) in a spill file with no name in `directory`
+// (mt_node_tets.cpp). Reads of any nodes and writes of different nodes may run at once; add
+// and append may not run beside anything.
+class NodeTets {
+ public:
+  NodeTets() = default;
+  explicit NodeTets(std::filesystem::path directory);
+  NodeTets(NodeTets&& other) noexcept;
+  NodeTets& operator=(NodeTets&& other) noexcept;
+  NodeTets(const NodeTets&) = delete;
+  NodeTets& operator=(const NodeTets&) = delete;
+  ~NodeTets();
+
+  uint32_t size() const { return static_cast<uint32_t>(nodes_.size()); }
+  uint32_t level(uint32_t n) const { return nodes_[n].level; }
+  uint64_t tet_count(uint32_t n) const { return nodes_[n].tets; }
+  bool spilled(uint32_t n) const { return nodes_[n].spilled; }
+  // The bytes the spill file reached.
+  uint64_t spilled_bytes() const { return spilled_peak_; }
+
+  // A new node of `tets` tets whose ids are then written; or of these ids.
+  uint32_t add(uint32_t level, uint64_t tets, bool spill);
+  uint32_t add(uint32_t level, std::vector<uint32_t> ids, bool spill);
+  // More tets for the last node.
+  void append(std::span<const uint32_t> ids);
+  // Tets [begin, begin + count) of node n: a view of memory, or read into `buffer`.
+  std::span<const uint32_t> read(uint32_t n, uint64_t begin, uint64_t count, std::vector<uint32_t>& buffer) const;
+  std::span<const uint32_t> read(uint32_t n, std::vector<uint32_t>& buffer) const { return read(n, 0, tet_count(n), buffer); }
+  // Overwrites the node's tets from tet `begin` on.
+  void write(uint32_t n, uint64_t begin, std::span<const uint32_t> ids);
+  // Frees node n's memory (it then has no tets); its spilled bytes stay until the end.
+  void release(uint32_t n);
+
+ private:
+  struct Node {
+    uint32_t level = 0;
+    uint64_t tets = 0;
+    bool spilled = false;
+    uint64_t offset = 0;        // in the spill file
+    std::vector<uint32_t> ids;  // in memory
+  };
+  void open_spill();
+  std::vector<Node> nodes_;
+  std::filesystem::path directory_;
+  int fd_ = -1;
+  uint64_t end_ = 0, spilled_peak_ = 0;
+};
+
+// Whether a level of `tets` tets is kept on disk: its ids would take more than a quarter of
+// the memory budget (the build holds up to about four times a level's ids at once).
+inline bool spill_level(uint64_t tets, const PreprocessOptions& options) { return 16 * tets > (options.memory_mb << 20) / 4; }
+
 // ---- ingest ----
 
 struct IngestedMesh {
   VertexTable table;
-  std::vector<uint32_t> tets;  // level 0, input vertex ids
+  NodeTets tets;  // level 0 as read, node 0; input vertex ids
+  std::filesystem::path spill_directory;  // where spilled levels go
   std::vector<storage::AttributeInfo> attributes;
   Channels channels;
   std::vector<std::array<double, 2>> ranges;  // for the simplifier: value range (scalars), [0, longest] (vectors)
@@ -92,16 +150,13 @@ struct IngestedMesh {
   uint64_t input_tets = 0;
 };
 
-// Reads the whole mesh. Throws storage::MeshError for a bad mesh, std::runtime_error for one
-// without tets or with too many vertices for a store.
-IngestedMesh ingest_mesh(const std::filesystem::path& mesh, const storage::ReadLimits& limits);
+// Reads the mesh: the vertices into the table, the tets as they come into `tets` (spilled
+// under `spill_directory` when the file's cells exceed the memory budget). Throws
+// storage::MeshError for a bad mesh, std::runtime_error for one without tets or with too many
+// vertices for a store.
+IngestedMesh ingest_mesh(const std::filesystem::path& mesh, const PreprocessOptions& options, const std::filesystem::path& spill_directory);
 
 // ---- levels ----
-
-struct BuildNode {
-  uint32_t level = 0;
-  std::vector<uint32_t> tets;  // global vertex ids; after the next level is cut, grouped by patch
-};
 
 // An arc of the DAG: tets [begin, begin + count) of segment `floor`, covered by `ceiling`.
 struct PatchRange {
@@ -109,7 +164,9 @@ struct PatchRange {
 };
 
 struct Hierarchy {
-  std::vector<BuildNode> nodes;           // every level's segments, finest level first
+  // every level's segments, finest level first: global vertex ids; after the next level is
+  // cut, grouped by patch
+  NodeTets nodes;
   std::vector<uint32_t> level_first;      // nodes of level L: [level_first[L], level_first[L+1])
   std::vector<PatchRange> patches;        // between levels, in build order
   std::vector<float> field, spatial;      // per node: [channel][bin], not yet monotone
@@ -118,7 +175,7 @@ struct Hierarchy {
   uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
   uint64_t level_tets(uint32_t level) const {
     uint64_t sum = 0;
-    for (uint32_t n = level_first[level]; n < level_first[level + 1]; ++n) sum += nodes[n].tets.size() / 4;
+    for (uint32_t n = level_first[level]; n < level_first[level + 1]; ++n) sum += nodes.tet_count(n);
     return sum;
   }
 };
@@ -168,13 +225,22 @@ std::vector<PatchRange> dag_arcs(Hierarchy& hierarchy, uint32_t values_per_node)
 
 // ---- store ----
 
-// Reorders the tets inside every patch depth first over their shared faces, for the cut-border
-// coding of segments.bin (mt_tet_order.cpp); patch ranges stay valid.
-void order_patches_depth_first(Hierarchy& hierarchy, std::span<const PatchRange> arcs, unsigned threads);
+// Reorders the tets of `ranges` (patches of one node, as (begin, count)) depth first over their
+// shared faces, for the cut-border coding of segments.bin (mt_tet_order.cpp); the ranges stay
+// valid.
+struct OrderScratch;
+class PatchOrderer {
+ public:
+  PatchOrderer();
+  ~PatchOrderer();
+  void order(std::vector<uint32_t>& tets, std::span<const std::pair<uint32_t, uint32_t>> ranges);
+ private:
+  std::unique_ptr<OrderScratch> scratch_;
+};
 
 struct StoreInput {
   const IngestedMesh& mesh;
-  const Hierarchy& hierarchy;
+  Hierarchy& hierarchy;  // with --compress-segments cutborder, each patch's tets reordered for it
   std::span<const PatchRange> arcs;
   const PreprocessOptions& options;
   std::filesystem::path mesh_path, store_path;

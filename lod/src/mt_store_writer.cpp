@@ -29,44 +29,61 @@ VertexOwners vertex_owners(const Hierarchy& h, uint64_t vertex_total) {
   VertexOwners out;
   out.owner.assign(vertex_total, kNone);
   std::copy(h.level0_owner.begin(), h.level0_owner.end(), out.owner.begin());
-  for (uint32_t n = 0; n < node_count; ++n)
-    for (uint32_t g : h.nodes[n].tets)
+  std::vector<uint32_t> buffer;
+  for (uint32_t n = h.level_first[1]; n < node_count; ++n)  // every input vertex has its owner
+    for (uint32_t g : h.nodes.read(n, buffer))
       if (out.owner[g] == kNone) out.owner[g] = n;
   out.owned.resize(node_count);
   for (uint64_t g = 0; g < vertex_total; ++g) out.owned[out.owner[g]].push_back(static_cast<uint32_t>(g));
   return out;
 }
 
+// The faces of each segment shared with another segment of its level; the faces inside a
+// segment are paired again as it is written (segment_data), so that only the borders are held.
 struct SegmentAdjacency {
-  std::vector<std::vector<uint32_t>> opposites;                    // per segment, 4 per tet
   std::vector<std::vector<storage::store::BorderLink>> links;      // per segment
   std::vector<std::vector<uint32_t>> neighbours;                   // per segment, may repeat
 };
 
-// Faces paired inside every segment, then across the segments of the same level.
-SegmentAdjacency pair_segment_faces(const Hierarchy& h, unsigned threads) {
+// Each segment's tets as stored: with the cut-border coding, every patch's tets reordered
+// depth first (mt_tet_order.cpp); then its faces paired inside it, and the open ones across the
+// segments of the same level.
+SegmentAdjacency pair_segment_faces(Hierarchy& h, std::span<const PatchRange> arcs, bool order_patches, unsigned threads) {
   const uint32_t node_count = static_cast<uint32_t>(h.nodes.size());
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> patches(node_count);  // per floor: (begin, count)
+  if (order_patches)
+    for (const PatchRange& a : arcs) patches[a.floor].push_back({a.begin, a.count});
   SegmentAdjacency out;
-  out.opposites.resize(node_count);
   out.links.resize(node_count);
   out.neighbours.resize(node_count);
-  std::vector<FacePairingScratch> scratch(threads);  // one per worker
+  struct Scratch {
+    FacePairingScratch pairing;
+    std::vector<uint32_t> tets, opposite, buffer;
+    PatchOrderer orderer;
+  };
+  std::vector<Scratch> scratch(std::max(1u, threads));  // one per worker
   for (uint32_t L = 0; L < h.level_count(); ++L) {
     std::vector<std::vector<OpenFace>> unpaired(h.level_first[L + 1] - h.level_first[L]);
     parallel_for(unpaired.size(), threads, [&](size_t i, unsigned worker) {
       const uint32_t n = h.level_first[L] + static_cast<uint32_t>(i);
-      const auto& tets = h.nodes[n].tets;
-      auto& opposite = out.opposites[n];
-      pair_faces(tets, scratch[worker], opposite);  // unpaired faces: kNoOppositeFace == kMeshBoundary
-      for (uint32_t f = 0; f < opposite.size(); ++f)
-        if (opposite[f] == storage::store::kMeshBoundary) unpaired[i].push_back({face_key(tet_face(tets, f / 4, int(f % 4))), n, f});
+      Scratch& s = scratch[worker];
+      const std::span<const uint32_t> ids = h.nodes.read(n, s.buffer);
+      s.tets.assign(ids.begin(), ids.end());
+      if (!patches[n].empty()) {
+        s.orderer.order(s.tets, patches[n]);
+        h.nodes.write(n, 0, s.tets);
+      }
+      pair_faces(s.tets, s.pairing, s.opposite);  // unpaired faces: kNoOppositeFace == kMeshBoundary
+      for (uint32_t f = 0; f < s.opposite.size(); ++f)
+        if (s.opposite[f] == storage::store::kMeshBoundary) unpaired[i].push_back({face_key(tet_face(s.tets, f / 4, int(f % 4))), n, f});
     });
     std::vector<OpenFace> rest;
-    for (auto& u : unpaired) rest.insert(rest.end(), u.begin(), u.end());
+    for (auto& u : unpaired) {
+      rest.insert(rest.end(), u.begin(), u.end());
+      std::vector<OpenFace>().swap(u);
+    }
     pair_open_faces(rest, [&](const OpenFace& x, const OpenFace& y) {
       if (x.segment == y.segment) return;
-      out.opposites[x.segment][x.face] = storage::store::kSegmentBorder;
-      out.opposites[y.segment][y.face] = storage::store::kSegmentBorder;
       out.links[x.segment].push_back({x.face, y.segment, y.face});
       out.links[y.segment].push_back({y.face, x.segment, x.face});
       out.neighbours[x.segment].push_back(y.segment);
@@ -82,7 +99,9 @@ std::vector<std::array<float, 6>> segment_bounds(const Hierarchy& h, const Verte
                                                  std::vector<std::vector<uint32_t>>& neighbours) {
   const uint32_t node_count = static_cast<uint32_t>(h.nodes.size());
   std::vector<std::array<float, 6>> node_bounds(node_count);
+  std::vector<uint32_t> buffer;
   for (uint32_t n = 0; n < node_count; ++n) {
+    const std::span<const uint32_t> ids = h.nodes.read(n, buffer);
     auto& b = node_bounds[n];
     b = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
          std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest()};
@@ -92,10 +111,10 @@ std::vector<std::array<float, 6>> segment_bounds(const Hierarchy& h, const Verte
         b[3 + k] = std::max(b[3 + k], table.xyz[3 * size_t{g} + k]);
       }
     };
-    for (uint32_t g : h.nodes[n].tets) extend(g);
+    for (uint32_t g : ids) extend(g);
     for (uint32_t g : owners.owned[n]) extend(g);
     // shared copies' owners are neighbours too
-    for (uint32_t g : h.nodes[n].tets)
+    for (uint32_t g : ids)
       if (owners.owner[g] != n) {
         neighbours[n].push_back(owners.owner[g]);
         neighbours[owners.owner[g]].push_back(n);
@@ -111,15 +130,15 @@ std::vector<std::array<float, 6>> segment_bounds(const Hierarchy& h, const Verte
 // Segment n as stored: owned vertices, then shared copies (ascending global id), local tets.
 // `local` is all kNone on entry and on return.
 storage::SegmentData segment_data(uint32_t n, const StoreInput& in, const VertexOwners& owners, SegmentAdjacency& adjacency,
-                                  const std::array<float, 6>& bounds, std::vector<uint32_t>& local) {
+                                  const std::array<float, 6>& bounds, std::vector<uint32_t>& local, FacePairingScratch& pairing, std::vector<uint32_t>& buffer) {
   const VertexTable& table = in.mesh.table;
-  const BuildNode& node = in.hierarchy.nodes[n];
+  const std::span<const uint32_t> node_tets = in.hierarchy.nodes.read(n, buffer);
   storage::SegmentData data;
   data.id = n;
   data.global_ids = owners.owned[n];
   data.owned_vertex_count = static_cast<uint32_t>(owners.owned[n].size());
   std::vector<uint32_t> shared;
-  for (uint32_t g : node.tets)
+  for (uint32_t g : node_tets)
     if (owners.owner[g] != n) shared.push_back(g);
   std::sort(shared.begin(), shared.end());
   shared.erase(std::unique(shared.begin(), shared.end()), shared.end());
@@ -143,13 +162,14 @@ storage::SegmentData segment_data(uint32_t n, const StoreInput& in, const Vertex
     base += nv * a.components;
     value_base += a.components;
   }
-  data.tets.resize(node.tets.size());
-  for (size_t i = 0; i < data.tets.size(); ++i) data.tets[i] = local[node.tets[i]];
+  data.tets.resize(node_tets.size());
+  for (size_t i = 0; i < data.tets.size(); ++i) data.tets[i] = local[node_tets[i]];
   for (uint32_t g : data.global_ids) local[g] = kNone;
   // tets are grouped by patch (dag.bin), not border-first: every tet counts as a border tet
   data.boundary_tet_count = static_cast<uint32_t>(data.tets.size() / 4);
-  data.opposites = std::move(adjacency.opposites[n]);
+  pair_faces(node_tets, pairing, data.opposites);  // the same pairing as pair_segment_faces'
   data.links = std::move(adjacency.links[n]);
+  for (const storage::store::BorderLink& link : data.links) data.opposites[link.face] = storage::store::kSegmentBorder;
   std::sort(data.links.begin(), data.links.end(), [](const storage::store::BorderLink& a, const storage::store::BorderLink& b) { return a.face < b.face; });
   std::copy(bounds.begin(), bounds.end(), data.bounds);
   return data;
@@ -164,8 +184,8 @@ uint64_t write_dag_file(const StoreInput& in, const std::vector<std::array<float
   std::vector<dag::Patch> dag_patches(in.arcs.size());
   for (uint32_t n = 0; n < node_count; ++n) {
     dag::Node& d = dag_nodes[n];
-    d.level = h.nodes[n].level;
-    d.tet_count = static_cast<uint32_t>(h.nodes[n].tets.size() / 4);
+    d.level = h.nodes.level(n);
+    d.tet_count = static_cast<uint32_t>(h.nodes.tet_count(n));
     std::copy(node_bounds[n].begin(), node_bounds[n].end(), d.bounds);
   }
   std::vector<uint32_t> parent_count(node_count, 0);
@@ -195,17 +215,19 @@ uint64_t write_dag_file(const StoreInput& in, const std::vector<std::array<float
 }
 
 // Per level: segments, patches (arcs whose floor is on the level), tets and distinct vertices.
-std::vector<LevelReport> level_reports(const Hierarchy& h, std::span<const PatchRange> arcs) {
+std::vector<LevelReport> level_reports(const Hierarchy& h, std::span<const PatchRange> arcs, uint64_t vertex_total) {
   std::vector<LevelReport> out;
+  std::vector<uint32_t> buffer;
+  std::vector<uint8_t> used;
   for (uint32_t L = 0; L < h.level_count(); ++L) {
     LevelReport lr;
     lr.level = L;
     lr.segments = h.level_first[L + 1] - h.level_first[L];
     lr.tets = h.level_tets(L);
-    std::vector<uint32_t> used;
-    for (uint32_t n = h.level_first[L]; n < h.level_first[L + 1]; ++n) used.insert(used.end(), h.nodes[n].tets.begin(), h.nodes[n].tets.end());
-    std::sort(used.begin(), used.end());
-    lr.vertices = static_cast<uint64_t>(std::unique(used.begin(), used.end()) - used.begin());
+    used.assign(vertex_total, 0);
+    for (uint32_t n = h.level_first[L]; n < h.level_first[L + 1]; ++n)
+      for (uint32_t g : h.nodes.read(n, buffer)) used[g] = 1;
+    lr.vertices = static_cast<uint64_t>(std::count(used.begin(), used.end(), uint8_t{1}));
     for (const auto& p : arcs)
       if (p.floor >= h.level_first[L] && p.floor < h.level_first[L + 1]) ++lr.patches;
     out.push_back(lr);
@@ -217,7 +239,7 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
   const IngestedMesh& mesh = in.mesh;
   const Hierarchy& h = in.hierarchy;
   uint64_t stored_tets = 0;
-  for (const auto& node : h.nodes) stored_tets += node.tets.size() / 4;
+  for (uint32_t n = 0; n < h.nodes.size(); ++n) stored_tets += h.nodes.tet_count(n);
   std::filesystem::path hashed = in.mesh_path;
   if (storage::format_from_path(in.mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
   nlohmann::json manifest;
@@ -254,12 +276,12 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
 }  // namespace
 
 StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
-  const Hierarchy& h = in.hierarchy;
+  Hierarchy& h = in.hierarchy;
   const VertexTable& table = in.mesh.table;
   const uint32_t node_count = static_cast<uint32_t>(h.nodes.size());
   const uint64_t vertex_total = table.size();
   const VertexOwners owners = vertex_owners(h, vertex_total);
-  SegmentAdjacency adjacency = pair_segment_faces(h, in.options.threads);
+  SegmentAdjacency adjacency = pair_segment_faces(h, in.arcs, in.options.compression == storage::store::Compression::kCutBorder, in.options.threads);
   const std::vector<std::array<float, 6>> node_bounds = segment_bounds(h, table, owners, adjacency.neighbours);
   // level 0 in streaming order (§6.1.3), then the coarser levels
   const uint32_t level0 = h.level_first[1];
@@ -272,15 +294,16 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
   for (uint32_t n = level0; n < node_count; ++n) write_order.push_back(n);
 
   storage::StoreWriter writer(in.store_path, in.options.replace, vertex_total, node_count, table.floats, in.options.compression);
-  std::vector<uint32_t> local(vertex_total, kNone);
+  std::vector<uint32_t> local(vertex_total, kNone), buffer;
+  FacePairingScratch pairing;
   uint64_t written = 0;
   for (uint32_t n : write_order) {
-    writer.add_segment(segment_data(n, in, owners, adjacency, node_bounds[n], local));
+    writer.add_segment(segment_data(n, in, owners, adjacency, node_bounds[n], local, pairing, buffer));
     stage("write", 0.9 * double(++written) / node_count);
   }
   StoreOutput out;
   out.dag_bytes = write_dag_file(in, node_bounds, writer.temp_directory());
-  out.levels = level_reports(h, in.arcs);
+  out.levels = level_reports(h, in.arcs, vertex_total);
   nlohmann::json manifest = manifest_json(in, order, out.levels);
   stage("write", 0.95);
   writer.finish(adjacency.neighbours, manifest);

@@ -10,18 +10,17 @@
 #include <vector>
 
 #include "mt_stages.h"
-#include "tetrascope/storage/parallel_for.h"
 #include "tetrascope/storage/tet_topology.h"
 
 namespace tetrascope::lod::mt {
-
-namespace {
 
 struct OrderScratch {
   FacePairingScratch pairing;
   std::vector<uint32_t> opposite, stack, order, reordered;
   std::vector<uint8_t> visited;
 };
+
+namespace {
 
 // Reorders tets [begin, begin + count) of `tets` (4 ids each) depth first, starting from the
 // first unvisited tet in the current order whenever a component is done.
@@ -53,13 +52,11 @@ void order_range(std::vector<uint32_t>& tets, uint32_t begin, uint32_t count, Or
 
 }  // namespace
 
-void order_patches_depth_first(Hierarchy& h, std::span<const PatchRange> arcs, unsigned threads) {
-  std::vector<std::vector<const PatchRange*>> by_floor(h.nodes.size());
-  for (const PatchRange& a : arcs) by_floor[a.floor].push_back(&a);
-  std::vector<OrderScratch> scratch(std::max(1u, threads));
-  parallel_for(h.nodes.size(), threads, [&](size_t n, unsigned worker) {
-    for (const PatchRange* a : by_floor[n]) order_range(h.nodes[n].tets, a->begin, a->count, scratch[worker]);
-  });
+PatchOrderer::PatchOrderer() : scratch_(std::make_unique<OrderScratch>()) {}
+PatchOrderer::~PatchOrderer() = default;
+
+void PatchOrderer::order(std::vector<uint32_t>& tets, std::span<const std::pair<uint32_t, uint32_t>> ranges) {
+  for (const auto& [begin, count] : ranges) order_range(tets, begin, count, *scratch_);
 }
 
 }  // namespace tetrascope::lod::mt

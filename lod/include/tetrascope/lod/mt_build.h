@@ -44,6 +44,10 @@ struct PreprocessOptions {
   // (bench/results/segment_compression.json)
   storage::store::Compression compression = storage::store::Compression::kCutBorder;
   storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
+  // The memory the build aims to stay within (--memory-mb), beyond its per-vertex arrays: a
+  // level whose tets would take more than a quarter of it, the input's first of all, is kept in
+  // a spill file beside the store and read a segment at a time (issue 21). 0: nothing spilled.
+  uint64_t memory_mb = 2048;
   // The ranks of an MPI launch that share the build (launched_ranks(), ranks.h); null: this
   // process alone. Every rank calls preprocess with the same options; each simplifies its
   // share of every level's segments, and rank 0 alone writes the store, the same bytes as a
@@ -61,6 +65,7 @@ struct PreprocessReport {
   std::vector<LevelReport> levels;
   uint32_t segments = 0, patches = 0;
   uint64_t store_bytes = 0, dag_bytes = 0;
+  uint64_t spilled_bytes = 0;  // the largest the spill files grew (--memory-mb), input and levels
   double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
   nlohmann::json to_json() const;
 };
