@@ -244,18 +244,22 @@ class LevelBuilder {
     std::vector<std::vector<uint32_t>> ceiling_vertices(regions);
     const std::vector<std::vector<CeilingPatch>> ceiling_patches = cut_into_patches(first, last, partition, ceiling_vertices);
     const CeilingShare share = share_ceilings(ceiling_patches);
-    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets, share);
-    std::vector<CeilingResult> results(regions);
     const double work_before = work_done_, work = level_work(double(tets));
+    // with common-error targets the traces take about half the level's time
+    const double traced = traces_costs(ceiling_patches.size()) ? 0.5 : 0.0;
+    std::mutex reporting;
+    auto report = [&](double fraction) {
+      std::unique_lock lock(reporting, std::try_to_lock);  // reported by one worker at a time
+      if (lock) stage_("simplify", simplify_fraction(work_before + work * fraction));
+    };
+    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets, share, [&](double f) { report(traced * f); });
+    std::vector<CeilingResult> results(regions);
     const size_t mine = share.mine.size();
     std::atomic<uint32_t> simplified_ceilings{0};
-    std::mutex reporting;
     parallel_for(mine, options_.threads, [&](size_t i, unsigned) {
       const uint32_t k = share.mine[i];
       results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k], targets[k]);
-      const uint32_t done = ++simplified_ceilings;
-      std::unique_lock report(reporting, std::try_to_lock);  // a ceiling's end is reported by one worker at a time
-      if (report) stage_("simplify", simplify_fraction(work_before + work * done / double(mine)));
+      report(traced + (1 - traced) * ++simplified_ceilings / double(mine));
     });
     if (shared()) share_results(*options_.ranks, share.owner, results, mesh_.attributes);
     work_done_ = work_before + work;
@@ -318,11 +322,14 @@ class LevelBuilder {
   // The tets each ceiling is simplified to (0: the level ratio of its own tets). With
   // common_error, every ceiling is first simplified far with its collapse costs traced, and
   // the level's tets (level_ratio of `tets`) go where the costs are highest (level_targets.h).
-  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets, const CeilingShare& share) const {
+  // `progress(f)` is told the share f of this rank's traces done, from the workers.
+  template <class Progress>
+  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets, const CeilingShare& share,
+                                        Progress&& progress) const {
     std::vector<uint64_t> targets(ceiling_patches.size(), 0);
-    // the common error is that of QEM's collapse costs: the sampler's levels keep the ratio
-    if (!options_.common_error || options_.simplifier == SimplifyMethod::kSample || ceiling_patches.size() < 2) return targets;
+    if (!traces_costs(ceiling_patches.size())) return targets;
     std::vector<CeilingTrace> traces(ceiling_patches.size());
+    std::atomic<uint32_t> traced{0};
     parallel_for(share.mine.size(), options_.threads, [&](size_t i, unsigned) {
       const uint32_t k = share.mine[i];
       CeilingMesh c = gather_ceiling(ceiling_patches[k]);
@@ -331,12 +338,17 @@ class LevelBuilder {
       SimplifyOptions so = ceiling_options(std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * options_.level_ratio * double(traces[k].tets)))));
       so.trace_costs = true;
       traces[k].steps = simplify(c.mesh, so, c.locked).cost_trace;
+      progress(++traced / double(share.mine.size()));
     });
     if (shared()) share_traces(*options_.ranks, share.owner, traces);
     // every ceiling simplified at least to √level_ratio of its tets (halfway to the ratio, in
     // steps of the ladder), so that every node of the level is coarser than its children
     return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), std::sqrt(options_.level_ratio));
   }
+
+  // Whether a level of `ceilings` ceilings gets common-error targets: the common error is that
+  // of QEM's collapse costs, so the sampler's levels keep the ratio.
+  bool traces_costs(size_t ceilings) const { return options_.common_error && options_.simplifier != SimplifyMethod::kSample && ceilings >= 2; }
 
   // Whether the level's ceilings are shared among the ranks of an MPI launch.
   bool shared() const { return options_.ranks && options_.ranks->size() > 1; }
