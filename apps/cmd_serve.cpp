@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <thread>
 
 #include "args.h"
@@ -11,6 +12,7 @@
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/view_frame.h"
 #include "tetrascope/server/loadtest.h"
+#include "tetrascope/server/memory_fit.h"
 #include "tetrascope/server/server.h"
 
 namespace tetrascope::apps {
@@ -23,7 +25,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 int run_serve(const Arguments& raw) {
   Args args(raw, {"--read-only"}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
                       "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--worker-idle-release", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
-                      "--interaction-scale", "--frame-ms", "--refine-growth", "--web"});
+                      "--interaction-scale", "--frame-ms", "--refine-growth", "--web", "--memory-mb"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
     return 2;
@@ -65,6 +67,20 @@ int run_serve(const Arguments& raw) {
   if (o.refine_growth < 1.5 || o.refine_growth > 16) throw std::invalid_argument("--refine-growth must be 1.5 to 16 (how much longer each refinement step may take than the one before)");
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   o.read_only = args.has("--read-only");
+  // inside a memory limit (the process's cgroup, or --memory-mb, the smaller): a still budget
+  // and a segment cache that fit it, or a clear refusal when nothing would (memory_fit.h)
+  std::optional<server::MemoryLimit> limit = server::process_memory_limit();
+  if (args.has("--memory-mb")) {
+    const uint64_t bytes = uint64_t(args.number("--memory-mb", 0)) << 20;
+    if (bytes == 0) throw std::invalid_argument("--memory-mb must be at least 1");
+    if (!limit || bytes < limit->bytes) limit = server::MemoryLimit{bytes, "--memory-mb"};
+  }
+  if (limit) {
+    const server::MemoryFit fit = server::fit_to_memory(o, *limit);
+    o.still_budget = fit.still_budget;
+    o.cache_bytes = fit.cache_bytes;
+    if (fit.changed) std::printf("tetrascope serve: %s\n", fit.message.c_str());
+  }
   server::Server server(o);
   std::printf("tetrascope serve: open http://%s:%u/ (data %s, %u render workers%s)\n", o.bind == "0.0.0.0" ? "localhost" : o.bind.c_str(), server.port(),
               o.data_dir.c_str(), o.render_workers, o.token.empty() ? "" : ", token required");
