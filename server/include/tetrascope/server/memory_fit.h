@@ -3,7 +3,7 @@
 // needs was measured on the 20M blade (bench/results/serve_memory_limit-*.json,
 // README "Serving under a memory limit"): about 32 MB plus 32 MB a render worker of its own
 // memory, about 80 MB of Mesa's and LLVM's code kept in the page cache, the segment cache,
-// and about 400 bytes a tet of the still it draws (the cut, its GL buffers, the sort). Under
+// and about 512 bytes a tet of the still it draws (the cut, its GL buffers, the sort). Under
 // a limit that the defaults would overrun, the still budget and the segment cache shrink to
 // fit; under one too small to draw at all, the server refuses to start and says why, rather
 // than being killed by the kernel mid-frame or thrashing its code pages (both seen).
