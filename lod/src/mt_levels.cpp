@@ -70,6 +70,7 @@ struct LevelPartition {
   std::vector<uint32_t> segment_of;  // per global vertex the level uses: partition segment
   std::vector<uint32_t> compact;     // partition segment -> region
   uint32_t regions = 0;
+  std::vector<uint64_t> tets;        // per region
   uint32_t region(const uint32_t* tet) const {
     uint32_t r = kNone;
     for (int k = 0; k < 4; ++k) r = std::min(r, segment_of[tet[k]]);
@@ -79,44 +80,41 @@ struct LevelPartition {
 
 // Partitions the vertices of nodes [first, last) into about `parts` regions.
 LevelPartition partition_level(const NodeTets& nodes, uint32_t first, uint32_t last, const VertexTable& table, uint32_t parts, bool rotate, int seed) {
+  // two passes over the level's tets (each a read of the spill file when spilled)
   std::vector<uint32_t> buffer;
   LevelPartition out;
-  // the vertices used, ascending (local ids first, then their segments)
-  std::vector<uint32_t>& local_of = out.segment_of;
-  local_of.assign(table.size(), kNone);
+  // 1: the tets of every vertex, which also tells the vertices used (ascending)
+  std::vector<uint32_t>& uses = out.segment_of;  // the segments overwrite the counts
+  uses.assign(table.size(), 0);
   for (uint32_t n = first; n < last; ++n)
     for_each_chunk(nodes, n, buffer, [&](std::span<const uint32_t> ids) {
-      for (uint32_t g : ids) local_of[g] = 0;
+      for (uint32_t g : ids) ++uses[g];
     });
   std::vector<uint32_t> used;
-  for (uint32_t g = 0; g < local_of.size(); ++g)
-    if (local_of[g] == 0) {
-      local_of[g] = static_cast<uint32_t>(used.size());
-      used.push_back(g);
-    }
-  std::vector<float> xyz(3 * used.size());
-  for (size_t i = 0; i < used.size(); ++i)
+  for (uint32_t g = 0; g < uses.size(); ++g)
+    if (uses[g] > 0) used.push_back(g);
+  std::vector<float> xyz(3 * used.size()), tets_per_vertex(used.size());
+  for (size_t i = 0; i < used.size(); ++i) {
     for (int k = 0; k < 3; ++k) xyz[3 * i + size_t(k)] = table.xyz[3 * size_t{used[i]} + size_t(k)];
+    tets_per_vertex[i] = 0.25f * float(uses[used[i]]);  // each vertex weighs a quarter of its tets
+  }
   if (rotate && !used.empty()) rotate_45(xyz);
-  // each vertex weighs a quarter of its tets
-  std::vector<float> tets_per_vertex(used.size(), 0.0f);
-  for (uint32_t n = first; n < last; ++n)
-    for_each_chunk(nodes, n, buffer, [&](std::span<const uint32_t> ids) {
-      for (uint32_t g : ids) tets_per_vertex[local_of[g]] += 0.25f;
-    });
   const SegmentPartition partition = partition_segments(xyz, parts, 0, seed, tets_per_vertex);
   for (size_t i = 0; i < used.size(); ++i) out.segment_of[used[i]] = partition.segment_of_vertex[i];
-  // a region may end up without tets (all its vertices' tets went to lower regions): renumber
+  // 2: the tets of every partition segment; one may end up without tets (all its vertices'
+  // tets went to lower segments): the regions are the others, renumbered
   out.compact.resize(partition.segments);
   std::iota(out.compact.begin(), out.compact.end(), 0u);
-  std::vector<uint8_t> has_tets(partition.segments, 0);
+  std::vector<uint64_t> tets(partition.segments, 0);
   for (uint32_t n = first; n < last; ++n)
     for_each_chunk(nodes, n, buffer, [&](std::span<const uint32_t> ids) {
-      for (size_t t = 0; t < ids.size() / 4; ++t) has_tets[out.region(&ids[4 * t])] = 1;
+      for (size_t t = 0; t < ids.size() / 4; ++t) ++tets[out.region(&ids[4 * t])];
     });
-  uint32_t next = 0;
-  for (size_t r = 0; r < has_tets.size(); ++r) out.compact[r] = has_tets[r] ? next++ : kNone;
-  out.regions = next;
+  for (size_t r = 0; r < tets.size(); ++r) {
+    out.compact[r] = tets[r] ? static_cast<uint32_t>(out.tets.size()) : kNone;
+    if (tets[r]) out.tets.push_back(tets[r]);
+  }
+  out.regions = static_cast<uint32_t>(out.tets.size());
   return out;
 }
 
@@ -180,13 +178,9 @@ class LevelBuilder {
         partition_level(input, 0, 1, mesh_.table, static_cast<uint32_t>(std::min<uint64_t>(parts, storage::store::kMaxSegments)), false, options_.seed);
     const uint32_t count = partition.regions;
     std::vector<uint32_t> buffer;
-    std::vector<uint64_t> size(count, 0);
-    for_each_chunk(input, 0, buffer, [&](std::span<const uint32_t> ids) {
-      for (size_t t = 0; t < ids.size() / 4; ++t) ++size[partition.region(&ids[4 * t])];
-    });
     out_.nodes = NodeTets(mesh_.spill_directory);
     const bool spill = spilled_level(input_tets);
-    for (uint32_t r = 0; r < count; ++r) out_.nodes.add(0, size[r], spill);
+    for (uint32_t r = 0; r < count; ++r) out_.nodes.add(0, partition.tets[r], spill);
     // every node filled through a small buffer (4 KB a node)
     constexpr size_t kBuffered = 256;
     std::vector<std::vector<uint32_t>> pending(count);

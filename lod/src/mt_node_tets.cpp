@@ -18,6 +18,20 @@ namespace {
   throw std::runtime_error("preprocess: spill file in " + directory.string() + ": " + what + ": " + std::strerror(errno));
 }
 
+// All `left` bytes between `p` and the file at `at`, by ::pread or ::pwrite, however many calls
+// that takes.
+template <class Io, class Pointer>
+void whole(Io io, int fd, Pointer p, uint64_t at, uint64_t left, const std::filesystem::path& directory, const char* failure) {
+  while (left > 0) {
+    const ssize_t done = io(fd, p, left, static_cast<off_t>(at));
+    if (done < 0 && errno == EINTR) continue;
+    if (done <= 0) spill_error(directory, failure);
+    p += done;
+    at += static_cast<uint64_t>(done);
+    left -= static_cast<uint64_t>(done);
+  }
+}
+
 }  // namespace
 
 NodeTets::NodeTets(std::filesystem::path directory) : directory_(std::move(directory)) {}
@@ -103,16 +117,7 @@ std::span<const uint32_t> NodeTets::read(uint32_t n, uint64_t begin, uint64_t co
   if (begin + count > node.tets) throw std::logic_error("NodeTets::read: past the node's tets");
   if (!node.spilled) return std::span<const uint32_t>(node.ids).subspan(4 * begin, 4 * count);
   buffer.resize(4 * count);
-  char* p = reinterpret_cast<char*>(buffer.data());
-  uint64_t at = node.offset + 16 * begin, left = 16 * count;
-  while (left > 0) {
-    const ssize_t got = ::pread(fd_, p, left, static_cast<off_t>(at));
-    if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) spill_error(directory_, "read failed");
-    p += got;
-    at += static_cast<uint64_t>(got);
-    left -= static_cast<uint64_t>(got);
-  }
+  whole(::pread, fd_, reinterpret_cast<char*>(buffer.data()), node.offset + 16 * begin, 16 * count, directory_, "read failed");
   return buffer;
 }
 
@@ -123,16 +128,7 @@ void NodeTets::write(uint32_t n, uint64_t begin, std::span<const uint32_t> ids) 
     std::copy(ids.begin(), ids.end(), node.ids.begin() + static_cast<std::ptrdiff_t>(4 * begin));
     return;
   }
-  const char* p = reinterpret_cast<const char*>(ids.data());
-  uint64_t at = node.offset + 16 * begin, left = 4 * ids.size();
-  while (left > 0) {
-    const ssize_t put = ::pwrite(fd_, p, left, static_cast<off_t>(at));
-    if (put < 0 && errno == EINTR) continue;
-    if (put <= 0) spill_error(directory_, "write failed (is the disk full?)");
-    p += put;
-    at += static_cast<uint64_t>(put);
-    left -= static_cast<uint64_t>(put);
-  }
+  whole(::pwrite, fd_, reinterpret_cast<const char*>(ids.data()), node.offset + 16 * begin, 4 * ids.size(), directory_, "write failed (is the disk full?)");
 }
 
 void NodeTets::release(uint32_t n) {
