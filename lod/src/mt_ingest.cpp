@@ -103,7 +103,7 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
   // the tets as they come, in memory or spilled (the file's cells bound its tets loosely)
   out.spill_directory = spill_directory;
   out.tets = NodeTets(spill_directory);
-  out.tets.add(0, uint64_t{0}, options.memory_mb > 0 && spill_level(header.cell_count, options));
+  out.tets.add(0, uint64_t{0}, spill_level(header.cell_count, options));
   std::vector<uint8_t> used(table.size(), 0);
   storage::TetChunk chunk;
   while (stream->next_tets(chunk)) {

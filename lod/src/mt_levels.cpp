@@ -179,7 +179,7 @@ class LevelBuilder {
     const uint32_t count = partition.regions;
     std::vector<uint32_t> buffer;
     out_.nodes = NodeTets(mesh_.spill_directory);
-    const bool spill = spilled_level(input_tets);
+    const bool spill = spill_level(input_tets, options_);
     for (uint32_t r = 0; r < count; ++r) out_.nodes.add(0, partition.tets[r], spill);
     // every node filled through a small buffer (4 KB a node)
     constexpr size_t kBuffered = 256;
@@ -220,9 +220,6 @@ class LevelBuilder {
     for (uint32_t v = 0; v < n0; ++v)
       if (located_node_[v] != kNone) followed_.push_back(v);
   }
-
-  // Whether a level of `tets` tets is kept in the spill file (--memory-mb).
-  bool spilled_level(uint64_t tets) const { return options_.memory_mb > 0 && spill_level(tets, options_); }
 
   // Level `level` + 1 from the mesh of `level` (`tets` tets).
   void build_level(uint32_t level, uint64_t tets) {
@@ -456,7 +453,7 @@ class LevelBuilder {
     const size_t values = channel_values();
     uint64_t level_tets = 0;
     for (const CeilingResult& res : results) level_tets += res.mesh.tet_count();
-    const bool spill = spilled_level(level_tets);
+    const bool spill = spill_level(level_tets, options_);
     out_.field.resize(out_.field.size() + results.size() * values, 0.0f);
     out_.spatial.resize(out_.spatial.size() + results.size() * values, 0.0f);
     for (uint32_t k = 0; k < results.size(); ++k) {

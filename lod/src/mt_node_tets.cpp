@@ -131,10 +131,4 @@ void NodeTets::write(uint32_t n, uint64_t begin, std::span<const uint32_t> ids) 
   whole(::pwrite, fd_, reinterpret_cast<const char*>(ids.data()), node.offset + 16 * begin, 4 * ids.size(), directory_, "write failed (is the disk full?)");
 }
 
-void NodeTets::release(uint32_t n) {
-  Node& node = nodes_[n];
-  node.tets = 0;
-  std::vector<uint32_t>().swap(node.ids);
-}
-
 }  // namespace tetrascope::lod::mt

@@ -111,8 +111,6 @@ class NodeTets {
   std::span<const uint32_t> read(uint32_t n, std::vector<uint32_t>& buffer) const { return read(n, 0, tet_count(n), buffer); }
   // Overwrites the node's tets from tet `begin` on.
   void write(uint32_t n, uint64_t begin, std::span<const uint32_t> ids);
-  // Frees node n's memory (it then has no tets); its spilled bytes stay until the end.
-  void release(uint32_t n);
 
  private:
   struct Node {
@@ -130,8 +128,9 @@ class NodeTets {
 };
 
 // Whether a level of `tets` tets is kept on disk: its ids would take more than a quarter of
-// the memory budget (the build holds up to about four times a level's ids at once).
-inline bool spill_level(uint64_t tets, const PreprocessOptions& options) { return 16 * tets > (options.memory_mb << 20) / 4; }
+// the memory budget (the build holds up to about four times a level's ids at once); never
+// with a budget of 0.
+inline bool spill_level(uint64_t tets, const PreprocessOptions& options) { return options.memory_mb > 0 && 16 * tets > (options.memory_mb << 20) / 4; }
 
 // ---- ingest ----
 

@@ -79,7 +79,7 @@ SegmentAdjacency pair_segment_faces(Hierarchy& h, std::span<const PatchRange> ar
     });
     size_t open = 0;
     for (const auto& u : unpaired) open += u.size();
-    std::vector<OpenFace> rest;  // sized once: growing it would double the peak (3.5 GB at 109M tets)
+    std::vector<OpenFace> rest;  // sized once: growing could take twice its bytes, at the writer's peak
     rest.reserve(open);
     for (auto& u : unpaired) {
       rest.insert(rest.end(), u.begin(), u.end());
