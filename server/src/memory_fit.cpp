@@ -83,10 +83,10 @@ MemoryFit fit_to_memory(const ServerOptions& options, const MemoryLimit& limit) 
   fit.cache_bytes = options.cache_bytes;
   const uint64_t fixed = kBaseBytes + kWorkerBytes * options.render_workers + kCodeBytes;
   const uint64_t interaction = std::max<uint64_t>(options.interaction_budget, 1) * kStillBytesPerTet;
-  fit.needed_bytes = fixed + kMinCacheBytes + interaction;
+  const uint64_t needed = fixed + kMinCacheBytes + interaction;  // the least that draws at all
   auto mb = [](uint64_t bytes) { return std::to_string((bytes + kMiB / 2) / kMiB) + " MB"; };
-  if (limit.bytes < fit.needed_bytes)
-    throw std::runtime_error("the memory limit (" + mb(limit.bytes) + ", " + limit.source + ") is below the " + mb(fit.needed_bytes) + " a server with " +
+  if (limit.bytes < needed)
+    throw std::runtime_error("the memory limit (" + mb(limit.bytes) + ", " + limit.source + ") is below the " + mb(needed) + " a server with " +
                              std::to_string(options.render_workers) + " render worker(s) needs to draw at all; raise the limit, or use fewer --workers");
   // the cache: an eighth of the limit, enough for a still's segments, at most what was asked
   const uint64_t cache = std::min(options.cache_bytes, std::max({limit.bytes / 8, kMinCacheBytes, options.still_budget * kCacheBytesPerStillTet}));

@@ -34,7 +34,6 @@ std::optional<MemoryLimit> process_memory_limit();
 
 struct MemoryFit {
   uint64_t still_budget = 0, cache_bytes = 0;  // as fitted
-  uint64_t needed_bytes = 0;                   // the least the server needs to draw at all
   bool changed = false;
   std::string message;  // what was changed and why, for the log; empty when nothing was
 };
