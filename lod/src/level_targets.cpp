@@ -11,8 +11,11 @@ std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces,
   if (!(max_ratio > 0 && max_ratio <= 1)) throw std::invalid_argument("common_error_targets: max_ratio must be in (0, 1]");
   std::vector<uint64_t> target(traces.size());
   uint64_t total = 0;
-  // (running maximum of the cost, ceiling, step) of every optional collapse
+  // (running maximum of the cost, ceiling, step) of every optional collapse; step kBlocked:
+  // the tets a blocked trace could not remove
+  constexpr uint32_t kBlocked = 0xFFFFFFFFu;
   std::vector<std::tuple<double, uint32_t, uint32_t>> optional;
+  std::vector<uint64_t> blocked(traces.size(), 0);
   for (uint32_t k = 0; k < traces.size(); ++k) {
     const CeilingTrace& t = traces[k];
     target[k] = t.tets;
@@ -27,11 +30,20 @@ std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces,
         optional.emplace_back(running, k, i);
       }
     }
+    const uint64_t end = t.steps.empty() ? t.tets : t.steps.back().first;
+    if (t.goal && end > t.goal) {
+      blocked[k] = end - t.goal;
+      optional.emplace_back(running, k, kBlocked);
+    }
     total += target[k];
   }
   std::sort(optional.begin(), optional.end());
   for (const auto& [cost, k, i] : optional) {
     if (total <= total_target) break;
+    if (i == kBlocked) {  // counted, not removed: its target stays where its trace ended
+      total -= std::min(total, blocked[k]);
+      continue;
+    }
     const uint64_t now = traces[k].steps[i].first;
     total -= target[k] - std::min(target[k], now);
     target[k] = std::min(target[k], now);

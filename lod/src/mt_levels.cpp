@@ -328,6 +328,7 @@ class LevelBuilder {
       // traced down to level_ratio² of its tets: a smooth ceiling may give up a whole level more
       SimplifyOptions so = ceiling_options(std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * options_.level_ratio * double(traces[k].tets)))));
       so.trace_costs = true;
+      traces[k].goal = so.target_tets;
       traces[k].steps = simplify(c.mesh, so, c.locked).cost_trace;
       progress(++traced / double(share.mine.size()));
     });

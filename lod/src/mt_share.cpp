@@ -101,6 +101,7 @@ void decode(ByteReader& in, const std::vector<storage::AttributeInfo>& attribute
 
 void encode(const CeilingTrace& t, ByteWriter& out) {
   out.put<uint64_t>(t.tets);
+  out.put<uint64_t>(t.goal);
   std::vector<uint64_t> alive(t.steps.size());
   std::vector<double> cost(t.steps.size());
   for (size_t i = 0; i < t.steps.size(); ++i) std::tie(alive[i], cost[i]) = t.steps[i];
@@ -110,6 +111,7 @@ void encode(const CeilingTrace& t, ByteWriter& out) {
 
 void decode(ByteReader& in, const std::vector<storage::AttributeInfo>&, CeilingTrace& t) {
   t.tets = in.get<uint64_t>();
+  t.goal = in.get<uint64_t>();
   std::vector<uint64_t> alive;
   std::vector<double> cost;
   in.get_array(alive);

@@ -67,6 +67,25 @@ TEST(LevelTargets, AnUnreachableTargetTakesEveryTraceToItsEnd) {
   EXPECT_EQ(targets[2], 300u) << "a ceiling that could not be simplified keeps its tets";
 }
 
+TEST(LevelTargets, ABlockedCeilingDoesNotDriveTheOthersPastTheErrorItStoppedAt) {
+  // The first ceiling's border locks it at 600 of its 1000 tets (its trace was asked for 62)
+  // after cheap collapses; the second could go on, but past 500 tets its collapses cost a
+  // thousand times more (a thin feature going). The level's target, 600, cannot be met
+  // without the locked tets: they count as removed at the cost the first stopped at.
+  lod::CeilingTrace blocked = trace(1000, 10, 1e-4, 600);
+  blocked.goal = 62;
+  lod::CeilingTrace free = trace(1000, 10, 1e-4, 500);
+  for (int i = 1; i <= 40; ++i) free.steps.push_back({500 - 10 * uint64_t(i), 1.0 * i});
+  free.goal = 62;
+  const auto targets = lod::common_error_targets(std::vector<lod::CeilingTrace>{blocked, free}, 600, 0.5);
+  EXPECT_EQ(targets[0], 600u) << "the blocked ceiling ends where its trace ended";
+  EXPECT_EQ(targets[1], 500u) << "the free ceiling takes all the cheap collapses and none of the dear ones";
+  // without a goal the traces are taken as ending by their costs, and the free one goes on
+  blocked.goal = free.goal = 0;
+  const auto forced = lod::common_error_targets(std::vector<lod::CeilingTrace>{blocked, free}, 600, 0.5);
+  EXPECT_EQ(forced[1], free.steps.back().first);
+}
+
 TEST(LevelTargets, ABadMaxRatioIsRefused) {
   const std::vector<lod::CeilingTrace> traces{trace(100, 1, 1.0, 10)};
   EXPECT_THROW(lod::common_error_targets(traces, 50, 0), std::invalid_argument);

@@ -16,6 +16,9 @@ struct CeilingTrace {
   uint64_t tets = 0;  // before simplification
   // per collapse, in order: tets alive after it, its quadric cost (SimplifyReport::cost_trace)
   std::vector<std::pair<uint64_t, double>> steps;
+  // the tets the trace was asked to reach (0: none). A trace that ended above it was blocked
+  // by its locked border, not by its costs.
+  uint64_t goal = 0;
 };
 
 // The tets each ceiling keeps so that the level holds at most `total_target` tets (as near as
@@ -24,7 +27,12 @@ struct CeilingTrace {
 // Every ceiling takes at least the collapses that bring it to `max_ratio` of its tets (so it
 // is simplified at all) and no more than its trace holds. Each target is a count from its
 // trace (or its own tets when it has no steps), so a re-run with that target stops at the
-// same mesh. Throws std::invalid_argument for max_ratio outside (0, 1].
+// same mesh. The tets a blocked trace could not remove (down to its goal) count as removed at
+// the last cost it reached: a whole-mesh queue would have taken them about then, and they are
+// simplified at the next level, whose borders lie elsewhere. So where locked borders keep a
+// level above its total, the ceilings that could go on are not driven past the error the
+// others stopped at (on the 1M blade such a level ate the blade's tip to reach its total).
+// Throws std::invalid_argument for max_ratio outside (0, 1].
 std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio);
 
 }  // namespace tetrascope::lod
