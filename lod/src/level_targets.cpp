@@ -7,7 +7,7 @@
 
 namespace tetrascope::lod {
 
-std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio) {
+std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio, double* threshold) {
   if (!(max_ratio > 0 && max_ratio <= 1)) throw std::invalid_argument("common_error_targets: max_ratio must be in (0, 1]");
   std::vector<uint64_t> target(traces.size());
   uint64_t total = 0;
@@ -38,8 +38,10 @@ std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces,
     total += target[k];
   }
   std::sort(optional.begin(), optional.end());
+  if (threshold) *threshold = 0;
   for (const auto& [cost, k, i] : optional) {
     if (total <= total_target) break;
+    if (threshold) *threshold = cost;
     if (i == kBlocked) {  // counted, not removed: its target stays where its trace ended
       total -= std::min(total, blocked[k]);
       continue;

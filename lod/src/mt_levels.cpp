@@ -243,13 +243,14 @@ class LevelBuilder {
       std::unique_lock lock(reporting, std::try_to_lock);  // reported by one worker at a time
       if (lock) stage_("simplify", simplify_fraction(work_before + work * fraction));
     };
-    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets, share, [&](double f) { report(traced * f); });
+    double cap = 0;
+    const std::vector<uint64_t> targets = ceiling_targets(ceiling_patches, tets, share, &cap, [&](double f) { report(traced * f); });
     std::vector<CeilingResult> results(regions);
     const size_t mine = share.mine.size();
     std::atomic<uint32_t> simplified_ceilings{0};
     parallel_for(mine, options_.threads, [&](size_t i, unsigned) {
       const uint32_t k = share.mine[i];
-      results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k], targets[k]);
+      results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k], targets[k], cap);
       report(traced + (1 - traced) * ++simplified_ceilings / double(mine));
     });
     if (shared()) share_results(*options_.ranks, share.owner, results, mesh_.attributes);
@@ -310,14 +311,21 @@ class LevelBuilder {
     return ceiling_patches;
   }
 
-  // The tets each ceiling is simplified to (0: the level ratio of its own tets). With
-  // common_error, every ceiling is first simplified far with its collapse costs traced, and
-  // the level's tets (level_ratio of `tets`) go where the costs are highest (level_targets.h).
+  // The tets each ceiling is simplified to (0: the level ratio of its own tets), and in *cap
+  // the largest collapse cost a ceiling may take (0: none). With common_error, every ceiling is
+  // first simplified far with its collapse costs traced, and the level's tets (level_ratio of
+  // `tets`) go where the costs are highest (level_targets.h). The traces leave the border
+  // free, as a whole-level decimation would: their common error is what the level would cost
+  // without locked borders, and it caps the real (locked) runs. Without the cap a ceiling made
+  // up for its locked border tets with collapses costing 10-1000 times more, eating the
+  // domain (the oxygen post's disc became a polygon with a wedge cut out at level 2); with it
+  // a level keeps its border tets and holds more than level_ratio of the one below.
   // `progress(f)` is told the share f of this rank's traces done, from the workers.
   template <class Progress>
-  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets, const CeilingShare& share,
+  std::vector<uint64_t> ceiling_targets(const std::vector<std::vector<CeilingPatch>>& ceiling_patches, uint64_t tets, const CeilingShare& share, double* cap,
                                         Progress&& progress) const {
     std::vector<uint64_t> targets(ceiling_patches.size(), 0);
+    *cap = 0;
     if (!traces_costs(ceiling_patches.size())) return targets;
     std::vector<CeilingTrace> traces(ceiling_patches.size());
     std::atomic<uint32_t> traced{0};
@@ -329,13 +337,12 @@ class LevelBuilder {
       SimplifyOptions so = ceiling_options(std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * options_.level_ratio * double(traces[k].tets)))));
       so.trace_costs = true;
       traces[k].goal = so.target_tets;
-      traces[k].steps = simplify(c.mesh, so, c.locked).cost_trace;
+      traces[k].steps = simplify(c.mesh, so).cost_trace;  // the border free
       progress(++traced / double(share.mine.size()));
     });
     if (shared()) share_traces(*options_.ranks, share.owner, traces);
-    // every ceiling simplified at least to √level_ratio of its tets (halfway to the ratio, in
-    // steps of the ladder), so that every node of the level is coarser than its children
-    return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), std::sqrt(options_.level_ratio));
+    // no share is forced on any ceiling (max_ratio 1): the cap decides where a locked one stops
+    return common_error_targets(traces, static_cast<uint64_t>(std::llround(options_.level_ratio * double(tets))), 1.0, cap);
   }
 
   // Whether a level of `ceilings` ceilings gets common-error targets: the common error is that
@@ -416,15 +423,17 @@ class LevelBuilder {
   }
 
   // One ceiling simplified with its border locked to `target` tets (0: level_ratio of its
-  // tets), its error measured at the original vertices it covers. Runs on worker threads:
+  // tets), or until a collapse would cost more than `cap` (0: no cap), its error measured at
+  // the original vertices it covers. Runs on worker threads:
   // reads shared state only.
-  CeilingResult simplify_ceiling(const std::vector<CeilingPatch>& patches, const std::vector<uint32_t>& original_vertices, uint64_t target) const {
+  CeilingResult simplify_ceiling(const std::vector<CeilingPatch>& patches, const std::vector<uint32_t>& original_vertices, uint64_t target, double cap) const {
     CeilingResult out;
     CeilingMesh gathered = gather_ceiling(patches);
     storage::TetMesh& m = gathered.mesh;
     const std::vector<uint8_t>& locked = gathered.locked;
     const std::vector<uint32_t>& global = gathered.global;
-    const SimplifyOptions so = ceiling_options(target ? target : std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * double(m.tet_count())))));
+    SimplifyOptions so = ceiling_options(target ? target : std::max<uint64_t>(1, static_cast<uint64_t>(std::ceil(options_.level_ratio * double(m.tet_count())))));
+    so.max_error = cap;
     const storage::TetMesh before = m;
     SimplifyReport sr = simplify(m, so, locked);
     // a vertex keeps its global id while its position and values are unchanged

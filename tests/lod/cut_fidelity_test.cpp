@@ -77,14 +77,56 @@ TEST(CutFidelity, TheAdaptiveCutBeatsUniformDecimationOfTheSameSizeInACloseUp) {
   EXPECT_GT(f.cut_db, f.uniform_db + 1.0) << "the adaptive cut is no better than a uniform mesh of its size";
 }
 
-TEST(CutFidelity, ALevelAtACommonErrorVerifiesAndKeepsTheLevelRatio) {
+// Refining in the cut's order, budget after budget, never makes the picture worse: each
+// larger budget's cut is at least as close to the full mesh (exact integrator) as the one
+// before, from outside and from inside, and stays conforming.
+TEST(CutFidelity, ALargerBudgetNeverLowersThePsnr) {
+  if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
+  if (kSanitized) GTEST_SKIP() << "about 40 s under a sanitizer (6 s in release): the release run covers it";
+  const Built& b = built("fea_bracket.vtk");
+  auto store = storage::Store::open(b.store);
+  auto dag = lod::open_dag(*store);
+  storage::SegmentCache cache(*store, 1ull << 28);
+  const storage::TetMesh input = storage::load_mesh(shared_data() / "fea_bracket.vtk");
+  for (const char* camera_text : {"azimuth=30,elevation=20", "eye=0,-1.2,1.6,target=0,2,1.6,up=0,0,1,fov=70"}) {
+    renderer::RenderSettings s;
+    s.width = 128;
+    s.height = 96;
+    s.camera = lod::parse_camera(camera_text, store->manifest().bounds);
+    s.camera.aspect = double(s.width) / s.height;
+    s.tf = stress_tf();
+    const renderer::Image full = renderer::reference_render(renderer::SceneMesh::from(input, s.tf.attribute), s);
+    lod::CutCriteria criteria = lod::criteria_for(*store, *dag, s.tf, {});
+    lod::set_view(criteria, s.camera);
+    lod::Cut cut(*dag);
+    double last_db = 0;
+    uint64_t last_tets = 0;
+    for (double share : {0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8}) {
+      cut.update(criteria, std::max<uint64_t>(1, static_cast<uint64_t>(share * double(input.tet_count()))));
+      const lod::CutMesh m = lod::assemble_cut(*store, cache, cut);
+      expect_conforming(m, std::string(camera_text) + " cut");
+      const double db = renderer::psnr(full, renderer::reference_render(renderer::SceneMesh::from(m.mesh, s.tf.attribute), s));
+      std::printf("%s: %.0f%% -> %zu tets, %.2f dB\n", camera_text, 100 * share, m.mesh.tet_count(), db);
+      if (m.mesh.tet_count() > last_tets) {
+        EXPECT_GE(db, last_db) << camera_text << ": refining to " << m.mesh.tet_count() << " tets lowered the PSNR";
+      }
+      last_db = std::max(last_db, db);
+      last_tets = std::max<uint64_t>(last_tets, m.mesh.tet_count());
+    }
+  }
+}
+
+TEST(CutFidelity, ALevelAtACommonErrorVerifiesAndShrinks) {
   if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
   const Built& b = built("fea_bracket.vtk");  // common_error is the default
   EXPECT_TRUE(storage::verify_store(b.store).ok);
   ASSERT_GE(b.report.levels.size(), 3u);
-  for (size_t l = 1; l + 1 < b.report.levels.size(); ++l) {
+  // At least the level ratio (0.25) of the level below: the tets a locked border keeps are
+  // kept, not made up for elsewhere past the level's common error; and still a real step.
+  for (size_t l = 1; l < b.report.levels.size(); ++l) {
     const double ratio = double(b.report.levels[l].tets) / double(b.report.levels[l - 1].tets);
-    EXPECT_NEAR(ratio, 0.25, 0.03) << "level " << l << " holds " << b.report.levels[l].tets << " tets";
+    EXPECT_GE(ratio, 0.22) << "level " << l << " holds " << b.report.levels[l].tets << " tets";
+    EXPECT_LE(ratio, 0.5) << "level " << l << " holds " << b.report.levels[l].tets << " tets";
   }
 }
 

@@ -86,6 +86,32 @@ TEST(LevelTargets, ABlockedCeilingDoesNotDriveTheOthersPastTheErrorItStoppedAt) 
   EXPECT_EQ(forced[1], free.steps.back().first);
 }
 
+// The common error caps the locked runs of the level (mt_levels.cpp): it must be the cost at
+// which the total was met, no ceiling kept past it and none taken beyond it.
+TEST(LevelTargets, TheThresholdIsTheErrorAtWhichTheTotalWasMet) {
+  const std::vector<lod::CeilingTrace> traces{trace(1000, 6, 0.01, 60), trace(1000, 6, 1.0, 60)};
+  double threshold = -1;
+  const auto targets = lod::common_error_targets(traces, 500, 1.0, &threshold);
+  ASSERT_GT(threshold, 0);
+  for (size_t k = 0; k < 2; ++k) {
+    double running = 0, next = -1;
+    for (const auto& [alive, cost] : traces[k].steps) {
+      running = std::max(running, cost);
+      if (alive >= targets[k]) {
+        EXPECT_LE(running, threshold) << "ceiling " << k << " took a collapse dearer than the threshold";
+      } else if (next < 0) {
+        next = running;
+      }
+    }
+    if (next >= 0) {
+      EXPECT_GE(next, threshold) << "ceiling " << k << " stopped before a collapse cheaper than the threshold";
+    }
+  }
+  double none = -1;
+  lod::common_error_targets(traces, 5000, 1.0, &none);
+  EXPECT_EQ(none, 0) << "a total met without collapses has no threshold";
+}
+
 TEST(LevelTargets, ABadMaxRatioIsRefused) {
   const std::vector<lod::CeilingTrace> traces{trace(100, 1, 1.0, 10)};
   EXPECT_THROW(lod::common_error_targets(traces, 50, 0), std::invalid_argument);

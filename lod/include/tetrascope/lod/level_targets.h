@@ -33,6 +33,8 @@ struct CeilingTrace {
 // level above its total, the ceilings that could go on are not driven past the error the
 // others stopped at (on the 1M blade such a level ate the blade's tip to reach its total).
 // Throws std::invalid_argument for max_ratio outside (0, 1].
-std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio);
+// `threshold`, when given, is set to the common error: the running cost of the last optional
+// collapse taken (0 when none was needed).
+std::vector<uint64_t> common_error_targets(std::span<const CeilingTrace> traces, uint64_t total_target, double max_ratio, double* threshold = nullptr);
 
 }  // namespace tetrascope::lod
