@@ -352,12 +352,14 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   std::sort(changes.removed.begin(), changes.removed.end());
   changes.tets = tets_;
   changes.over_budget = tets_ > budget;
-  std::vector<uint8_t> shown(n, 0);
-  for (uint32_t p = 0; p < dag_.patch_count(); ++p)
-    if (active(p) && !shown[dag_.patch(p).floor]) {
-      shown[dag_.patch(p).floor] = 1;
-      changes.estimated_error += e[dag_.patch(p).floor];
-    }
+  // each shown patch carries its share of its segment's error: a segment shown in part (its
+  // other parents unrefined) counts in part, so refining never adds a whole child's error
+  for (uint32_t p = 0; p < dag_.patch_count(); ++p) {
+    if (!active(p)) continue;
+    const dag::Patch& q = dag_.patch(p);
+    const uint32_t tets = dag_.node(q.floor).tet_count;
+    if (tets > 0) changes.estimated_error += e[q.floor] * double(q.tet_count) / double(tets);
+  }
   return changes;
 }
 
