@@ -124,21 +124,45 @@ double Cut::slice_weight(uint32_t node, uint32_t channel) {
 }
 
 namespace {
-// The share of the view a box covers: its bounding sphere's projected area over the view's
-// (height²), clamped to 1; 1 with the eye inside the sphere. A segment's error counts for the
-// pixels it covers.
+// The share of the view a box covers: the screen rectangle around its projected corners,
+// clipped to the view, over the view's area; 1 with a corner at or behind the eye. A
+// segment's error counts for the pixels it covers. (A bounding sphere, clamped to 1, gave
+// every large segment reaching past the view the share of the whole view.)
 double view_share(const Camera& camera, const float box[6]) {
-  double centre[3], radius2 = 0, distance2 = 0;
+  std::array<double, 3> f{}, r{}, u{};
+  double fl = 0;
   for (int k = 0; k < 3; ++k) {
-    centre[k] = 0.5 * (double(box[k]) + box[k + 3]);
-    radius2 += 0.25 * (double(box[k + 3]) - box[k]) * (double(box[k + 3]) - box[k]);
-    distance2 += (camera.eye[k] - centre[k]) * (camera.eye[k] - centre[k]);
+    f[k] = camera.target[k] - camera.eye[k];
+    fl += f[k] * f[k];
   }
-  if (camera.orthographic) return std::min(1.0, 4 * radius2 / std::max(1e-300, camera.ortho_height * camera.ortho_height));
-  if (distance2 <= radius2) return 1.0;
+  fl = std::sqrt(fl);
+  if (!(fl > 0)) return 1.0;
+  for (double& c : f) c /= fl;
+  r = {f[1] * camera.up[2] - f[2] * camera.up[1], f[2] * camera.up[0] - f[0] * camera.up[2], f[0] * camera.up[1] - f[1] * camera.up[0]};
+  const double rl = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+  if (!(rl > 0)) return 1.0;
+  for (double& c : r) c /= rl;
+  u = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]};
   const double tan_half = std::tan(camera.fov_degrees * M_PI / 360);
-  const double apparent = radius2 / (distance2 - radius2);  // tan² of the sphere's angular radius
-  return std::min(1.0, apparent / std::max(1e-300, tan_half * tan_half));
+  const double half_h = camera.orthographic ? camera.ortho_height / 2 : tan_half;
+  const double half_w = half_h * std::max(camera.aspect, 1e-6);
+  double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+  for (int corner = 0; corner < 8; ++corner) {
+    double d[3];
+    for (int k = 0; k < 3; ++k) d[k] = double(box[k + ((corner >> k) & 1) * 3]) - camera.eye[k];
+    const double z = d[0] * f[0] + d[1] * f[1] + d[2] * f[2];
+    if (!camera.orthographic && z <= 1e-9 * fl) return 1.0;  // reaches the eye's plane: fills the view
+    const double scale = camera.orthographic ? 1.0 : 1.0 / z;
+    const double x = (d[0] * r[0] + d[1] * r[1] + d[2] * r[2]) * scale / half_w;
+    const double y = (d[0] * u[0] + d[1] * u[1] + d[2] * u[2]) * scale / half_h;
+    lo[0] = std::min(lo[0], x);
+    hi[0] = std::max(hi[0], x);
+    lo[1] = std::min(lo[1], y);
+    hi[1] = std::max(hi[1], y);
+  }
+  const double w = std::clamp(hi[0], -1.0, 1.0) - std::clamp(lo[0], -1.0, 1.0);
+  const double h = std::clamp(hi[1], -1.0, 1.0) - std::clamp(lo[1], -1.0, 1.0);
+  return std::max(0.0, w) * std::max(0.0, h) / 4;
 }
 
 template <class Refined>
