@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::lod {
 
@@ -129,36 +130,26 @@ namespace {
 // segment's error counts for the pixels it covers. (A bounding sphere, clamped to 1, gave
 // every large segment reaching past the view the share of the whole view.)
 double view_share(const Camera& camera, const float box[6]) {
-  std::array<double, 3> f{}, r{}, u{};
-  double fl = 0;
-  for (int k = 0; k < 3; ++k) {
-    f[k] = camera.target[k] - camera.eye[k];
-    fl += f[k] * f[k];
-  }
-  fl = std::sqrt(fl);
-  if (!(fl > 0)) return 1.0;
-  for (double& c : f) c /= fl;
-  r = {f[1] * camera.up[2] - f[2] * camera.up[1], f[2] * camera.up[0] - f[0] * camera.up[2], f[0] * camera.up[1] - f[1] * camera.up[0]};
-  const double rl = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-  if (!(rl > 0)) return 1.0;
-  for (double& c : r) c /= rl;
-  u = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]};
-  const double tan_half = std::tan(camera.fov_degrees * M_PI / 360);
-  const double half_h = camera.orthographic ? camera.ortho_height / 2 : tan_half;
+  const Vec3 view = camera.target - camera.eye;
+  const double view_length = length(view);
+  if (!(view_length > 0)) return 1.0;
+  const Vec3 f = normalise(view);
+  const Vec3 side = cross(f, camera.up);
+  if (!(length(side) > 0)) return 1.0;
+  const Vec3 r = normalise(side), u = cross(r, f);
+  const double half_h = camera.orthographic ? camera.ortho_height / 2 : std::tan(camera.fov_degrees * M_PI / 360);
   const double half_w = half_h * std::max(camera.aspect, 1e-6);
   double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
   for (int corner = 0; corner < 8; ++corner) {
-    double d[3];
-    for (int k = 0; k < 3; ++k) d[k] = double(box[k + ((corner >> k) & 1) * 3]) - camera.eye[k];
-    const double z = d[0] * f[0] + d[1] * f[1] + d[2] * f[2];
-    if (!camera.orthographic && z <= 1e-9 * fl) return 1.0;  // reaches the eye's plane: fills the view
+    const Vec3 d = Vec3{box[((corner >> 0) & 1) * 3], box[1 + ((corner >> 1) & 1) * 3], box[2 + ((corner >> 2) & 1) * 3]} - camera.eye;
+    const double z = dot(d, f);
+    if (!camera.orthographic && z <= 1e-9 * view_length) return 1.0;  // reaches the eye's plane: fills the view
     const double scale = camera.orthographic ? 1.0 : 1.0 / z;
-    const double x = (d[0] * r[0] + d[1] * r[1] + d[2] * r[2]) * scale / half_w;
-    const double y = (d[0] * u[0] + d[1] * u[1] + d[2] * u[2]) * scale / half_h;
-    lo[0] = std::min(lo[0], x);
-    hi[0] = std::max(hi[0], x);
-    lo[1] = std::min(lo[1], y);
-    hi[1] = std::max(hi[1], y);
+    const double xy[2] = {dot(d, r) * scale / half_w, dot(d, u) * scale / half_h};
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = std::min(lo[k], xy[k]);
+      hi[k] = std::max(hi[k], xy[k]);
+    }
   }
   const double w = std::clamp(hi[0], -1.0, 1.0) - std::clamp(lo[0], -1.0, 1.0);
   const double h = std::clamp(hi[1], -1.0, 1.0) - std::clamp(lo[1], -1.0, 1.0);

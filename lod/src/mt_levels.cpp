@@ -317,7 +317,7 @@ class LevelBuilder {
   // `tets`) go where the costs are highest (level_targets.h). The traces leave the border
   // free, as a whole-level decimation would: their common error is what the level would cost
   // without locked borders, and it caps the real (locked) runs. Without the cap a ceiling made
-  // up for its locked border tets with collapses costing 10-1000 times more, eating the
+  // up for its locked border tets with collapses costing 15-1200 times more, eating the
   // domain (the oxygen post's disc became a polygon with a wedge cut out at level 2); with it
   // a level keeps its border tets and holds more than level_ratio of the one below.
   // `progress(f)` is told the share f of this rank's traces done, from the workers.

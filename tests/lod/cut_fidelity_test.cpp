@@ -25,6 +25,17 @@ struct Fidelity {
   double cut_db = 0, uniform_db = 0;
 };
 
+// The exact integrator's settings for a view of `store` at 128x96.
+renderer::RenderSettings view_settings(const storage::Store& store, const std::string& camera_text, const lod::TransferFunction& tf) {
+  renderer::RenderSettings s;
+  s.width = 128;
+  s.height = 96;
+  s.camera = lod::parse_camera(camera_text, store.manifest().bounds);
+  s.camera.aspect = double(s.width) / s.height;
+  s.tf = tf;
+  return s;
+}
+
 // The cut of the fea_bracket store for `camera` and `tf` at `share` of the input's tets, and
 // the input decimated to the cut's tets, each against the input (exact integrator, 128x96).
 Fidelity cut_against_uniform(const std::string& camera_text, const lod::TransferFunction& tf, double share) {
@@ -33,12 +44,7 @@ Fidelity cut_against_uniform(const std::string& camera_text, const lod::Transfer
   auto dag = lod::open_dag(*store);
   storage::SegmentCache cache(*store, 1ull << 28);
   const storage::TetMesh input = storage::load_mesh(shared_data() / "fea_bracket.vtk");
-  renderer::RenderSettings s;
-  s.width = 128;
-  s.height = 96;
-  s.camera = lod::parse_camera(camera_text, store->manifest().bounds);
-  s.camera.aspect = double(s.width) / s.height;
-  s.tf = tf;
+  const renderer::RenderSettings s = view_settings(*store, camera_text, tf);
   const renderer::Image full = renderer::reference_render(renderer::SceneMesh::from(input, tf.attribute), s);
 
   lod::CutCriteria criteria = lod::criteria_for(*store, *dag, tf, {});
@@ -90,12 +96,7 @@ TEST(CutFidelity, ALargerBudgetNeverLowersThePsnr) {
   storage::SegmentCache cache(*store, 1ull << 28);
   const storage::TetMesh input = storage::load_mesh(shared_data() / "fea_bracket.vtk");
   for (const char* camera_text : {"azimuth=30,elevation=20", "eye=0,-1.2,1.6,target=0,2,1.6,up=0,0,1,fov=70"}) {
-    renderer::RenderSettings s;
-    s.width = 128;
-    s.height = 96;
-    s.camera = lod::parse_camera(camera_text, store->manifest().bounds);
-    s.camera.aspect = double(s.width) / s.height;
-    s.tf = stress_tf();
+    const renderer::RenderSettings s = view_settings(*store, camera_text, stress_tf());
     const renderer::Image full = renderer::reference_render(renderer::SceneMesh::from(input, s.tf.attribute), s);
     lod::CutCriteria criteria = lod::criteria_for(*store, *dag, s.tf, {});
     lod::set_view(criteria, s.camera);

@@ -16,8 +16,8 @@ struct CeilingTrace {
   uint64_t tets = 0;  // before simplification
   // per collapse, in order: tets alive after it, its quadric cost (SimplifyReport::cost_trace)
   std::vector<std::pair<uint64_t, double>> steps;
-  // the tets the trace was asked to reach (0: none). A trace that ended above it was blocked
-  // by its locked border, not by its costs.
+  // the tets the trace was asked to reach (0: none). A trace that ended above it was stopped
+  // by the simplifier's checks (topology, geometry, a locked border), not by its costs.
   uint64_t goal = 0;
 };
 
@@ -26,12 +26,13 @@ struct CeilingTrace {
 // taken in order of the running maximum of their costs, cheapest first across all ceilings.
 // Every ceiling takes at least the collapses that bring it to `max_ratio` of its tets (so it
 // is simplified at all) and no more than its trace holds. Each target is a count from its
-// trace (or its own tets when it has no steps), so a re-run with that target stops at the
-// same mesh. The tets a blocked trace could not remove (down to its goal) count as removed at
-// the last cost it reached: a whole-mesh queue would have taken them about then, and they are
-// simplified at the next level, whose borders lie elsewhere. So where locked borders keep a
-// level above its total, the ceilings that could go on are not driven past the error the
-// others stopped at (on the 1M blade such a level ate the blade's tip to reach its total).
+// trace (or its own tets when it has no steps). The tets a blocked trace could not remove
+// (down to its goal) count as removed at the last cost it reached: a whole-mesh queue would
+// have taken them about then, and the next level, whose borders lie elsewhere, takes them.
+// So a ceiling that cannot go on does not drive the others past the error it stopped at (on
+// the 1M blade, when the traces still ran with their borders locked, a level ate the blade's
+// tip to reach its total; free-border traces still stop early now and then: 9 times in the
+// oxygen post's build, once in ONERA's).
 // Throws std::invalid_argument for max_ratio outside (0, 1].
 // `threshold`, when given, is set to the common error: the running cost of the last optional
 // collapse taken (0 when none was needed).
