@@ -4,6 +4,7 @@
 #include "tetrascope/lod/cut.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <queue>
 #include <unordered_map>
@@ -125,27 +126,48 @@ double Cut::slice_weight(uint32_t node, uint32_t channel) {
 }
 
 namespace {
+// A perspective or orthographic camera's frame: where a point lies in its view.
+struct ViewFrame {
+  Vec3 eye{}, forward{}, right{}, up{};
+  double half_w = 1, half_h = 1;  // the view's half-extent at unit depth (orthographic: in units)
+  double distance = 1;            // eye to target
+  bool orthographic = false;
+  // false for a degenerate camera (eye on the target, up along the view)
+  bool set(const Camera& camera) {
+    const Vec3 view = camera.target - camera.eye;
+    distance = length(view);
+    if (!(distance > 0)) return false;
+    forward = normalise(view);
+    const Vec3 side = cross(forward, camera.up);
+    if (!(length(side) > 0)) return false;
+    eye = camera.eye;
+    right = normalise(side);
+    up = cross(right, forward);
+    orthographic = camera.orthographic;
+    half_h = orthographic ? camera.ortho_height / 2 : std::tan(camera.fov_degrees * M_PI / 360);
+    half_w = half_h * std::max(camera.aspect, 1e-6);
+    return true;
+  }
+  double depth(const Vec3& p) const { return dot(p - eye, forward); }
+  // The point in the view's normalised coordinates ([-1, 1] across the view), for depth z > 0.
+  std::array<double, 2> ndc(const Vec3& p, double z) const {
+    const Vec3 d = p - eye;
+    const double scale = orthographic ? 1.0 : 1.0 / z;
+    return {dot(d, right) * scale / half_w, dot(d, up) * scale / half_h};
+  }
+};
+
 // The share of the view a box covers: the screen rectangle around its projected corners,
 // clipped to the view, over the view's area; 1 with a corner at or behind the eye. A
 // segment's error counts for the pixels it covers. (A bounding sphere, clamped to 1, gave
 // every large segment reaching past the view the share of the whole view.)
-double view_share(const Camera& camera, const float box[6]) {
-  const Vec3 view = camera.target - camera.eye;
-  const double view_length = length(view);
-  if (!(view_length > 0)) return 1.0;
-  const Vec3 f = normalise(view);
-  const Vec3 side = cross(f, camera.up);
-  if (!(length(side) > 0)) return 1.0;
-  const Vec3 r = normalise(side), u = cross(r, f);
-  const double half_h = camera.orthographic ? camera.ortho_height / 2 : std::tan(camera.fov_degrees * M_PI / 360);
-  const double half_w = half_h * std::max(camera.aspect, 1e-6);
+double view_share(const ViewFrame& frame, const float box[6]) {
   double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
   for (int corner = 0; corner < 8; ++corner) {
-    const Vec3 d = Vec3{box[((corner >> 0) & 1) * 3], box[1 + ((corner >> 1) & 1) * 3], box[2 + ((corner >> 2) & 1) * 3]} - camera.eye;
-    const double z = dot(d, f);
-    if (!camera.orthographic && z <= 1e-9 * view_length) return 1.0;  // reaches the eye's plane: fills the view
-    const double scale = camera.orthographic ? 1.0 : 1.0 / z;
-    const double xy[2] = {dot(d, r) * scale / half_w, dot(d, u) * scale / half_h};
+    const Vec3 p{box[((corner >> 0) & 1) * 3], box[1 + ((corner >> 1) & 1) * 3], box[2 + ((corner >> 2) & 1) * 3]};
+    const double z = frame.depth(p);
+    if (!frame.orthographic && z <= 1e-9 * frame.distance) return 1.0;  // reaches the eye's plane: fills the view
+    const auto xy = frame.ndc(p, z);
     for (int k = 0; k < 2; ++k) {
       lo[k] = std::min(lo[k], xy[k]);
       hi[k] = std::max(hi[k], xy[k]);
@@ -154,6 +176,23 @@ double view_share(const Camera& camera, const float box[6]) {
   const double w = std::clamp(hi[0], -1.0, 1.0) - std::clamp(lo[0], -1.0, 1.0);
   const double h = std::clamp(hi[1], -1.0, 1.0) - std::clamp(lo[1], -1.0, 1.0);
   return std::max(0.0, w) * std::max(0.0, h) / 4;
+}
+
+// The share of the view that a unit of error mass (error × volume, in units of the scene's
+// size) at p covers once integrated along the rays through it: a cross-section at depth z
+// spans 1/z² of the view's area at unit depth (orthographic: 1 over the view's area). Whole
+// inside the view, fading to 0 at twice its half-extent (the mass is spread around its
+// centroid), 0 behind the eye; z is taken at least `near` (the mass around the eye does not
+// fill more than the view).
+double mass_share(const ViewFrame& frame, const Vec3& p, double near) {
+  double z = frame.depth(p);
+  if (!frame.orthographic && z <= 0) return 0.0;
+  z = std::max(z, near);
+  const auto xy = frame.ndc(p, z);
+  const double outside = std::max(std::fabs(xy[0]), std::fabs(xy[1]));
+  const double fade = std::clamp(2.0 - outside, 0.0, 1.0);
+  const double area = 4 * frame.half_w * frame.half_h;
+  return fade / (area * (frame.orthographic ? 1.0 : z * z));
 }
 
 template <class Refined>
@@ -263,14 +302,44 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     weight_opacity_ = criteria.opacity;
     weight_isovalues_ = criteria.isovalues;
   }
+  ViewFrame frame;
+  const bool framed = criteria.camera && frame.set(*criteria.camera);
+  // Volume rendering on a store with error masses: the error each segment leaves on screen,
+  // Σ_n O(n)·M(n)·S(c_n): the opacity of value slot n, the error mass of the slot and the
+  // share of the view its centroid's depth gives a unit of it. Otherwise (isosurfaces, stores
+  // of format 1) the largest error per slot weighted with the box's share of the view.
+  const bool by_mass = dag_.has_mass() && criteria.isovalues.empty() && criteria.channel < dag_.channel_count();
+  double scene = 1;  // the diagonal of the root segments' boxes
+  if (by_mass) {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (uint32_t p = 0; p < dag_.root_patch_count(); ++p)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min<double>(lo[k], dag_.node(dag_.patch(p).floor).bounds[k]);
+        hi[k] = std::max<double>(hi[k], dag_.node(dag_.patch(p).floor).bounds[k + 3]);
+      }
+    scene = std::sqrt(std::pow(hi[0] - lo[0], 2) + std::pow(hi[1] - lo[1], 2) + std::pow(hi[2] - lo[2], 2));
+  }
+  auto mass_error = [&](uint32_t v) {
+    const auto mass = dag_.mass_histogram(v, criteria.channel);
+    const auto cx = dag_.mass_centroid(v, criteria.channel, 0), cy = dag_.mass_centroid(v, criteria.channel, 1), cz = dag_.mass_centroid(v, criteria.channel, 2);
+    const bool weighted = criteria.opacity.size() == mass.size();
+    double sum = 0;
+    for (size_t b = 0; b < mass.size(); ++b) {
+      const double o = weighted ? criteria.opacity[b] : 1.0;
+      if (!(mass[b] > 0) || !(o > 0)) continue;
+      sum += o * mass[b] * (framed ? mass_share(frame, Vec3{cx[b], cy[b], cz[b]}, 0.01 * scene) * scene * scene : 1.0);
+    }
+    return sum;
+  };
   auto error = [&](uint32_t v) {
     const float* box = dag_.node(v).bounds;
     if (criteria.frustum && !criteria.frustum->intersects(box)) return 0.0;
     if (clipped_away(criteria.clip, box)) return 0.0;
-    double weight = weight_[v];
+    const double share = criteria.camera ? (framed ? view_share(frame, box) : 1.0) : 1.0;
+    double out = by_mass ? mass_error(v) : weight_[v] * share;
     for (const protocol::Plane& slice : criteria.slices)
-      if (crosses(slice, box)) weight = std::max(weight, kSliceWeight * slice_weight(v, criteria.channel));
-    return weight * (criteria.camera ? view_share(*criteria.camera, box) : 1.0);
+      if (crosses(slice, box)) out = std::max(out, kSliceWeight * slice_weight(v, criteria.channel) * share);
+    return out;
   };
   std::vector<double> e(n);
   for (uint32_t v = 0; v < n; ++v) e[v] = error(v);

@@ -25,14 +25,16 @@ uint32_t crc_of(std::span<const T> items) {
 }  // namespace
 
 void write_dag(const std::filesystem::path& file, uint32_t levels, std::span<const Node> nodes, std::span<const Patch> patches, uint32_t channels,
-               uint32_t bins, std::span<const float> histograms) {
+               uint32_t bins, std::span<const float> histograms, uint32_t kinds) {
+  if (kinds != kKinds && kinds != kKindsV1) throw std::invalid_argument("write_dag: " + std::to_string(kinds) + " histograms a node");
+  if (histograms.size() != size_t{nodes.size()} * channels * kinds * bins) throw std::invalid_argument("write_dag: histograms of the wrong size");
   // parents: patch ids grouped by floor node, ascending
   std::vector<uint32_t> parents(patches.size());
   for (uint32_t p = 0; p < patches.size(); ++p) parents[p] = p;
   std::stable_sort(parents.begin(), parents.end(), [&](uint32_t a, uint32_t b) { return patches[a].floor < patches[b].floor; });
   Header h{};
   std::memcpy(h.magic, kFileMagic, sizeof h.magic);
-  h.version = kFormatVersion;
+  h.version = kinds == kKinds ? kFormatVersion : 1;
   h.header_bytes = sizeof(Header);
   h.level_count = levels;
   h.node_count = static_cast<uint32_t>(nodes.size());
@@ -75,7 +77,8 @@ std::unique_ptr<Dag> Dag::open(const std::filesystem::path& file, std::span<cons
   if (bytes.size() < sizeof(Header)) fail("too short for a header (" + std::to_string(bytes.size()) + " bytes)");
   std::memcpy(&h, bytes.data(), sizeof h);
   if (std::memcmp(h.magic, kFileMagic, sizeof h.magic) != 0) fail("not a tetrascope DAG (bad magic)");
-  if (h.version != kFormatVersion) fail("format version " + std::to_string(h.version) + ", this build reads " + std::to_string(kFormatVersion));
+  if (h.version != kFormatVersion && h.version != 1) fail("format version " + std::to_string(h.version) + ", this build reads 1 and " + std::to_string(kFormatVersion));
+  dag->kinds_ = h.version == 1 ? kKindsV1 : kKinds;
   if (h.header_crc != storage::crc32_of(&h, offsetof(Header, header_crc))) fail("header checksum mismatch");
   if (h.header_bytes != sizeof(Header) || h.file_bytes != bytes.size()) fail("file size " + std::to_string(bytes.size()) + " does not match the header's " + std::to_string(h.file_bytes));
   if (h.node_count != segment_tets.size()) fail(std::to_string(h.node_count) + " nodes for " + std::to_string(segment_tets.size()) + " segments");
@@ -90,7 +93,7 @@ std::unique_ptr<Dag> Dag::open(const std::filesystem::path& file, std::span<cons
   block(h.nodes_offset, h.node_count, sizeof(Node), h.nodes_crc, "nodes", dag->nodes_);
   block(h.patches_offset, h.patch_count, sizeof(Patch), h.patches_crc, "patches", dag->patches_);
   block(h.parents_offset, h.patch_count, 4, h.parents_crc, "parents", dag->parents_);
-  block(h.histograms_offset, uint64_t{h.node_count} * h.channel_count * 2 * h.bins, 4, h.histograms_crc, "histograms", dag->histograms_);
+  block(h.histograms_offset, uint64_t{h.node_count} * h.channel_count * dag->kinds_ * h.bins, 4, h.histograms_crc, "histograms", dag->histograms_);
   // patches: grouped by ceiling, roots first; each floor's patches tile its tets exactly
   uint32_t p = 0;
   while (p < h.patch_count && dag->patches_[p].ceiling == kRoot) ++p;
@@ -137,8 +140,11 @@ std::unique_ptr<Dag> Dag::open(const std::filesystem::path& file, std::span<cons
   uint64_t covered_children = 0;
   for (uint32_t n = 0; n < h.node_count; ++n) covered_children += dag->nodes_[n].child_count;
   if (covered_children + p != h.patch_count) fail("child patch lists do not cover every patch once");
-  for (float v : dag->histograms_)
-    if (!std::isfinite(v) || v < 0) fail("a histogram value is negative or not finite");
+  // every value finite; the errors and masses (kinds 0-2) not negative (centroids may be)
+  for (size_t i = 0; i < dag->histograms_.size(); ++i) {
+    const float v = dag->histograms_[i];
+    if (!std::isfinite(v) || (v < 0 && (i / h.bins) % dag->kinds_ < 3)) fail("a histogram value is negative or not finite");
+  }
   return dag;
 }
 

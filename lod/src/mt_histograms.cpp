@@ -122,6 +122,8 @@ CeilingError measure_ceiling_error(const storage::TetMesh& m, std::span<const ui
   CeilingError out;
   out.field.assign(size_t{C} * N, 0.0f);
   out.spatial.assign(size_t{C} * N, 0.0f);
+  std::vector<double> mass(size_t{C} * N * 4, 0.0);  // Σ err·vol, Σ err·vol·xyz
+  const double unit_volume = mesh.diagonal * mesh.diagonal * mesh.diagonal;
   Locator locator(m);
   std::vector<double> original(C), corner(4 * size_t{C});
   std::vector<float> values(table.floats);
@@ -160,7 +162,17 @@ CeilingError measure_ceiling_error(const storage::TetMesh& m, std::span<const ui
       f = std::max(f, static_cast<float>(err));
       float& s = out.spatial[size_t{c} * N + bin];
       s = std::max(s, static_cast<float>(isosurface_displacement(P, corner, C, c, err)));
+      const double w = err * (v < mesh.vertex_volume.size() ? mesh.vertex_volume[v] / unit_volume : 0.0);
+      double* sum = &mass[(size_t{c} * N + bin) * 4];
+      sum[0] += w;
+      for (int k = 0; k < 3; ++k) sum[k + 1] += w * p[k];
     }
+  }
+  out.mass.assign(mass.size(), 0.0f);
+  for (size_t i = 0; i < mass.size(); i += 4) {
+    if (!(mass[i] > 0) || !std::isfinite(mass[i])) continue;
+    out.mass[i] = static_cast<float>(mass[i]);
+    for (int k = 1; k < 4; ++k) out.mass[i + size_t(k)] = static_cast<float>(mass[i + size_t(k)] / mass[i]);
   }
   return out;
 }

@@ -54,7 +54,10 @@ uint64_t drop_unused(IngestedMesh& out, const std::vector<uint8_t>& used) {
     std::copy_n(table.xyz.begin() + static_cast<std::ptrdiff_t>(3 * v), 3, table.xyz.begin() + static_cast<std::ptrdiff_t>(3 * size_t{renumber[v]}));
     std::copy_n(table.values.begin() + static_cast<std::ptrdiff_t>(v * table.floats), table.floats,
                 table.values.begin() + static_cast<std::ptrdiff_t>(size_t{renumber[v]} * table.floats));
+    out.vertex_volume[renumber[v]] = out.vertex_volume[v];
   }
+  out.vertex_volume.resize(kept);
+  out.vertex_volume.shrink_to_fit();
   table.xyz.resize(3 * size_t{kept});
   table.xyz.shrink_to_fit();
   table.values.resize(size_t{kept} * table.floats);
@@ -105,9 +108,23 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
   out.tets = NodeTets(spill_directory);
   out.tets.add(0, uint64_t{0}, spill_level(header.cell_count, options));
   std::vector<uint8_t> used(table.size(), 0);
+  std::vector<float>& volume = out.vertex_volume;
+  volume.assign(table.size(), 0.0f);
   storage::TetChunk chunk;
   while (stream->next_tets(chunk)) {
     for (uint32_t v : chunk.tets) used[v] = 1;
+    for (size_t t = 0; t + 3 < chunk.tets.size(); t += 4) {
+      const float* p[4];
+      for (int k = 0; k < 4; ++k) p[k] = &table.xyz[3 * size_t{chunk.tets[t + size_t(k)]}];
+      double e[3][3];
+      for (int j = 0; j < 3; ++j)
+        for (int q = 0; q < 3; ++q) e[j][q] = double(p[j + 1][q]) - p[0][q];
+      const double six = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                         e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+      const double quarter = std::fabs(six) / 24;
+      if (std::isfinite(quarter))
+        for (int k = 0; k < 4; ++k) volume[chunk.tets[t + size_t(k)]] += static_cast<float>(quarter);
+    }
     out.tets.append(chunk.tets);
   }
   out.read_stats = stream->stats();

@@ -216,6 +216,7 @@ class LevelBuilder {
       if (o == kNone) o = 0;
     out_.field.assign(size_t{count} * channel_values(), 0.0f);
     out_.spatial.assign(size_t{count} * channel_values(), 0.0f);
+    out_.mass.assign(size_t{count} * channel_values() * 4, 0.0f);
     // original vertices that lie in the mesh (isolated ones are not followed)
     for (uint32_t v = 0; v < n0; ++v)
       if (located_node_[v] != kNone) followed_.push_back(v);
@@ -466,6 +467,7 @@ class LevelBuilder {
     const bool spill = spill_level(level_tets, options_);
     out_.field.resize(out_.field.size() + results.size() * values, 0.0f);
     out_.spatial.resize(out_.spatial.size() + results.size() * values, 0.0f);
+    out_.mass.resize(out_.mass.size() + results.size() * values * 4, 0.0f);
     for (uint32_t k = 0; k < results.size(); ++k) {
       CeilingResult& res = results[k];
       const storage::TetMesh& m = res.mesh;
@@ -484,6 +486,7 @@ class LevelBuilder {
       const uint32_t id = out_.nodes.add(level, std::move(tets), spill);
       std::copy(res.error.field.begin(), res.error.field.end(), out_.field.begin() + size_t{id} * values);
       std::copy(res.error.spatial.begin(), res.error.spatial.end(), out_.spatial.begin() + size_t{id} * values);
+      std::copy(res.error.mass.begin(), res.error.mass.end(), out_.mass.begin() + size_t{id} * values * 4);
       for (size_t i = 0; i < ceiling_vertices[k].size(); ++i) {
         located_node_[ceiling_vertices[k][i]] = id;
         located_tet_[ceiling_vertices[k][i]] = res.error.located_tet[i];

@@ -80,6 +80,7 @@ void encode(const CeilingResult& r, ByteWriter& out) {
   out.put_array<uint32_t>(r.global);
   out.put_array<float>(r.error.field);
   out.put_array<float>(r.error.spatial);
+  out.put_array<float>(r.error.mass);
   out.put_array<uint32_t>(r.error.located_tet);
 }
 
@@ -96,6 +97,7 @@ void decode(ByteReader& in, const std::vector<storage::AttributeInfo>& attribute
   in.get_array(r.global);
   in.get_array(r.error.field);
   in.get_array(r.error.spatial);
+  in.get_array(r.error.mass);
   in.get_array(r.error.located_tet);
 }
 

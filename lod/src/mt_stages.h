@@ -147,6 +147,9 @@ struct IngestedMesh {
   uint64_t dropped_unused_vertices = 0;  // points no tet uses (dropped, not stored)
   uint32_t input_vertices = 0;
   uint64_t input_tets = 0;
+  // per input vertex: a quarter of the volume of the input tets around it (the volume it
+  // stands for in the error mass, mt_histograms.cpp)
+  std::vector<float> vertex_volume;
 };
 
 // Reads the mesh: the vertices into the table, the tets as they come into `tets` (spilled
@@ -169,6 +172,7 @@ struct Hierarchy {
   std::vector<uint32_t> level_first;      // nodes of level L: [level_first[L], level_first[L+1])
   std::vector<PatchRange> patches;        // between levels, in build order
   std::vector<float> field, spatial;      // per node: [channel][bin], not yet monotone
+  std::vector<float> mass;                // per node: [channel][bin][4], as CeilingError::mass
   std::vector<uint32_t> level0_owner;     // the level-0 segment that owns each input vertex
   double partition_seconds = 0;           // of level 0
   uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
@@ -182,6 +186,9 @@ struct Hierarchy {
 // The error of a simplified ceiling at the original vertices it covers (mt_histograms.cpp).
 struct CeilingError {
   std::vector<float> field, spatial;   // [channel][bin]
+  // [channel][bin][4]: the error mass Σ err·volume over the original vertices of the bin
+  // (volume in units of the diagonal cubed), then the centroid of that mass (x, y, z)
+  std::vector<float> mass;
   std::vector<uint32_t> located_tet;   // per original vertex given: the ceiling's tet holding it
 };
 

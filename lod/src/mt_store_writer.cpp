@@ -207,11 +207,15 @@ uint64_t write_dag_file(const StoreInput& in, const std::vector<std::array<float
     dag_nodes[n].parent_count = parent_count[n];
     at += parent_count[n];
   }
-  std::vector<float> histograms(size_t{node_count} * C * 2 * N);
+  constexpr uint32_t K = dag::kKinds;
+  std::vector<float> histograms(size_t{node_count} * C * K * N);
   for (uint32_t n = 0; n < node_count; ++n)
     for (uint32_t c = 0; c < C; ++c) {
-      std::copy_n(h.field.begin() + (size_t{n} * C + c) * N, N, histograms.begin() + ((size_t{n} * C + c) * 2) * N);
-      std::copy_n(h.spatial.begin() + (size_t{n} * C + c) * N, N, histograms.begin() + ((size_t{n} * C + c) * 2 + 1) * N);
+      float* out = &histograms[(size_t{n} * C + c) * K * N];
+      std::copy_n(h.field.begin() + (size_t{n} * C + c) * N, N, out);
+      std::copy_n(h.spatial.begin() + (size_t{n} * C + c) * N, N, out + N);
+      for (uint32_t b = 0; b < N; ++b)
+        for (uint32_t k = 0; k < 4; ++k) out[(2 + k) * N + b] = h.mass[((size_t{n} * C + c) * N + b) * 4 + k];
     }
   const std::filesystem::path dag_path = directory / "dag.bin";
   write_dag(dag_path, h.level_count(), dag_nodes, dag_patches, C, N, histograms);

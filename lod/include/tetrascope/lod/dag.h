@@ -47,11 +47,18 @@ class Dag {
   // field and spatial error histograms of node n, channel c (normalised units)
   std::span<const float> field_histogram(uint32_t n, uint32_t c) const { return histogram(n, c, 0); }
   std::span<const float> spatial_histogram(uint32_t n, uint32_t c) const { return histogram(n, c, 1); }
+  // The error mass per bin, Σ |error|·volume over the original vertices whose value falls in
+  // the bin (volume in units of the diagonal cubed), and where that mass lies (its centroid's
+  // coordinate `axis`). Stores of format 1 have neither (has_mass() false).
+  bool has_mass() const { return kinds_ == dag::kKinds; }
+  std::span<const float> mass_histogram(uint32_t n, uint32_t c) const { return histogram(n, c, 2); }
+  std::span<const float> mass_centroid(uint32_t n, uint32_t c, int axis) const { return histogram(n, c, 3 + axis); }
 
  private:
   std::span<const float> histogram(uint32_t n, uint32_t c, int kind) const {
-    return {histograms_.data() + ((size_t{n} * header_.channel_count + c) * 2 + kind) * header_.bins, header_.bins};
+    return {histograms_.data() + ((size_t{n} * header_.channel_count + c) * kinds_ + kind) * header_.bins, header_.bins};
   }
+  uint32_t kinds_ = dag::kKinds;
   dag::Header header_{};
   std::vector<dag::Node> nodes_;
   std::vector<dag::Patch> patches_;
@@ -69,8 +76,10 @@ std::vector<std::string> verify_dag(const storage::Store& store, const Dag& dag,
 // Dag of a store directory (dag.bin), or nullptr for a single-level store.
 std::unique_ptr<Dag> open_dag(const storage::Store& store);
 
-// Writes dag.bin (used by preprocess; exposed for tests of the reader's checks).
+// Writes dag.bin (used by preprocess; exposed for tests of the reader's checks),
+// `histograms` as float[node][channel][kinds][bins]: format 2 with dag::kKinds, format 1 (as
+// stores made before the error masses) with dag::kKindsV1.
 void write_dag(const std::filesystem::path& file, uint32_t levels, std::span<const dag::Node> nodes, std::span<const dag::Patch> patches,
-               uint32_t channels, uint32_t bins, std::span<const float> histograms);
+               uint32_t channels, uint32_t bins, std::span<const float> histograms, uint32_t kinds = dag::kKinds);
 
 }  // namespace tetrascope::lod

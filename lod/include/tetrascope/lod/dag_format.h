@@ -9,7 +9,11 @@
 
 namespace tetrascope::lod::dag {
 
-constexpr uint32_t kFormatVersion = 1;
+// 1: field and spatial error histograms; 2: also the error mass and its centroid per bin.
+// A reader takes both.
+constexpr uint32_t kFormatVersion = 2;
+constexpr uint32_t kKindsV1 = 2;  // histograms per node and channel: field, spatial
+constexpr uint32_t kKinds = 6;    // field, spatial, mass, centroid x, y, z
 constexpr char kFileMagic[8] = {'T', 'E', 'T', 'R', 'A', 'D', 'A', 'G'};
 constexpr uint32_t kRoot = 0xFFFFFFFFu;  // ceiling of the patches of the coarsest segments
 constexpr uint32_t kMaxBins = 4096;
@@ -29,7 +33,8 @@ struct Header {  // at offset 0
   uint64_t nodes_offset;       // Node[node_count]
   uint64_t patches_offset;     // Patch[patch_count], grouped by ceiling: root patches first
   uint64_t parents_offset;     // uint32_t[patch_count]: patch ids grouped by floor node
-  uint64_t histograms_offset;  // float[node_count][channel_count][2][bins]: field, then spatial error
+  uint64_t histograms_offset;  // float[node_count][channel_count][kinds][bins]: field error, spatial error, and
+                               // from version 2 the error mass then its centroid's x, y, z (kKinds)
   uint32_t nodes_crc, patches_crc, parents_crc, histograms_crc;
   uint32_t reserved[3];
   uint32_t header_crc;  // of every byte above
