@@ -319,6 +319,8 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       }
     scene = std::sqrt(std::pow(hi[0] - lo[0], 2) + std::pow(hi[1] - lo[1], 2) + std::pow(hi[2] - lo[2], 2));
   }
+  // the mass shows through slabs of the unit distance: thinner ones than the default show more
+  const double slab = criteria.unit_distance > 0 ? 0.01 * scene / criteria.unit_distance : 1.0;
   auto mass_error = [&](uint32_t v) {
     const auto mass = dag_.mass_histogram(v, criteria.channel);
     const auto cx = dag_.mass_centroid(v, criteria.channel, 0), cy = dag_.mass_centroid(v, criteria.channel, 1), cz = dag_.mass_centroid(v, criteria.channel, 2);
@@ -329,7 +331,7 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       if (!(mass[b] > 0) || !(o > 0)) continue;
       sum += o * mass[b] * (framed ? mass_share(frame, Vec3{cx[b], cy[b], cz[b]}, 0.01 * scene) * scene * scene : 1.0);
     }
-    return sum;
+    return sum * slab;
   };
   auto error = [&](uint32_t v) {
     const float* box = dag_.node(v).bounds;

@@ -160,6 +160,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     if (s.iso && s.isovalues.empty() && s.tf.range) s.isovalues = {0.5 * ((*s.tf.range)[0] + (*s.tf.range)[1])};
     lod::CutCriteria criteria = lod::criteria_for(*store_, *dag_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
     lod::set_view(criteria, s.camera);
+    criteria.unit_distance = s.unit_distance;
     criteria.clip = request.clip.half_spaces();
     criteria.slices = request.slices.planes;
     auto start = Clock::now();

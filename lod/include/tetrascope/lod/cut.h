@@ -24,11 +24,15 @@
 
 namespace tetrascope::lod {
 
-// What the cut optimises for. The error of a segment is E = V · A · Σ_n H(n) C(n) (§6.3.4): H
-// its field-error histogram of `channel`, C the opacity of the transfer function per value
-// slot (empty: 1 everywhere), V = 0 outside the frustum, A the share of the view the
-// segment's box covers (clamped to 1; 1 without a camera or with the eye inside the box). With
-// isovalues (normalised, [0, 1]) the spatial-error histogram around each isovalue is used
+// What the cut optimises for: the error each segment leaves on screen. On a store with error
+// masses (dag format 2) and a volume view, E = V · Σ_n C(n) M(n) S(c_n): M the segment's error
+// mass in value slot n of `channel` (|error|·volume at the input vertices it covers), C the
+// transfer function's opacity per slot (empty: 1 everywhere), S the share of the view a unit
+// of mass covers at the depth of the slot's centroid c_n (1/z², fading to 0 beyond the view,
+// 0 behind the eye), V = 0 outside the frustum. Otherwise (stores of format 1, isosurfaces)
+// E = V · A · Σ_n H(n) C(n) (§6.3.4): H the field-error histogram, A the share of the view
+// the segment's box covers (1 without a camera or with the box reaching the eye's plane);
+// with isovalues (normalised, [0, 1]) the spatial-error histogram around each isovalue
 // instead. Segments are refined in the order of E per tet the refinement adds (forced
 // refinements included), so a budget buys the most image error removed.
 //
@@ -45,6 +49,10 @@ struct CutCriteria {
   std::optional<Camera> camera;  // the eye and the field of view, for A
   std::vector<protocol::Plane> clip;    // kept half-spaces n.x <= d (ClipSpec::half_spaces)
   std::vector<protocol::Plane> slices;
+  // The transfer function's opacity is that of a slab this thick (0: 1/100 of the diagonal,
+  // as the renderers take it): a thinner slab makes the same value error show more. Scales
+  // the error masses' E, so the estimates of different views compare; the order is the same.
+  double unit_distance = 0;
 };
 constexpr double kSliceWeight = 1e6;
 // Whether the box (min xyz, max xyz) lies wholly outside one of the kept half-spaces.
