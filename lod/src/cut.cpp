@@ -331,16 +331,17 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       if (!(mass[b] > 0) || !(o > 0)) continue;
       sum += o * mass[b] * (framed ? mass_share(frame, Vec3{cx[b], cy[b], cz[b]}, 0.01 * scene) * scene * scene : 1.0);
     }
-    return sum * slab;
+    const double out = sum * slab;
+    return std::isfinite(out) ? out : 0.0;  // (masses near the float limit in a damaged file)
   };
   auto error = [&](uint32_t v) {
     const float* box = dag_.node(v).bounds;
     if (criteria.frustum && !criteria.frustum->intersects(box)) return 0.0;
     if (clipped_away(criteria.clip, box)) return 0.0;
-    const double share = criteria.camera ? (framed ? view_share(frame, box) : 1.0) : 1.0;
-    double out = by_mass ? mass_error(v) : weight_[v] * share;
+    auto share = [&] { return framed ? view_share(frame, box) : 1.0; };  // 1 without a camera
+    double out = by_mass ? mass_error(v) : weight_[v] * share();
     for (const protocol::Plane& slice : criteria.slices)
-      if (crosses(slice, box)) out = std::max(out, kSliceWeight * slice_weight(v, criteria.channel) * share);
+      if (crosses(slice, box)) out = std::max(out, kSliceWeight * slice_weight(v, criteria.channel) * share());
     return out;
   };
   std::vector<double> e(n);
