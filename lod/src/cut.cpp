@@ -31,7 +31,16 @@ Cut::Cut(const Dag& dag) : dag_(dag) {
     for (uint32_t p : dag.parent_patches(v))
       if (dag.patch(p).ceiling != kRoot) ++unrefined_parents_[v];
   }
-  for (uint32_t p = 0; p < dag.root_patch_count(); ++p) tets_ += dag.patch(p).tet_count;
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (uint32_t p = 0; p < dag.root_patch_count(); ++p) {
+    tets_ += dag.patch(p).tet_count;
+    const float* box = dag.node(dag.patch(p).floor).bounds;
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min<double>(lo[k], box[k]);
+      hi[k] = std::max<double>(hi[k], box[k + 3]);
+    }
+  }
+  if (dag.root_patch_count() > 0) scene_diagonal_ = std::sqrt(std::pow(hi[0] - lo[0], 2) + std::pow(hi[1] - lo[1], 2) + std::pow(hi[2] - lo[2], 2));
 }
 
 bool Cut::displayed(uint32_t node) const { return !refined_[node] && unrefined_parents_[node] == 0; }
@@ -309,16 +318,7 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   // share of the view its centroid's depth gives a unit of it. Otherwise (isosurfaces, stores
   // of format 1) the largest error per slot weighted with the box's share of the view.
   const bool by_mass = dag_.has_mass() && criteria.isovalues.empty() && criteria.channel < dag_.channel_count();
-  double scene = 1;  // the diagonal of the root segments' boxes
-  if (by_mass) {
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (uint32_t p = 0; p < dag_.root_patch_count(); ++p)
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min<double>(lo[k], dag_.node(dag_.patch(p).floor).bounds[k]);
-        hi[k] = std::max<double>(hi[k], dag_.node(dag_.patch(p).floor).bounds[k + 3]);
-      }
-    scene = std::sqrt(std::pow(hi[0] - lo[0], 2) + std::pow(hi[1] - lo[1], 2) + std::pow(hi[2] - lo[2], 2));
-  }
+  const double scene = scene_diagonal_;
   // the mass shows through slabs of the unit distance: thinner ones than the default show more
   const double slab = criteria.unit_distance > 0 ? 0.01 * scene / criteria.unit_distance : 1.0;
   auto mass_error = [&](uint32_t v) {

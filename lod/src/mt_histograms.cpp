@@ -122,7 +122,7 @@ CeilingError measure_ceiling_error(const storage::TetMesh& m, std::span<const ui
   CeilingError out;
   out.field.assign(size_t{C} * N, 0.0f);
   out.spatial.assign(size_t{C} * N, 0.0f);
-  std::vector<double> mass(size_t{C} * N * 4, 0.0);  // Σ err·vol, Σ err·vol·xyz
+  std::vector<double> mass(size_t{C} * 4 * N, 0.0);  // per channel: Σ err·vol, Σ err·vol·x, ·y, ·z
   const double unit_volume = mesh.diagonal * mesh.diagonal * mesh.diagonal;
   Locator locator(m);
   std::vector<double> original(C), corner(4 * size_t{C});
@@ -163,17 +163,20 @@ CeilingError measure_ceiling_error(const storage::TetMesh& m, std::span<const ui
       float& s = out.spatial[size_t{c} * N + bin];
       s = std::max(s, static_cast<float>(isosurface_displacement(P, corner, C, c, err)));
       const double w = err * (v < mesh.vertex_volume.size() ? mesh.vertex_volume[v] / unit_volume : 0.0);
-      double* sum = &mass[(size_t{c} * N + bin) * 4];
+      double* sum = &mass[size_t{c} * 4 * N + bin];
       sum[0] += w;
-      for (int k = 0; k < 3; ++k) sum[k + 1] += w * p[k];
+      for (int k = 0; k < 3; ++k) sum[(k + 1) * N] += w * p[k];
     }
   }
   out.mass.assign(mass.size(), 0.0f);
-  for (size_t i = 0; i < mass.size(); i += 4) {
-    if (!(mass[i] > 0) || !std::isfinite(mass[i])) continue;
-    out.mass[i] = static_cast<float>(mass[i]);
-    for (int k = 1; k < 4; ++k) out.mass[i + size_t(k)] = static_cast<float>(mass[i + size_t(k)] / mass[i]);
-  }
+  for (size_t c = 0; c < C; ++c)
+    for (size_t bin = 0; bin < N; ++bin) {
+      const double* sum = &mass[c * 4 * N + bin];
+      if (!(sum[0] > 0) || !std::isfinite(sum[0])) continue;
+      float* at = &out.mass[c * 4 * N + bin];
+      at[0] = static_cast<float>(sum[0]);
+      for (size_t k = 1; k < 4; ++k) at[k * N] = static_cast<float>(sum[k * N] / sum[0]);
+    }
   return out;
 }
 

@@ -8,6 +8,7 @@
 
 #include "mt_stages.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::lod::mt {
 namespace {
@@ -114,14 +115,12 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
   while (stream->next_tets(chunk)) {
     for (uint32_t v : chunk.tets) used[v] = 1;
     for (size_t t = 0; t + 3 < chunk.tets.size(); t += 4) {
-      const float* p[4];
-      for (int k = 0; k < 4; ++k) p[k] = &table.xyz[3 * size_t{chunk.tets[t + size_t(k)]}];
-      double e[3][3];
-      for (int j = 0; j < 3; ++j)
-        for (int q = 0; q < 3; ++q) e[j][q] = double(p[j + 1][q]) - p[0][q];
-      const double six = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
-                         e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
-      const double quarter = std::fabs(six) / 24;
+      Vec3 p[4];
+      for (int k = 0; k < 4; ++k) {
+        const float* at = &table.xyz[3 * size_t{chunk.tets[t + size_t(k)]}];
+        p[k] = {at[0], at[1], at[2]};
+      }
+      const double quarter = std::fabs(dot(cross(p[1] - p[0], p[2] - p[0]), p[3] - p[0])) / 24;
       if (std::isfinite(quarter))
         for (int k = 0; k < 4; ++k) volume[chunk.tets[t + size_t(k)]] += static_cast<float>(quarter);
     }

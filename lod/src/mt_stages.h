@@ -172,7 +172,7 @@ struct Hierarchy {
   std::vector<uint32_t> level_first;      // nodes of level L: [level_first[L], level_first[L+1])
   std::vector<PatchRange> patches;        // between levels, in build order
   std::vector<float> field, spatial;      // per node: [channel][bin], not yet monotone
-  std::vector<float> mass;                // per node: [channel][bin][4], as CeilingError::mass
+  std::vector<float> mass;                // per node: [channel][4][bin], as CeilingError::mass
   std::vector<uint32_t> level0_owner;     // the level-0 segment that owns each input vertex
   double partition_seconds = 0;           // of level 0
   uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
@@ -186,8 +186,9 @@ struct Hierarchy {
 // The error of a simplified ceiling at the original vertices it covers (mt_histograms.cpp).
 struct CeilingError {
   std::vector<float> field, spatial;   // [channel][bin]
-  // [channel][bin][4]: the error mass Σ err·volume over the original vertices of the bin
-  // (volume in units of the diagonal cubed), then the centroid of that mass (x, y, z)
+  // [channel][4][bin]: the error mass Σ err·volume over the original vertices of the bin
+  // (volume in units of the diagonal cubed), then the centroid of that mass (x, y, z); as
+  // dag.bin's histogram kinds 2-5
   std::vector<float> mass;
   std::vector<uint32_t> located_tet;   // per original vertex given: the ceiling's tet holding it
 };

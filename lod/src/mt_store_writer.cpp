@@ -214,8 +214,7 @@ uint64_t write_dag_file(const StoreInput& in, const std::vector<std::array<float
       float* out = &histograms[(size_t{n} * C + c) * K * N];
       std::copy_n(h.field.begin() + (size_t{n} * C + c) * N, N, out);
       std::copy_n(h.spatial.begin() + (size_t{n} * C + c) * N, N, out + N);
-      for (uint32_t b = 0; b < N; ++b)
-        for (uint32_t k = 0; k < 4; ++k) out[(2 + k) * N + b] = h.mass[((size_t{n} * C + c) * N + b) * 4 + k];
+      std::copy_n(h.mass.begin() + (size_t{n} * C + c) * 4 * N, 4 * N, out + 2 * N);
     }
   const std::filesystem::path dag_path = directory / "dag.bin";
   write_dag(dag_path, h.level_count(), dag_nodes, dag_patches, C, N, histograms);

@@ -22,11 +22,17 @@
 namespace tetrascope::testing {
 namespace {
 
+// A fresh copy of the sample's store, to damage or rewrite.
+std::filesystem::path copy_of_sample(const std::string& scratch) {
+  const auto copy = scratch_dir(scratch) / "store";
+  std::filesystem::remove_all(copy);
+  std::filesystem::copy(built("sample").store, copy, std::filesystem::copy_options::recursive);
+  return copy;
+}
+
 TEST(Dag, DamagedDagIsRefused) {
   const Built& b = built("sample");
-  const auto copy = scratch_dir("multires-damaged") / "store";
-  std::filesystem::remove_all(copy);
-  std::filesystem::copy(b.store, copy, std::filesystem::copy_options::recursive);
+  const auto copy = copy_of_sample("multires-damaged");
   auto store = storage::Store::open(copy);
   std::vector<uint32_t> tets(store->segment_count());
   for (uint32_t s = 0; s < tets.size(); ++s) tets[s] = store->record(s).tet_count;
@@ -86,10 +92,7 @@ TEST(Dag, TheErrorMassIsZeroAtTheInputAndLiesInsideItsSegment) {
 // A store made before the error masses (dag format 1) still opens, and its cut still
 // refines by the largest error per value slot.
 TEST(Dag, ADagOfFormat1StillOpensAndRefines) {
-  const Built& b = built("sample");
-  const auto copy = scratch_dir("multires-format1") / "store";
-  std::filesystem::remove_all(copy);
-  std::filesystem::copy(b.store, copy, std::filesystem::copy_options::recursive);
+  const auto copy = copy_of_sample("multires-format1");
   auto store = storage::Store::open(copy);
   auto dag = lod::open_dag(*store);
   const uint32_t C = dag->channel_count(), N = dag->bins();

@@ -110,6 +110,7 @@ class Cut {
   std::vector<uint32_t> refined_children_, unrefined_parents_;
   std::vector<int64_t> gain_;  // tets added by refining the node: children's patches - its own
   uint64_t tets_ = 0;
+  double scene_diagonal_ = 1;             // of the coarsest segments' boxes: the mesh's size
   std::vector<uint32_t> flips_;           // patches whose state changed during an update
   std::vector<uint8_t> flipped_, was_active_;
   // cached Σ H·C per node for the last criteria
