@@ -109,7 +109,10 @@ int run_simplify(const Arguments& raw) {
     j["refused_intersection"] = report.refused_intersection;
     j["tetrahedralizations"] = report.tetrahedralizations;
     j["fell_back_to_qem"] = report.fell_back_to_qem;
-    if (report.fell_back_to_qem) std::fprintf(stderr, "tetrascope simplify: the border encloses a cavity the sampler cannot keep: simplified by quadric collapses instead\n");
+    if (!report.tetgen_failure.empty()) j["tetgen_failure"] = report.tetgen_failure;
+    if (report.fell_back_to_qem)
+      std::fprintf(stderr, "tetrascope simplify: %s: simplified by quadric collapses instead\n",
+                   report.tetgen_failure.empty() ? "the border encloses a cavity the sampler cannot keep" : report.tetgen_failure.c_str());
     j["phase_seconds"] = {{"border", report.border_seconds}, {"sample", report.sample_seconds}, {"tetrahedralize", report.tetrahedralize_seconds},
                           {"output", report.output_seconds}};
   }

@@ -32,7 +32,7 @@ nlohmann::json PreprocessReport::to_json() const {
   nlohmann::json levels_json = nlohmann::json::array();
   for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
-          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"seconds", seconds},
+          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks}, {"seconds", seconds},
           {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
 }
 
@@ -77,6 +77,7 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   mt::Hierarchy hierarchy = mt::build_levels(mesh, options, stage);
   const std::vector<mt::PatchRange> arcs = mt::dag_arcs(hierarchy, static_cast<uint32_t>(mesh.channels.size()) * options.histogram_bins);
   report.segment_seconds = hierarchy.partition_seconds;
+  report.tetgen_fallbacks = hierarchy.tetgen_fallbacks;
   report.simplify_seconds = seconds_since(levels_start) - hierarchy.partition_seconds;
   report.spilled_bytes += hierarchy.nodes.spilled_bytes();
 

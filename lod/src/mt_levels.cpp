@@ -16,6 +16,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <mutex>
 #include <numeric>
@@ -254,6 +255,13 @@ class LevelBuilder {
       results[k] = simplify_ceiling(ceiling_patches[k], ceiling_vertices[k], targets[k], cap);
       report(traced + (1 - traced) * ++simplified_ceilings / double(mine));
     });
+    for (size_t i = 0; i < mine; ++i) {
+      const std::string& failure = results[share.mine[i]].tetgen_failure;
+      if (failure.empty()) continue;
+      ++out_.tetgen_fallbacks;
+      std::fprintf(stderr, "tetrascope preprocess: level %u, segment %zu of %zu: %s: simplified by quadric collapses instead\n", level + 1,
+                   static_cast<size_t>(share.mine[i]) + 1, results.size(), failure.c_str());
+    }
     if (shared()) share_results(*options_.ranks, share.owner, results, mesh_.attributes);
     work_done_ = work_before + work;
     add_ceilings(level + 1, results, ceiling_vertices);
@@ -452,6 +460,7 @@ class LevelBuilder {
       }
       out.global[l] = same ? global[src] : kNone;
     }
+    out.tetgen_failure = sr.tetgen_failure;
     out.error = measure_ceiling_error(m, original_vertices, mesh_, options_.histogram_bins);
     out.mesh = std::move(m);
     return out;

@@ -175,6 +175,7 @@ struct Hierarchy {
   std::vector<float> mass;                // per node: [channel][4][bin], as CeilingError::mass
   std::vector<uint32_t> level0_owner;     // the level-0 segment that owns each input vertex
   double partition_seconds = 0;           // of level 0
+  uint32_t tetgen_fallbacks = 0;          // ceilings this rank simplified by collapses after TetGen failed
   uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
   uint64_t level_tets(uint32_t level) const {
     uint64_t sum = 0;
@@ -198,6 +199,7 @@ struct CeilingResult {
   storage::TetMesh mesh;         // simplified, local vertex ids
   std::vector<uint32_t> global;  // per output vertex: kept global id, or kNone (new)
   CeilingError error;
+  std::string tetgen_failure;    // --simplifier sample: TetGen failed, quadric collapses did it
 };
 
 // Level 0 and every coarser level, until the base budget, one segment or max_levels. Grows

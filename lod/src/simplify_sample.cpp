@@ -5,7 +5,10 @@
 // simplified border (§4.2.3); Steiner points get values by barycentric location in the input,
 // walking from tet to tet across faces.
 #define TETLIBRARY
+#include <fcntl.h>
+#include <sys/wait.h>
 #include <tetgen.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -13,7 +16,6 @@
 #include <cstring>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <queue>
 #include <stdexcept>
 #include <string>
@@ -317,6 +319,7 @@ SimplifyReport fall_back_to_qem(storage::TetMesh& mesh, const SimplifyOptions& o
   SimplifyReport fallback = simplify(mesh, qem, locked);
   fallback.fell_back_to_qem = true;
   fallback.border_before = sampled.border_before;
+  fallback.tetgen_failure = sampled.tetgen_failure;
   return fallback;
 }
 
@@ -342,12 +345,6 @@ Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, con
   tetgenbehavior behaviour;
   char switches[] = "pYQzJ";
   if (!behaviour.parse_commandline(switches)) throw std::runtime_error("tetgen: bad switches");
-  behaviour.nostaticfilter = 1;  // the static filter is global state in TetGen: not shared between threads
-  // TetGen 1.5 is not documented as safe to run on two threads at once (its predicates and
-  // tables are globals): one run at a time. (`preprocess --simplifier sample` on the 5M blade
-  // crashes inside TetGen's tetgenmesh::freememory with this lock too: an open finding.)
-  static std::mutex tetgen_mutex;
-  std::lock_guard one_at_a_time(tetgen_mutex);
   try {
     tetrahedralize(&behaviour, &in, &out);
   } catch (int code) {
@@ -359,6 +356,76 @@ Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, con
   for (int i = inputs; i < out.numberofpoints; ++i) result.steiner.push_back({out.pointlist[3 * i], out.pointlist[3 * i + 1], out.pointlist[3 * i + 2]});
   result.tets.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * size_t(out.numberoftetrahedra));
   return result;
+}
+
+// TetGen 1.5 as Debian builds it keeps its assertions, and a failed one ends the process
+// (recoveredgebyflips on ONERA's levels; freememory after a failure on the 5M blade), and its
+// predicates and tables are globals. So each run is a child process of its own: a crash there
+// is an error here, and runs on several threads do not share TetGen's state. The child sends
+// the result through a pipe: a status byte, then the Steiner points and the tets, or a message.
+Tetrahedralization tetrahedralize_apart(const std::vector<Point3>& points, const std::vector<std::array<uint32_t, 3>>& triangles) {
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(std::string("tetgen: cannot make a pipe: ") + std::strerror(errno));
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw std::runtime_error(std::string("tetgen: cannot start a process: ") + std::strerror(errno));
+  }
+  if (pid == 0) {  // child: one thread (the caller's), its own copy of memory; never returns
+    ::close(fds[0]);
+    auto send = [&](const void* data, size_t bytes) {
+      const char* at = static_cast<const char*>(data);
+      while (bytes > 0) {
+        const ssize_t n = ::write(fds[1], at, bytes);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) ::_exit(3);
+        at += n;
+        bytes -= static_cast<size_t>(n);
+      }
+    };
+    try {
+      const Tetrahedralization r = tetrahedralize_samples(points, triangles);
+      const uint64_t counts[2] = {r.steiner.size(), r.tets.size()};
+      send("\0", 1);
+      send(counts, sizeof counts);
+      send(r.steiner.data(), r.steiner.size() * sizeof(Point3));
+      send(r.tets.data(), r.tets.size() * sizeof(uint32_t));
+    } catch (const std::exception& e) {
+      const std::string message = e.what();
+      send("\1", 1);
+      send(message.data(), message.size());
+    }
+    ::_exit(0);
+  }
+  ::close(fds[1]);
+  std::string bytes;
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fds[0], buffer, sizeof buffer);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    bytes.append(buffer, static_cast<size_t>(n));
+  }
+  ::close(fds[0]);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFSIGNALED(status))
+    throw std::runtime_error(std::string("tetgen crashed on the sampled mesh (signal ") + std::to_string(WTERMSIG(status)) + ", " + strsignal(WTERMSIG(status)) + ")");
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || bytes.empty()) throw std::runtime_error("tetgen's process ended without a result");
+  if (bytes[0] == 1) throw std::runtime_error(bytes.substr(1));
+  uint64_t counts[2];
+  if (bytes.size() < 1 + sizeof counts) throw std::runtime_error("tetgen's process sent a short result");
+  std::memcpy(counts, bytes.data() + 1, sizeof counts);
+  const size_t expect = 1 + sizeof counts + counts[0] * sizeof(Point3) + counts[1] * sizeof(uint32_t);
+  if (bytes.size() != expect) throw std::runtime_error("tetgen's process sent a short result");
+  Tetrahedralization r;
+  r.steiner.resize(counts[0]);
+  r.tets.resize(counts[1]);
+  std::memcpy(r.steiner.data(), bytes.data() + 1 + sizeof counts, counts[0] * sizeof(Point3));
+  std::memcpy(r.tets.data(), bytes.data() + 1 + sizeof counts + counts[0] * sizeof(Point3), counts[1] * sizeof(uint32_t));
+  return r;
 }
 
 }  // namespace
@@ -460,7 +527,12 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
     std::vector<Point3> points(border_points + samples.size());
     for (size_t i = 0; i < border_points; ++i) points[i] = positions[input_vertex[i]];
     for (size_t i = 0; i < samples.size(); ++i) points[border_points + i] = positions[samples[i]];
-    tetrahedra = tetrahedralize_samples(points, facets);
+    try {
+      tetrahedra = tetrahedralize_apart(points, facets);
+    } catch (const std::runtime_error& e) {
+      report.tetgen_failure = e.what();
+      return fall_back_to_qem(mesh, options, locked, report);
+    }
     lap(report.tetrahedralize_seconds);
     ++report.tetrahedralizations;
     const double tets = double(tetrahedra.tets.size() / 4);

@@ -68,6 +68,9 @@ struct PreprocessReport {
   uint32_t segments = 0, patches = 0;
   uint64_t store_bytes = 0, dag_bytes = 0;
   uint64_t spilled_bytes = 0;  // the largest the spill files grew (--memory-mb), input and levels
+  // --simplifier sample: segments TetGen failed or crashed on (it runs in a child process),
+  // simplified by quadric collapses instead; this rank's under MPI
+  uint32_t tetgen_fallbacks = 0;
   double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
   nlohmann::json to_json() const;
 };

@@ -66,9 +66,10 @@ struct SimplifyReport {
   // border collapses refused because they would make the border intersect itself
   uint64_t border_before = 0, border_after = 0, samples = 0, steiner_points = 0, refused_intersection = 0;
   uint64_t tetrahedralizations = 0;
-  // kSample: the border encloses a cavity (TetGen would fill it), so the quadric simplifier
-  // did the work (see simplify_sampled)
+  // kSample: the border encloses a cavity (TetGen would fill it) or crosses itself, or TetGen
+  // failed (tetgen_failure says how), so the quadric simplifier did the work (simplify_sampled)
   bool fell_back_to_qem = false;
+  std::string tetgen_failure;
   double border_seconds = 0, sample_seconds = 0, tetrahedralize_seconds = 0, output_seconds = 0;  // kSample: the phases  // TetGen runs (a second one when the first missed the target by far)
   double seconds = 0;
   // With trace_costs: per collapse, in order, the tets alive after it and its quadric cost.
@@ -92,9 +93,9 @@ SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, 
 // adding no point on it; Steiner points get values by barycentric location in the input.
 // Every kept vertex keeps its position and values bit-identical. Where the border encloses a
 // cavity (TetGen fills it: it gets no hole points) the mesh goes to the quadric simplifier
-// instead and the report says fell_back_to_qem. The input must be
-// conforming with an intersection-free border; throws std::invalid_argument for bad options,
-// std::runtime_error when TetGen fails.
+// instead and the report says fell_back_to_qem; so does one where TetGen fails or crashes
+// (it runs in a child process; tetgen_failure says what happened). The input must be
+// conforming with an intersection-free border; throws std::invalid_argument for bad options.
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
 
 }  // namespace tetrascope::lod
