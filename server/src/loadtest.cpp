@@ -57,17 +57,22 @@ nlohmann::json open_session(const LoadtestOptions& o, std::unique_ptr<SessionCli
 // A session lost under the client (its server went away: a replica killed behind a load
 // balancer) is opened again, through the same URL, until the run's end; false when that
 // never succeeded.
-bool reopen_session(const LoadtestOptions& o, std::unique_ptr<SessionClient>& client, Clock::time_point end) {
+// Opens the session again until `end`; false with the last attempt's error in `why`.
+bool reopen_session(const LoadtestOptions& o, std::unique_ptr<SessionClient>& client, Clock::time_point end, std::string& why) {
   client.reset();
+  unsigned attempts = 0;
   while (Clock::now() < end) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    ++attempts;
     try {
       open_session(o, client);
       return true;
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
+      why = std::to_string(attempts) + " attempts, the last: " + e.what();
       client.reset();
     }
   }
+  if (why.empty()) why = "no time left in the run";
   return false;
 }
 
@@ -185,7 +190,9 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
       ++r.reconnects;
       sent.clear();
       resume_id.reset();
-      if (!reopen_session(o, client, end)) throw std::runtime_error(std::string("lost the session and could not open it again: ") + e.what());
+      std::string why;
+      if (!reopen_session(o, client, end, why))
+        throw std::runtime_error(std::string("lost the session (") + e.what() + ") and could not open it again (" + why + ")");
      }
     }
     r.seconds = std::chrono::duration<double>(Clock::now() - start).count();

@@ -32,9 +32,10 @@ grep -q "behind haproxy" "$work/replicas.log" || { cat "$work/replicas.log"; exi
   echo "$best $most" > "$work/killed"
   kill "$(cat "$work/set/replica-$best.pid")" ) &
 killer=$!
-"$bin" loadtest --url "ws://127.0.0.1:$port/api/v1/session" --dataset disk --clients 4 --duration 10 --size 320x240 --json > "$work/loadtest.json"
+# loadtest exits 1 on any error or a client without frames: the check below says which
+"$bin" loadtest --url "ws://127.0.0.1:$port/api/v1/session" --dataset disk --clients 4 --duration 10 --size 320x240 --json > "$work/loadtest.json" || true
 wait "$killer"
-python3 - "$work/loadtest.json" "$work/killed" << 'PY'
+python3 - "$work/loadtest.json" "$work/killed" << 'PY' || { echo "--- replicas log (last 40 lines)"; tail -n 40 "$work/replicas.log"; exit 1; }
 import json, sys
 j = json.loads(open(sys.argv[1]).read().strip().splitlines()[-1])
 killed, sessions = map(int, open(sys.argv[2]).read().split())
@@ -44,8 +45,9 @@ if sessions < 1: problems.append("no replica held a session when one was killed 
 if j["errors"] != 0: problems.append("errors: %s" % j["errors"])
 if j["reconnects"] < sessions: problems.append("reconnects %s < sessions lost %s" % (j["reconnects"], sessions))
 if j["clients_without_frames"] != 0: problems.append("clients without frames: %s" % j["clients_without_frames"])
-for c in j["per_client"]:
-    if c["failure"]: problems.append("client failed: " + c["failure"])
+for i, c in enumerate(j["per_client"]):
+    if c["failure"]: problems.append("client %d failed: %s" % (i, c["failure"]))
+    elif c["errors"]: problems.append("client %d: %s errors" % (i, c["errors"]))
 if problems:
     print("FAILED:", "; ".join(problems)); sys.exit(1)
 print("ok: every session lost with the replica reconnected through haproxy")
