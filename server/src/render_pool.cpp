@@ -17,18 +17,26 @@ RenderPool::RenderPool(unsigned workers, std::chrono::milliseconds idle_release)
   }
 }
 
-RenderPool::~RenderPool() {
+RenderPool::~RenderPool() { shutdown(); }
+
+void RenderPool::shutdown() {
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
   }
   wake_.notify_all();
-  for (auto& t : threads_) t.join();
+  for (auto& t : threads_)
+    if (t.joinable()) t.join();
 }
 
 void RenderPool::submit(Task task, Priority priority) {
+  Task dropped;  // destroyed outside the lock: it may hold the last reference to a session
   {
     std::lock_guard lock(mutex_);
+    if (stopping_) {
+      dropped = std::move(task);
+      return;
+    }
     if (priority == Priority::kInteraction) {
       tasks_.push_back(std::move(task));
       ++interaction_queued_;

@@ -27,6 +27,10 @@ class RenderPool {
   // task for `idle_release` releases its renderer's memory (Renderer::release_memory).
   explicit RenderPool(unsigned workers, std::chrono::milliseconds idle_release = std::chrono::seconds(5));
   ~RenderPool();
+  // Stops the workers after their current task and joins them; tasks submitted from then on
+  // (a worker's task pacing the session's next frame, say) are dropped. The pool must stay
+  // reachable until this returns: the server calls it before letting go of the pool.
+  void shutdown();
   void submit(Task task, Priority priority = Priority::kInteraction);
   const std::string& description() const { return description_; }
   size_t queued() const;

@@ -58,6 +58,10 @@ Server::~Server() {
   // handler runs any more; the pool's workers finish their current task and stop.
   impl_->io.restart();
   impl_->io.poll();  // lets pending handlers release their sessions
+  // a worker's task may submit the session's next one to the pool: stop the workers while the
+  // pool is still there (resetting the pointer first left them a null pool: a crash on SIGTERM
+  // with sessions rendering, found by the replicas test)
+  if (impl_->pool) impl_->pool->shutdown();
   impl_->pool.reset();
 }
 

@@ -141,6 +141,31 @@ TEST_F(ServerTest, FramesArriveAndDecode) {
   EXPECT_GT(lit, rgb.size() / 3 / 10);
 }
 
+// Threat: the server stopped (SIGTERM, a replica taken down) while its sessions render. A
+// render worker's task submits the session's next paced frame to the pool; the pool used to
+// be let go of before its workers were joined, so that submit met a null pool and the
+// process died (seen in the replicas test's killed replica). Several rounds: the window is
+// narrow.
+TEST_F(ServerTest, StoppingWhileSessionsRenderDoesNotCrash) {
+  for (int round = 0; round < 6; ++round) {
+    ServerOptions o = options_for(data_dir());
+    o.render_workers = 2;
+    start(o);
+    std::vector<std::unique_ptr<SessionClient>> clients;
+    for (int k = 0; k < 3; ++k) {
+      clients.push_back(std::make_unique<SessionClient>(ws_));
+      open(*clients.back());
+    }
+    next_frame(*clients.front());
+    for (int i = 0; i < 40; ++i)
+      for (auto& c : clients) c->send("camera.set", camera(0.05 * i + round));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20 * round));
+    const auto started = std::chrono::steady_clock::now();
+    server_.reset();  // stops, joins the io threads and the render workers
+    EXPECT_LT(std::chrono::steady_clock::now() - started, 30s) << "round " << round;
+  }
+}
+
 TEST_F(ServerTest, LatestWinsUnderABurstAndAStillFollows) {
   start();
   SessionClient c(ws_);
