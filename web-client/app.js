@@ -228,9 +228,21 @@ const refinement = {
 let lastDatasets = [];
 const firstReady = (datasets) => datasets.find((d) => d.state === 'ready')?.name;
 
+// The list is asked for again after a failed request (a fetch can fail while the server is
+// busy, e.g. right after a deletion it announced): 4 tries over about 2 s.
 async function loadDatasets() {
-  const response = await fetch('/api/v1/datasets', { headers: authHeaders });
-  const { datasets } = await response.json();
+  let datasets;
+  for (let attempt = 0; ; ++attempt) {
+    try {
+      const response = await fetch('/api/v1/datasets', { headers: authHeaders });
+      if (!response.ok) throw new Error(`HTTP ${response.status}`);
+      ({ datasets } = await response.json());
+      break;
+    } catch (error) {
+      if (attempt >= 3) throw new Error(`the dataset list could not be loaded: ${error.message}`);
+      await new Promise((resolve) => setTimeout(resolve, 250 * 2 ** attempt));
+    }
+  }
   lastDatasets = datasets;
   const select = $('dataset');
   const current = state.view.dataset ?? select.value;
@@ -249,7 +261,13 @@ async function loadDatasets() {
 async function datasetDeleted(text) {
   const gone = state.view.dataset;
   state.dataset = null;
-  const datasets = await loadDatasets();
+  let datasets;
+  try {
+    datasets = await loadDatasets();
+  } catch (error) {
+    $('dataset-summary').textContent = `${text}\n${error.message}: reload the page.`;
+    return;
+  }
   const next = datasets.find((d) => d.state === 'ready' && d.name !== gone)?.name;
   openDataset(next);
   if (next) datasetNotice = `${text}\nNow showing ${next}.`;  // shown with its dataset.info
