@@ -24,6 +24,7 @@
 #include "simplify_sample.h"
 #include "tetrascope/lod/border_intersection.h"
 #include "tetrascope/lod/simplify.h"
+#include "tetrascope/storage/sanitizer.h"
 
 namespace tetrascope::lod {
 namespace {
@@ -346,6 +347,9 @@ Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, con
   tetgenbehavior behaviour;
   char switches[] = "pYQzJ";
   if (!behaviour.parse_commandline(switches)) throw std::runtime_error("tetgen: bad switches");
+  // the static filter is global state in TetGen's predicates, which border_intersection.cpp
+  // also calls (exactinit without it): a run in this process must not switch it on
+  behaviour.nostaticfilter = 1;
   try {
     tetrahedralize(&behaviour, &in, &out);
   } catch (int code) {
@@ -366,22 +370,15 @@ Tetrahedralization tetrahedralize_samples(const std::vector<Point3>& points, con
 // the result through a pipe: a status byte, then the Steiner points and the tets, or a message.
 // The child, forked from a process with threads, uses only TetGen, malloc, stdio and write;
 // glibc makes malloc and stdio usable after fork.
-#if defined(__SANITIZE_ADDRESS__)
-#define TETRASCOPE_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TETRASCOPE_SANITIZED 1
-#endif
-#endif
 Tetrahedralization tetrahedralize_apart(const std::vector<Point3>& points, const std::vector<std::array<uint32_t, 3>>& triangles) {
-#ifdef TETRASCOPE_SANITIZED
-  // ASan's allocator is not safe to use in a child forked from several threads (the child
-  // waited forever on a lock another thread held at the fork): sanitized builds run TetGen
-  // here, one run at a time, as before (a failed assertion then ends the process).
-  static std::mutex one_at_a_time;
-  std::lock_guard lock(one_at_a_time);
-  return tetrahedralize_samples(points, triangles);
-#else
+  if constexpr (storage::kAddressSanitizer) {
+    // ASan's allocator is not safe to use in a child forked from several threads (the child
+    // waited forever on a lock another thread held at the fork): sanitized builds run TetGen
+    // here, one run at a time, as before (a failed assertion then ends the process).
+    static std::mutex one_at_a_time;
+    std::lock_guard lock(one_at_a_time);
+    return tetrahedralize_samples(points, triangles);
+  }
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(std::string("tetgen: cannot make a pipe: ") + std::strerror(errno));
   const pid_t pid = ::fork();
@@ -444,7 +441,6 @@ Tetrahedralization tetrahedralize_apart(const std::vector<Point3>& points, const
   if (counts[0] > 0) std::memcpy(r.steiner.data(), bytes.data() + 1 + sizeof counts, counts[0] * sizeof(Point3));  // (no Steiner points: data() may be null)
   if (counts[1] > 0) std::memcpy(r.tets.data(), bytes.data() + 1 + sizeof counts + counts[0] * sizeof(Point3), counts[1] * sizeof(uint32_t));
   return r;
-#endif
 }
 
 }  // namespace

@@ -56,8 +56,7 @@ nlohmann::json open_session(const LoadtestOptions& o, std::unique_ptr<SessionCli
 
 // A session lost under the client (its server went away: a replica killed behind a load
 // balancer) is opened again, through the same URL, until the run's end; false when that
-// never succeeded.
-// Opens the session again until `end`; false with the last attempt's error in `why`.
+// never succeeded, with the attempts and the last one's error in `why`.
 bool reopen_session(const LoadtestOptions& o, std::unique_ptr<SessionClient>& client, Clock::time_point end, std::string& why) {
   client.reset();
   unsigned attempts = 0;

@@ -2,17 +2,13 @@
 #include <filesystem>
 #include <string>
 
+#include "tetrascope/storage/sanitizer.h"
+
 namespace tetrascope::testing {
 
 // An AddressSanitizer build: tests that take minutes there (and seconds in release) skip
 // themselves in it and say so; the release run covers them.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-constexpr bool kSanitized = __has_feature(address_sanitizer);
-#else
-constexpr bool kSanitized = false;
-#endif
+constexpr bool kSanitized = storage::kAddressSanitizer;
 
 std::filesystem::path source_dir();
 std::filesystem::path sample_mesh();  // data/samples/disk_out_ref.vtk

@@ -18,24 +18,14 @@
 #include <string>
 
 #include "tetrascope/protocol/protocol.h"
+#include "tetrascope/storage/sanitizer.h"
 
 namespace tetrascope::server {
 
 // Whether an address-space limit (RLIMIT_AS) can be put on a job: not in a build under
 // AddressSanitizer, whose job children reserve terabytes of shadow address space at start and
 // would fail under any such limit. There the default is no limit (an explicit one still applies).
-constexpr bool kAddressSpaceLimitWorks =
-#if defined(__SANITIZE_ADDRESS__)
-    false;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    false;
-#else
-    true;
-#endif
-#else
-    true;
-#endif
+constexpr bool kAddressSpaceLimitWorks = !storage::kAddressSanitizer;
 
 struct ServerOptions {
   std::filesystem::path data_dir;      // the stores (datasets), uploads/ and .jobs/
