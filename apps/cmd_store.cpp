@@ -152,14 +152,18 @@ int run_segment(const Arguments& raw) {
 int run_preprocess(const Arguments& raw) {
   Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
   // a level whose tets take more than a quarter of M is kept in a spill file beside the store
   options.memory_mb = args.number("--memory-mb", static_cast<uint32_t>(options.memory_mb));
   options.base_tets = args.number("--base-tets", static_cast<uint32_t>(options.base_tets));
-  options.segment_tets = args.number("--segment-tets", options.segment_tets);
+  // auto (the default): 8192 on a graded mesh, 16384 on a nearly uniform one (auto_segment_tets)
+  if (args.has("--segment-tets") && args.get("--segment-tets") != "auto") {
+    options.segment_tets = args.number("--segment-tets", 0);
+    if (options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
+  }
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
   if (args.has("--level-ratio")) options.level_ratio = args.real("--level-ratio");
   if (args.has("--level-targets")) {
@@ -202,8 +206,9 @@ int run_preprocess(const Arguments& raw) {
   if (args.has("--json")) {
     std::cout << report.to_json().dump(2) << "\n";
   } else {
-    std::printf("%s: %llu tets -> %zu levels, %u segments, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
-                args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.segments, report.patches,
+    std::printf("%s: %llu tets -> %zu levels, %u segments of about %u tets%s, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
+                args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.segments, report.segment_tets,
+                options.segment_tets == 0 ? (report.grading >= lod::kGradedMesh ? " (auto: a graded mesh)" : " (auto: a nearly uniform mesh)") : "", report.patches,
                 static_cast<unsigned long long>(report.levels.back().tets), report.store_bytes / 1e6, double(report.store_bytes) / report.input_tets, report.seconds,
                 report.input_tets / report.seconds);
   }

@@ -32,14 +32,15 @@ nlohmann::json PreprocessReport::to_json() const {
   nlohmann::json levels_json = nlohmann::json::array();
   for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
-          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks}, {"seconds", seconds},
+          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
+          {"segment_tets", segment_tets}, {"grading", grading}, {"seconds", seconds},
           {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
 }
 
 namespace {
 
 void check_options(const PreprocessOptions& options, const std::filesystem::path& store_path) {
-  if (options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be at least 256");
+  if (options.segment_tets != 0 && options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
   if (options.base_tets < 1) throw std::invalid_argument("--base-tets must be at least 1");
   if (!(options.level_ratio > 0.01 && options.level_ratio < 0.95)) throw std::invalid_argument("--level-ratio must be in (0.01, 0.95)");
   if (options.histogram_bins < 2 || options.histogram_bins > dag::kMaxBins) throw std::invalid_argument("--bins must be 2 to " + std::to_string(dag::kMaxBins));
@@ -50,12 +51,13 @@ void check_options(const PreprocessOptions& options, const std::filesystem::path
 
 }  // namespace
 
-PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path, const PreprocessOptions& options,
+PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path, const PreprocessOptions& given,
                             storage::Progress* progress) {
   using clock = std::chrono::steady_clock;
   const auto start = clock::now();
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
-  check_options(options, store_path);
+  check_options(given, store_path);
+  PreprocessOptions options = given;  // with the segment size resolved once the input is read
   const mt::StageProgress stage{progress, {}};
   PreprocessReport report;
 
@@ -71,6 +73,9 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   report.spilled_bytes = mesh.tets.spilled_bytes();
   report.input_vertices = mesh.input_vertices;
   report.input_tets = mesh.input_tets;
+  report.grading = mesh.grading;
+  if (options.segment_tets == 0) options.segment_tets = auto_segment_tets(mesh.grading);
+  report.segment_tets = options.segment_tets;
   report.read_seconds = seconds_since(start);
 
   const auto levels_start = clock::now();

@@ -76,6 +76,30 @@ uint64_t drop_unused(IngestedMesh& out, const std::vector<uint8_t>& used) {
   return count - kept;
 }
 
+// tet volumes binned by log2 at eighth steps, 2^-160 to 2^+160 (clamped at the ends)
+constexpr int kLogVolumeSteps = 8, kLogVolumeLow = -160;
+constexpr size_t kLogVolumeBins = size_t{320} * kLogVolumeSteps;
+
+size_t log_volume_bin(double volume) {
+  const double at = std::floor((std::log2(volume) - kLogVolumeLow) * kLogVolumeSteps);
+  return static_cast<size_t>(std::clamp(at, 0.0, double(kLogVolumeBins - 1)));
+}
+
+// the 90th over the 10th percentile of the tets' size (cube root of volume)
+double size_spread(const std::vector<uint64_t>& log_volume) {
+  uint64_t total = 0;
+  for (uint64_t n : log_volume) total += n;
+  if (total == 0) return 1;
+  auto percentile = [&](double p) {
+    const double wanted = p * double(total);
+    uint64_t seen = 0;
+    for (size_t b = 0; b < log_volume.size(); ++b)
+      if (double(seen += log_volume[b]) >= wanted) return double(b);
+    return double(log_volume.size() - 1);
+  };
+  return std::exp2((percentile(0.9) - percentile(0.1)) / (3.0 * kLogVolumeSteps));
+}
+
 }  // namespace
 
 IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const PreprocessOptions& options, const std::filesystem::path& spill_directory) {
@@ -111,6 +135,7 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
   std::vector<uint8_t> used(table.size(), 0);
   std::vector<float>& volume = out.vertex_volume;
   volume.assign(table.size(), 0.0f);
+  std::vector<uint64_t> log_volume(kLogVolumeBins, 0);
   storage::TetChunk chunk;
   while (stream->next_tets(chunk)) {
     for (uint32_t v : chunk.tets) used[v] = 1;
@@ -121,8 +146,10 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
         p[k] = {at[0], at[1], at[2]};
       }
       const double quarter = std::fabs(dot(cross(p[1] - p[0], p[2] - p[0]), p[3] - p[0])) / 24;
-      if (std::isfinite(quarter))
+      if (std::isfinite(quarter) && quarter > 0) {
         for (int k = 0; k < 4; ++k) volume[chunk.tets[t + size_t(k)]] += static_cast<float>(quarter);
+        ++log_volume[log_volume_bin(4 * quarter)];
+      }
     }
     out.tets.append(chunk.tets);
   }
@@ -130,6 +157,7 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
   stream.reset();
   out.input_tets = out.tets.tet_count(0);
   if (out.input_tets == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");
+  out.grading = size_spread(log_volume);
   out.dropped_unused_vertices = drop_unused(out, used);
   out.input_vertices = static_cast<uint32_t>(table.size());
   add_channels(out);

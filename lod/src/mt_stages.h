@@ -150,6 +150,10 @@ struct IngestedMesh {
   // per input vertex: a quarter of the volume of the input tets around it (the volume it
   // stands for in the error mass, mt_histograms.cpp)
   std::vector<float> vertex_volume;
+  // How graded the mesh is: the 90th over the 10th percentile of its tets' size (the cube root
+  // of their volume), from a histogram of log2 volume at eighth steps. 1 for a uniform mesh;
+  // ONERA's far field 25, the oxygen post 27, the bracket 2 (auto_segment_tets, mt_build.h).
+  double grading = 1;
 };
 
 // Reads the mesh: the vertices into the table, the tets as they come into `tets` (spilled

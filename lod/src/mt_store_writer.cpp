@@ -276,7 +276,7 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
   const PreprocessOptions& options = in.options;
   manifest["multiresolution"] = {{"dag", "dag.bin"}, {"input", {{"vertices", mesh.input_vertices}, {"tetrahedra", mesh.input_tets}}}, {"levels", level_list},
                                  {"patches", in.arcs.size()}, {"histogram_bins", options.histogram_bins},
-                                 {"build", {{"segment_tets", options.segment_tets}, {"min_segments", options.min_segments}, {"base_tets", options.base_tets}, {"level_ratio", options.level_ratio}, {"level_targets", options.common_error ? "error" : "ratio"}, {"seed", options.seed}}}};
+                                 {"build", {{"segment_tets", options.segment_tets}, {"grading", mesh.grading}, {"min_segments", options.min_segments}, {"base_tets", options.base_tets}, {"level_ratio", options.level_ratio}, {"level_targets", options.common_error ? "error" : "ratio"}, {"seed", options.seed}}}};
   return manifest;
 }
 

@@ -8,12 +8,15 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "fixture_writers.h"
 #include "cli_run.h"
 #include "test_paths.h"
+#include "tetrascope/lod/mt_build.h"
 #include "tetrascope/lod/store_check.h"
 
 namespace tetrascope::testing {
@@ -169,6 +172,54 @@ TEST(PreprocessCli, UnknownLevelTargetsIsRefusedNamingTheChoices) {
     Result verify = run("verify " + (dir / mode).string());
     EXPECT_EQ(verify.status, 0) << mode << ": " << verify.out;
   }
+}
+
+// The grid of grid_off(k) with x stretched: the cubes grow `ratio`-fold a step along x.
+std::string graded_grid_off(int k, double ratio) {
+  std::istringstream in(grid_off(k));
+  std::ostringstream out;
+  int vertices = 0, tets = 0;
+  in >> vertices >> tets;
+  out << vertices << " " << tets << "\n";
+  for (int v = 0; v < vertices; ++v) {
+    double x, y, z, value;
+    in >> x >> y >> z >> value;
+    out << (std::pow(ratio, x) - 1) / (ratio - 1) << " " << y << " " << z << " " << value << "\n";
+  }
+  for (int t = 0; t < tets; ++t) {
+    int a, b, c, d;
+    in >> a >> b >> c >> d;
+    out << a << " " << b << " " << c << " " << d << "\n";
+  }
+  return out.str();
+}
+
+// Issue 14: --segment-tets auto (the default) sizes the segments by how graded the mesh is,
+// 8192 tets on a graded mesh, 16384 on a nearly uniform one; the store records the size built
+// with, and a size given is kept.
+TEST(PreprocessCli, TheDefaultSegmentSizeFollowsTheMeshGrading) {
+  auto dir = scratch_dir("pre_grading");
+  write_file(dir / "uniform.off", grid_off(12));  // 8,640 tets of two sizes (cbrt 2 apart)
+  write_file(dir / "graded.off", graded_grid_off(12, 2.2));  // the cubes 2.2^11 ~ 5,800:1 along x
+  auto build = [&](const std::string& mesh, const std::string& extra) {
+    Result r = run("preprocess " + (dir / (mesh + ".off")).string() + " -o " + (dir / (mesh + std::to_string(extra.size()) + ".store")).string() + " --progress none --json" + extra);
+    EXPECT_EQ(r.status, 0) << r.out;
+    const auto json_at = r.out.find('{');
+    return json_at == std::string::npos ? nlohmann::json::object() : nlohmann::json::parse(r.out.substr(json_at));
+  };
+  const nlohmann::json uniform = build("uniform", ""), graded = build("graded", ""), given = build("graded", " --segment-tets 4000");
+  ASSERT_TRUE(uniform.contains("grading") && graded.contains("grading")) << uniform.dump() << graded.dump();
+  EXPECT_LT(uniform["grading"].get<double>(), 1.5);
+  EXPECT_EQ(uniform["segment_tets"], 16384);
+  EXPECT_GT(graded["grading"].get<double>(), lod::kGradedMesh);
+  EXPECT_EQ(graded["segment_tets"], 8192);
+  EXPECT_EQ(given["segment_tets"], 4000);
+  EXPECT_EQ(manifest(dir / "uniform0.store")["multiresolution"]["build"]["segment_tets"], 16384);
+  EXPECT_EQ(manifest(dir / "graded0.store")["multiresolution"]["build"]["segment_tets"], 8192);
+  Result zero = run("preprocess " + (dir / "graded.off").string() + " -o " + (dir / "zero").string() + " --progress none --segment-tets 0");
+  EXPECT_NE(zero.status, 0);
+  EXPECT_NE(zero.out.find("--segment-tets must be 'auto' or at least 256"), std::string::npos) << zero.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "zero"));
 }
 
 TEST(PreprocessCli, StoreThatFailsVerifyIsRemovedNotReported) {

@@ -151,6 +151,7 @@ TEST(MtBuild, ATetgenCrashOnASampledSegmentFallsBackToQuadricCollapses) {
   const auto mesh = shared_data() / "onera_m6_potential.vtk";
   const auto dir = scratch_dir("tetgen-crash");
   lod::PreprocessOptions options;
+  options.segment_tets = 16384;  // the segments it crashed on (auto would pick 8192 on ONERA)
   options.simplifier = lod::SimplifyMethod::kSample;
   const auto report = lod::preprocess(mesh, dir / "onera", options);
   EXPECT_GE(report.tetgen_fallbacks, 1u) << "TetGen did not fail on any of ONERA's sampled segments";

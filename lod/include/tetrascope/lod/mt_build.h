@@ -18,7 +18,9 @@
 namespace tetrascope::lod {
 
 struct PreprocessOptions {
-  uint32_t segment_tets = 16384;  // target tets a segment, at every level
+  // Target tets a segment, at every level; 0 (the default): chosen from the input's grading,
+  // auto_segment_tets().
+  uint32_t segment_tets = 0;
   // stop when a level has at most this many tets (or simplification stalls): small enough for
   // an interaction budget on every store (issue 15)
   uint64_t base_tets = 10000;
@@ -57,6 +59,16 @@ struct PreprocessOptions {
   Ranks* ranks = nullptr;
 };
 
+// The segment size --segment-tets auto picks for a mesh of this grading (the 90th over the 10th
+// percentile of its tets' size). Measured on the fidelity cases of issue 14
+// (bench/results/fidelity.json, tag seg8k): on the graded CFD meshes (ONERA's far field, grading
+// 25, the oxygen post 27) segments of 8192 tets gave the cut more and better places to refine,
+// ahead in 19 of their 25 cells; on the nearly uniform blades (grading ~3) they lost in 14 of
+// 20, and 16384 stays.
+constexpr double kGradedMesh = 8;
+constexpr uint32_t kGradedSegmentTets = 8192, kUniformSegmentTets = 16384;
+inline uint32_t auto_segment_tets(double grading) { return grading >= kGradedMesh ? kGradedSegmentTets : kUniformSegmentTets; }
+
 struct LevelReport {
   uint32_t level = 0, segments = 0, patches = 0;
   uint64_t tets = 0, vertices = 0;
@@ -71,6 +83,8 @@ struct PreprocessReport {
   // --simplifier sample: segments TetGen failed or crashed on (it runs in a child process),
   // simplified by quadric collapses instead; this rank's under MPI
   uint32_t tetgen_fallbacks = 0;
+  uint32_t segment_tets = 0;  // the segment size built with (auto_segment_tets unless given)
+  double grading = 1;         // the input's, as auto_segment_tets reads it
   double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
   nlohmann::json to_json() const;
 };
