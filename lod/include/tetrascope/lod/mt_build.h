@@ -62,9 +62,9 @@ struct PreprocessOptions {
 // The segment size --segment-tets auto picks for a mesh of this grading (the 90th over the 10th
 // percentile of its tets' size). Measured on the fidelity cases of issue 14
 // (bench/results/fidelity.json, tag seg8k): on the graded CFD meshes (ONERA's far field, grading
-// 25, the oxygen post 27) segments of 8192 tets gave the cut more and better places to refine,
-// ahead in 19 of their 25 cells; on the nearly uniform blades (grading ~3) they lost in 14 of
-// 20, and 16384 stays.
+// 26, the oxygen post 27) segments of 8192 tets gave the cut more and better places to refine,
+// higher PSNR than 16384 in 19 of their 25 cells; on the nearly uniform blades (grading 1.4-2.7)
+// lower in 14 of 20, so they keep 16384 (bench/results/segment_auto.json: the gradings).
 constexpr double kGradedMesh = 8;
 constexpr uint32_t kGradedSegmentTets = 8192, kUniformSegmentTets = 16384;
 inline uint32_t auto_segment_tets(double grading) { return grading >= kGradedMesh ? kGradedSegmentTets : kUniformSegmentTets; }
