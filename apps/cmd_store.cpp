@@ -162,7 +162,8 @@ int run_preprocess(const Arguments& raw) {
   // auto (the default): 8192 on a graded mesh, 16384 on a nearly uniform one (auto_segment_tets)
   if (args.has("--segment-tets") && args.get("--segment-tets") != "auto") {
     options.segment_tets = args.number("--segment-tets", 0);
-    if (options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
+    // 0 would read as auto in PreprocessOptions; 1-255 preprocess refuses (check_options)
+    if (options.segment_tets == 0) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
   }
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
   if (args.has("--level-ratio")) options.level_ratio = args.real("--level-ratio");
