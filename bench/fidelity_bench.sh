@@ -29,6 +29,9 @@ py=/usr/bin/python3
 data=../shared/data
 blade1m=${BLADE_1M:-/work/bigdata/blade-1m.vtk}
 blade5m=${BLADE_5M:-/work/bigdata/blade-5m.vtk}
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+git diff --quiet HEAD -- lod storage apps 2>/dev/null || commit="$commit+changes"
+[[ -n "${TETRASCOPE:-}" ]] && commit="given binary $TETRASCOPE"
 
 # name | mesh | camera | mode | unit distance | transfer function (JSON) or isovalue
 cases=(
@@ -76,6 +79,8 @@ for spec in "${cases[@]}"; do
   image "$mesh" "$out/$name.full" > /dev/null
   full=$(shown "$out/$name.full")
   coarsest=$("$bin" info --json "$store" | "$py" -c 'import json,sys; j=json.load(sys.stdin); print(j["multiresolution"]["levels"][-1]["tets"])')
+  # which store the rows came from: its DAG and segments hashed, so rows can be checked against a rebuild
+  store_id=$(cat "$store/dag.bin" "$store/segments.bin" | sha256sum | cut -c1-16)
   for pct in coarsest $budgets; do
     budget=$coarsest
     [[ "$pct" != coarsest ]] && budget=$((input_tets * pct / 100))
@@ -88,7 +93,7 @@ for spec in "${cases[@]}"; do
     dec_tets=$("$bin" info --json "$dec" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
     image "$dec" "$out/$name.dec$pct" > /dev/null
     dec_db=$(psnr "$full" "$(shown "$out/$name.dec$pct")")
-    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db}"
+    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db,\"store\":\"$store_id\",\"coarsest_tets\":$coarsest,\"commit\":\"$commit\"}"
     echo "$row"
     rows+=("$row")
   done
