@@ -152,7 +152,7 @@ int run_segment(const Arguments& raw) {
 int run_preprocess(const Arguments& raw) {
   Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--level-ratio R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -166,7 +166,12 @@ int run_preprocess(const Arguments& raw) {
     if (options.segment_tets == 0) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
   }
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
-  if (args.has("--level-ratio")) options.level_ratio = args.real("--level-ratio");
+  // auto (the default): 0.25 on a graded mesh, 0.5 on a nearly uniform one (auto_level_ratio)
+  if (args.has("--level-ratio") && args.get("--level-ratio") != "auto") {
+    options.level_ratio = args.real("--level-ratio");
+    // 0 would read as auto in PreprocessOptions; other values out of range preprocess refuses
+    if (options.level_ratio == 0) throw std::invalid_argument("--level-ratio must be 'auto' or in (0.01, 0.95)");
+  }
   if (args.has("--level-targets")) {
     const std::string t = args.get("--level-targets");
     if (t != "error" && t != "ratio") throw std::invalid_argument("--level-targets must be 'error' (one error threshold a level) or 'ratio' (every segment to --level-ratio)");
@@ -207,9 +212,11 @@ int run_preprocess(const Arguments& raw) {
   if (args.has("--json")) {
     std::cout << report.to_json().dump(2) << "\n";
   } else {
-    std::printf("%s: %llu tets -> %zu levels, %u segments of about %u tets%s, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
-                args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.segments, report.segment_tets,
-                options.segment_tets == 0 ? (report.grading >= lod::kGradedMesh ? " (auto: a graded mesh)" : " (auto: a nearly uniform mesh)") : "", report.patches,
+    // what auto chose, and why, when it chose either
+    const bool chosen = options.segment_tets == 0 || options.level_ratio == 0;
+    std::printf("%s: %llu tets -> %zu levels, each about %.2g of the one below, %u segments of about %u tets%s, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
+                args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.level_ratio, report.segments,
+                report.segment_tets, chosen ? (report.grading >= lod::kGradedMesh ? " (auto: a graded mesh)" : " (auto: a nearly uniform mesh)") : "", report.patches,
                 static_cast<unsigned long long>(report.levels.back().tets), report.store_bytes / 1e6, double(report.store_bytes) / report.input_tets, report.seconds,
                 report.input_tets / report.seconds);
   }

@@ -33,7 +33,7 @@ nlohmann::json PreprocessReport::to_json() const {
   for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
           {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
-          {"segment_tets", segment_tets}, {"grading", grading}, {"seconds", seconds},
+          {"segment_tets", segment_tets}, {"level_ratio", level_ratio}, {"grading", grading}, {"seconds", seconds},
           {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
 }
 
@@ -42,7 +42,8 @@ namespace {
 void check_options(const PreprocessOptions& options, const std::filesystem::path& store_path) {
   if (options.segment_tets != 0 && options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
   if (options.base_tets < 1) throw std::invalid_argument("--base-tets must be at least 1");
-  if (!(options.level_ratio > 0.01 && options.level_ratio < 0.95)) throw std::invalid_argument("--level-ratio must be in (0.01, 0.95)");
+  if (options.level_ratio != 0 && !(options.level_ratio > 0.01 && options.level_ratio < 0.95))
+    throw std::invalid_argument("--level-ratio must be 'auto' or in (0.01, 0.95)");
   if (options.histogram_bins < 2 || options.histogram_bins > dag::kMaxBins) throw std::invalid_argument("--bins must be 2 to " + std::to_string(dag::kMaxBins));
   if (options.threads < 1 || options.threads > 64) throw std::invalid_argument("--threads must be 1 to 64");
   if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
@@ -75,7 +76,9 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   report.input_tets = mesh.input_tets;
   report.grading = mesh.grading;
   if (options.segment_tets == 0) options.segment_tets = auto_segment_tets(mesh.grading);
+  if (options.level_ratio == 0) options.level_ratio = auto_level_ratio(mesh.grading);
   report.segment_tets = options.segment_tets;
+  report.level_ratio = options.level_ratio;
   report.read_seconds = seconds_since(start);
 
   const auto levels_start = clock::now();

@@ -197,7 +197,7 @@ std::string graded_grid_off(int k, double ratio) {
 // Issue 14: --segment-tets auto (the default) sizes the segments by how graded the mesh is,
 // 8192 tets on a graded mesh, 16384 on a nearly uniform one; the store records the size built
 // with, and a size given is kept.
-TEST(PreprocessCli, TheDefaultSegmentSizeFollowsTheMeshGrading) {
+TEST(PreprocessCli, TheDefaultSegmentSizeAndLevelRatioFollowTheMeshGrading) {
   auto dir = scratch_dir("pre_grading");
   write_file(dir / "uniform.off", grid_off(12));  // 8,640 tets of two sizes (cbrt 2 apart)
   write_file(dir / "graded.off", graded_grid_off(12, 2.2));  // the cubes 2.2^11 ~ 5,800:1 along x
@@ -208,17 +208,33 @@ TEST(PreprocessCli, TheDefaultSegmentSizeFollowsTheMeshGrading) {
     return json_at == std::string::npos ? nlohmann::json::object() : nlohmann::json::parse(r.out.substr(json_at));
   };
   const nlohmann::json uniform = build("uniform", ""), graded = build("graded", ""), given = build("graded", " --segment-tets 4000");
+  const nlohmann::json given_ratio = build("uniform", " --level-ratio 0.3"), said_auto = build("graded", " --level-ratio auto --segment-tets auto");
   ASSERT_TRUE(uniform.contains("grading") && graded.contains("grading")) << uniform.dump() << graded.dump();
   EXPECT_LT(uniform["grading"].get<double>(), 1.5);
   EXPECT_EQ(uniform["segment_tets"], 16384);
   EXPECT_GT(graded["grading"].get<double>(), lod::kGradedMesh);
   EXPECT_EQ(graded["segment_tets"], 8192);
   EXPECT_EQ(given["segment_tets"], 4000);
+  // levels 2:1 apart on the uniform mesh, 4:1 on the graded one; a given ratio is kept
+  EXPECT_EQ(uniform["level_ratio"], lod::kUniformLevelRatio);
+  EXPECT_EQ(graded["level_ratio"], lod::kGradedLevelRatio);
+  EXPECT_NE(lod::kUniformLevelRatio, lod::kGradedLevelRatio);
+  EXPECT_EQ(given["level_ratio"], lod::kGradedLevelRatio);
+  EXPECT_EQ(given_ratio["level_ratio"], 0.3);
+  EXPECT_EQ(given_ratio["segment_tets"], 16384);
+  EXPECT_EQ(said_auto["level_ratio"], lod::kGradedLevelRatio);
+  EXPECT_EQ(said_auto["segment_tets"], 8192);
+  EXPECT_EQ(manifest(dir / "uniform0.store")["multiresolution"]["build"]["level_ratio"], lod::kUniformLevelRatio);
+  EXPECT_EQ(manifest(dir / "graded0.store")["multiresolution"]["build"]["level_ratio"], lod::kGradedLevelRatio);
   EXPECT_EQ(manifest(dir / "uniform0.store")["multiresolution"]["build"]["segment_tets"], 16384);
   EXPECT_EQ(manifest(dir / "graded0.store")["multiresolution"]["build"]["segment_tets"], 8192);
   Result zero = run("preprocess " + (dir / "graded.off").string() + " -o " + (dir / "zero").string() + " --progress none --segment-tets 0");
   EXPECT_NE(zero.status, 0);
   EXPECT_NE(zero.out.find("--segment-tets must be 'auto' or at least 256"), std::string::npos) << zero.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "zero"));
+  Result no_ratio = run("preprocess " + (dir / "graded.off").string() + " -o " + (dir / "zero").string() + " --progress none --level-ratio 0");
+  EXPECT_NE(no_ratio.status, 0);
+  EXPECT_NE(no_ratio.out.find("--level-ratio must be 'auto' or in (0.01, 0.95)"), std::string::npos) << no_ratio.out;
   EXPECT_FALSE(std::filesystem::exists(dir / "zero"));
 }
 

@@ -24,7 +24,9 @@ struct PreprocessOptions {
   // stop when a level has at most this many tets (or simplification stalls): small enough for
   // an interaction budget on every store (issue 15)
   uint64_t base_tets = 10000;
-  double level_ratio = 0.25;      // each level holds about this share of the tets of the one below
+  // Each level holds about this share of the tets of the one below; 0 (the default): chosen
+  // from the input's grading, auto_level_ratio().
+  double level_ratio = 0;
   // true: the segments of a level are simplified to one error threshold (the level's tets go
   // where the field varies, level_targets.h); false: each segment to level_ratio of its tets
   bool common_error = true;
@@ -69,6 +71,17 @@ constexpr double kGradedMesh = 8;
 constexpr uint32_t kGradedSegmentTets = 8192, kUniformSegmentTets = 16384;
 inline uint32_t auto_segment_tets(double grading) { return grading >= kGradedMesh ? kGradedSegmentTets : kUniformSegmentTets; }
 
+// The level ratio --level-ratio auto picks. On a nearly uniform mesh every part of the view
+// needs about the same detail, so a cut between two levels 4:1 apart leaves half the picture at
+// a quarter of the detail where a uniform decimation spreads it evenly: with a level every 2:1
+// the 1M blade and the bracket lose to decimation in 3 of 16 cells at 5-50% (worst -2.4 dB)
+// instead of 6 (worst -7.4); on the graded meshes (ONERA, the oxygen post) 2:1 steps won
+// nothing overall and lost up to 13.9 dB at 50% (bench/results/fidelity.json, tags auto and
+// r0.5). A 2:1 ladder stores about twice the input's tets where 4:1 stores a third more
+// (bench/results/level_ratio_auto.json).
+constexpr double kGradedLevelRatio = 0.25, kUniformLevelRatio = 0.5;
+inline double auto_level_ratio(double grading) { return grading >= kGradedMesh ? kGradedLevelRatio : kUniformLevelRatio; }
+
 struct LevelReport {
   uint32_t level = 0, segments = 0, patches = 0;
   uint64_t tets = 0, vertices = 0;
@@ -85,6 +98,7 @@ struct PreprocessReport {
   uint32_t tetgen_fallbacks = 0;
   uint32_t segment_tets = 0;  // the segment size built with (auto_segment_tets unless given)
   double grading = 1;         // the input's, as auto_segment_tets reads it
+  double level_ratio = 0;     // the level ratio built with (auto_level_ratio unless given)
   double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
   nlohmann::json to_json() const;
 };
