@@ -66,6 +66,9 @@ TEST(MtBuild, HistogramsAreMonotoneAndBoundTheMeasuredError) {
       size_t offset = 0;
       for (uint32_t a = 0; a < c; ++a) offset += attributes[a].components;
       for (uint32_t v : originals) {
+        // a third of them under a sanitizer: the search below is the test's own arithmetic, a
+        // minute of ASan time that finds nothing the release run does not
+        if (kSanitized && v % 3 != 0) continue;
         // brute force: the tet of this segment that strictly holds the vertex
         for (uint32_t t = 0; t < s.tet_count; ++t) {
           double P[4][3];
@@ -102,8 +105,8 @@ TEST(MtBuild, HistogramsAreMonotoneAndBoundTheMeasuredError) {
       }
     }
   }
-  EXPECT_GT(checked, 1000u);
-  EXPECT_GT(nonzero, 100u) << "simplification changed nothing?";
+  EXPECT_GT(checked, kSanitized ? 300u : 1000u);
+  EXPECT_GT(nonzero, kSanitized ? 30u : 100u) << "simplification changed nothing?";
   auto problems = lod::verify_dag(*store, *dag);
   EXPECT_TRUE(problems.empty()) << (problems.empty() ? "" : problems[0]);
 }

@@ -484,11 +484,7 @@ uint64_t resident_bytes() {
 }
 
 // The sample mesh as store DATA/disk (small segments, so refinement has steps to take).
-void preprocess_sample(const fs::path& data) {
-  const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + (data / "disk").string() +
-                              " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
-  ASSERT_EQ(std::system(command.c_str()), 0);
-}
+void preprocess_sample(const fs::path& data) { fs::copy(testing::sample_store(), data / "disk", fs::copy_options::recursive); }
 
 // A session on dataset "disk": hello, view size, PNG stills; still(width) reads until the
 // still of that width and returns its image bytes (PNG), empty when none came.

@@ -23,17 +23,6 @@ using tetrascope::testing::shared_data;
 using tetrascope::testing::source_dir;
 using tetrascope::testing::tetrascope_binary;
 
-const fs::path& sample_store() {
-  static const fs::path store = [] {
-    const fs::path dir = tetrascope::testing::run_scratch_dir("manage-sample-store") / "disk";
-    const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + dir.string() +
-                                " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
-    EXPECT_EQ(std::system(command.c_str()), 0);
-    return dir;
-  }();
-  return store;
-}
-
 class ManageTest : public ::testing::Test {
  protected:
   ServerOptions options() { return testing::test_server_options(data_dir()); }
@@ -46,7 +35,7 @@ class ManageTest : public ::testing::Test {
   fs::path data_dir() {
     if (data_.empty()) {
       data_ = tetrascope::testing::scratch_dir(std::string("manage-") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-      fs::copy(sample_store(), data_ / "disk", fs::copy_options::recursive);
+      fs::copy(testing::sample_store(), data_ / "disk", fs::copy_options::recursive);
     }
     return data_;
   }
@@ -149,7 +138,7 @@ TEST_F(ManageTest, DeletingNeedsTheSameAuthorityAsOtherWrites) {
     EXPECT_FALSE(fs::exists(data_dir() / "disk"));
     server_.reset();
   }
-  fs::copy(sample_store(), data_dir() / "disk", fs::copy_options::recursive);
+  fs::copy(testing::sample_store(), data_dir() / "disk", fs::copy_options::recursive);
   start();  // without a token: a cross-site request (no intent header) deletes nothing
   {  // a raw request, as a page elsewhere could send it
     const std::string host = "127.0.0.1:" + std::to_string(server_->port());

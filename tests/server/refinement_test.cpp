@@ -194,19 +194,6 @@ TEST(InterruptibleDraw, ShouldStopStopsTheVolumeBetweenChunksAndSaysSo) {
 
 // ---------- progressive refinement in the server ----------
 
-// 1000-tet segments: fine enough steps that the sample refines in several (with 2000 its
-// levels, 44,832 -> 17,369 -> 6,111 -> 1,524 tets since issue 14's level cap, refined in two)
-const fs::path& sample_store() {
-  static const fs::path store = [] {
-    const fs::path dir = tetrascope::testing::run_scratch_dir("refinement-sample-store") / "disk";
-    const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + dir.string() +
-                                " --segment-tets 1000 --base-tets 3000 --progress none > /dev/null";
-    EXPECT_EQ(std::system(command.c_str()), 0);
-    return dir;
-  }();
-  return store;
-}
-
 struct Frame {
   protocol::FrameHeader header;
   bool ok = false;
@@ -239,7 +226,9 @@ class RefinementTest : public ::testing::Test {
   // Small steps (5 ms, doubling) so that even the sample store refines in several steps.
   void start(double refine_growth = 2) {
     data_ = scratch_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::copy(sample_store(), data_ / "disk", fs::copy_options::recursive);
+    // 1000-tet segments: fine enough steps that the sample refines in several (8 levels of
+    // 44,832 -> 28,159 -> ... -> 2,354 tets at the default level ratio, 0.5 on this mesh)
+    fs::copy(testing::sample_store(1000), data_ / "disk", fs::copy_options::recursive);
     ServerOptions o = tetrascope::testing::test_server_options(data_);
     o.cache_bytes = 256ull << 20;
     o.still_budget = 100000;

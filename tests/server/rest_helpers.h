@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
 #include <string>
 #include <thread>
 
@@ -19,6 +21,21 @@
 #include "test_paths.h"
 
 namespace tetrascope::testing {
+
+// The sample mesh (disk_out_ref) preprocessed once a test process with `--segment-tets
+// segment_tets --base-tets 3000` (small segments, so refinement has steps to take), in the run's
+// scratch folder; the path of the store.
+inline const std::filesystem::path& sample_store(uint32_t segment_tets = 2000) {
+  static std::map<uint32_t, std::filesystem::path> stores;
+  auto [at, added] = stores.try_emplace(segment_tets);
+  if (added) {
+    at->second = run_scratch_dir("sample-store-" + std::to_string(segment_tets)) / "disk";
+    const std::string command = tetrascope_binary().string() + " preprocess " + sample_mesh().string() + " -o " + at->second.string() + " --segment-tets " +
+                                std::to_string(segment_tets) + " --base-tets 3000 --progress none > /dev/null";
+    EXPECT_EQ(std::system(command.c_str()), 0);
+  }
+  return at->second;
+}
 
 // A test server's options: `data`, the source tree's web client and protocol files, any free
 // loopback port, one render worker, jobs run by the tetrascope binary, a 64 MiB cache.

@@ -26,18 +26,6 @@ using tetrascope::testing::shared_data;
 using tetrascope::testing::source_dir;
 using tetrascope::testing::tetrascope_binary;
 
-// The sample store is made once for the whole suite.
-const fs::path& sample_store() {
-  static const fs::path store = [] {
-    const fs::path dir = tetrascope::testing::run_scratch_dir("server-sample-store") / "disk";
-    const std::string command = tetrascope_binary().string() + " preprocess " + tetrascope::testing::sample_mesh().string() + " -o " + dir.string() +
-                                " --segment-tets 2000 --base-tets 3000 --progress none > /dev/null";
-    EXPECT_EQ(std::system(command.c_str()), 0);
-    return dir;
-  }();
-  return store;
-}
-
 ServerOptions options_for(const fs::path& data) {
   ServerOptions o = tetrascope::testing::test_server_options(data);
   o.cache_bytes = 256ull << 20;
@@ -58,7 +46,7 @@ class ServerTest : public ::testing::Test {
   fs::path data_dir() {
     if (data_.empty()) {
       data_ = scratch_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
-      fs::copy(sample_store(), data_ / "disk", fs::copy_options::recursive);
+      fs::copy(testing::sample_store(), data_ / "disk", fs::copy_options::recursive);
     }
     return data_;
   }
