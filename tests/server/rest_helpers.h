@@ -22,13 +22,18 @@
 
 namespace tetrascope::testing {
 
-// The sample mesh (disk_out_ref) preprocessed once a test process with `--segment-tets
-// segment_tets --base-tets 3000` (small segments, so refinement has steps to take), in the run's
-// scratch folder; the path of the store.
+// The sample mesh (disk_out_ref) preprocessed with `--segment-tets segment_tets --base-tets 3000`
+// (small segments, so refinement has steps to take); the path of the store, which callers copy
+// and never change. Under ctest the fixture test `server_sample_stores` builds the stores once
+// a run into TETRA_TEST_STORES (each test is a process of its own, and under ASan a preprocess
+// takes seconds); a test run alone builds its own in its scratch folder.
 inline const std::filesystem::path& sample_store(uint32_t segment_tets = 2000) {
   static std::map<uint32_t, std::filesystem::path> stores;
   auto [at, added] = stores.try_emplace(segment_tets);
-  if (added) {
+  const std::filesystem::path shared = std::filesystem::path(TETRA_TEST_STORES) / ("disk-" + std::to_string(segment_tets));
+  if (added && std::getenv("TETRA_TEST_STORES_BUILT") && std::filesystem::exists(shared / "manifest.json")) {
+    at->second = shared;
+  } else if (added) {
     at->second = run_scratch_dir("sample-store-" + std::to_string(segment_tets)) / "disk";
     const std::string command = tetrascope_binary().string() + " preprocess " + sample_mesh().string() + " -o " + at->second.string() + " --segment-tets " +
                                 std::to_string(segment_tets) + " --base-tets 3000 --progress none > /dev/null";
