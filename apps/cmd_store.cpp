@@ -216,7 +216,7 @@ int run_preprocess(const Arguments& raw) {
     const bool chosen = options.segment_tets == 0 || options.level_ratio == 0;
     std::printf("%s: %llu tets -> %zu levels, each about %.2g of the one below, %u segments of about %u tets%s, %u patches; coarsest level %llu tets; %.1f MB (%.1f bytes a tet); %.2f s (%.0f tets/s)\n",
                 args.get("--output").c_str(), static_cast<unsigned long long>(report.input_tets), report.levels.size(), report.level_ratio, report.segments,
-                report.segment_tets, chosen ? (report.grading >= lod::kGradedMesh ? " (auto: a graded mesh)" : " (auto: a nearly uniform mesh)") : "", report.patches,
+                report.segment_tets, chosen ? (lod::graded_mesh(report.grading) ? " (auto: a graded mesh)" : " (auto: a nearly uniform mesh)") : "", report.patches,
                 static_cast<unsigned long long>(report.levels.back().tets), report.store_bytes / 1e6, double(report.store_bytes) / report.input_tets, report.seconds,
                 report.input_tets / report.seconds);
   }

@@ -43,7 +43,8 @@ runs = [r.split() for r in sys.argv[4:]]
 r = json.load(open(report))
 med = lambda k: statistics.median(float(x[k]) for x in runs)
 print(json.dumps({"mesh": name, "size": size, "grading": round(r["grading"], 2), "segment_tets": r["segment_tets"], "level_ratio": r.get("level_ratio"), "input_tets": r["input_tets"],
-                  "segments": r["segments"], "levels": len(r["levels"]), "coarsest_tets": r["levels"][-1]["tets"], "store_bytes": r["store_bytes"],
+                  "segments": r["segments"], "levels": len(r["levels"]), "coarsest_tets": r["levels"][-1]["tets"],
+                  "level_tets_over_input": round(sum(l["tets"] for l in r["levels"]) / r["input_tets"], 2), "store_bytes": r["store_bytes"],
                   "bytes_per_tet": round(r["store_bytes"] / r["input_tets"], 1), "wall_seconds": med(1), "peak_rss_mb": round(med(0) / 1024),
                   "cut_update_ms": round(med(2), 4), "runs": len(runs)}))
 PY

@@ -152,7 +152,8 @@ struct IngestedMesh {
   std::vector<float> vertex_volume;
   // How graded the mesh is: the 90th over the 10th percentile of its tets' size (the cube root
   // of their volume), from a histogram of log2 volume at eighth steps. 1 for a uniform mesh;
-  // ONERA's far field 26, the oxygen post 27, the bracket 2 (auto_segment_tets, mt_build.h).
+  // ONERA's far field 26, the oxygen post 27, the bracket 2 (auto_segment_tets and
+  // auto_level_ratio, mt_build.h).
   double grading = 1;
 };
 

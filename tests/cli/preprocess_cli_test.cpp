@@ -194,9 +194,9 @@ std::string graded_grid_off(int k, double ratio) {
   return out.str();
 }
 
-// Issue 14: --segment-tets auto (the default) sizes the segments by how graded the mesh is,
-// 8192 tets on a graded mesh, 16384 on a nearly uniform one; the store records the size built
-// with, and a size given is kept.
+// Issue 14: --segment-tets auto and --level-ratio auto (the defaults) follow how graded the
+// mesh is: 8192 tets a segment and levels 4:1 apart on a graded mesh, 16384 and 2:1 on a nearly
+// uniform one; the store records what it was built with, and a size or ratio given is kept.
 TEST(PreprocessCli, TheDefaultSegmentSizeAndLevelRatioFollowTheMeshGrading) {
   auto dir = scratch_dir("pre_grading");
   write_file(dir / "uniform.off", grid_off(12));  // 8,640 tets of two sizes (cbrt 2 apart)

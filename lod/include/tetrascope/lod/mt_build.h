@@ -68,8 +68,9 @@ struct PreprocessOptions {
 // higher PSNR than 16384 in 19 of their 25 cells; on the nearly uniform blades (grading 1.4-2.7)
 // lower in 14 of 20, so they keep 16384 (bench/results/segment_auto.json: the gradings).
 constexpr double kGradedMesh = 8;
+inline bool graded_mesh(double grading) { return grading >= kGradedMesh; }
 constexpr uint32_t kGradedSegmentTets = 8192, kUniformSegmentTets = 16384;
-inline uint32_t auto_segment_tets(double grading) { return grading >= kGradedMesh ? kGradedSegmentTets : kUniformSegmentTets; }
+inline uint32_t auto_segment_tets(double grading) { return graded_mesh(grading) ? kGradedSegmentTets : kUniformSegmentTets; }
 
 // The level ratio --level-ratio auto picks. On a nearly uniform mesh every part of the view
 // needs about the same detail, so a cut between two levels 4:1 apart leaves half the picture at
@@ -77,10 +78,10 @@ inline uint32_t auto_segment_tets(double grading) { return grading >= kGradedMes
 // the 1M blade and the bracket lose to decimation in 3 of 16 cells at 5-50% (worst -2.4 dB)
 // instead of 6 (worst -7.4); on the graded meshes (ONERA, the oxygen post) 2:1 steps won
 // nothing overall and lost up to 13.9 dB at 50% (bench/results/fidelity.json, tags auto and
-// r0.5). A 2:1 ladder stores about twice the input's tets where 4:1 stores a third more
-// (bench/results/level_ratio_auto.json).
+// r0.5). Its levels hold 1.9-2.1 times the input's tets in all where 4:1 holds 1.3-1.4, and
+// the store grows 40-46% (bench/results/level_ratio_auto.json).
 constexpr double kGradedLevelRatio = 0.25, kUniformLevelRatio = 0.5;
-inline double auto_level_ratio(double grading) { return grading >= kGradedMesh ? kGradedLevelRatio : kUniformLevelRatio; }
+inline double auto_level_ratio(double grading) { return graded_mesh(grading) ? kGradedLevelRatio : kUniformLevelRatio; }
 
 struct LevelReport {
   uint32_t level = 0, segments = 0, patches = 0;
@@ -97,7 +98,7 @@ struct PreprocessReport {
   // simplified by quadric collapses instead; this rank's under MPI
   uint32_t tetgen_fallbacks = 0;
   uint32_t segment_tets = 0;  // the segment size built with (auto_segment_tets unless given)
-  double grading = 1;         // the input's, as auto_segment_tets reads it
+  double grading = 1;         // the input's, as auto_segment_tets and auto_level_ratio read it
   double level_ratio = 0;     // the level ratio built with (auto_level_ratio unless given)
   double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
   nlohmann::json to_json() const;
