@@ -250,7 +250,8 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
   return j;
 }
 
-// The CPU reference ray caster of `settings` (DVR only) next to the output, and its PSNR.
+// The CPU reference ray caster of `settings` (DVR only) next to the output (and as float
+// colours in OUT.reference.pfm), and its PSNR.
 double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const r::RenderSettings& settings, const r::Image& image) {
   if (!settings.dvr || settings.surface || settings.use_iso_color_attribute)
     throw std::invalid_argument("--reference compares volume rendering only (--mode dvr or dvr+iso, isosurfaces coloured by value, with --clip and --slice)");
@@ -258,6 +259,8 @@ double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const 
   std::filesystem::path path(o.output);
   path.replace_filename(path.stem().string() + ".reference" + path.extension().string());
   r::write_image(path.string(), reference, o.quality);
+  path.replace_extension(".pfm");  // the same image unrounded, for measurements past 8 bits
+  r::write_pfm(path.string(), reference);
   return r::psnr(image, reference);
 }
 

@@ -3,11 +3,14 @@
 # function or isosurface), the image of the store's cut at budgets of 5/10/25/50% of the input
 # and of the whole mesh decimated to the same number of tets by `tetrascope simplify`, each
 # compared with the image of the full mesh (PSNR, dB). Volume cases use the exact CPU integrator
-# (`render --reference`), so renderer errors stay out; isosurface cases use the GL renderer
+# (`render --reference`), so renderer errors stay out, and are compared twice: as 8-bit PNGs
+# (cut_db, decimated_db) and as its unrounded colours (cut_db_float, decimated_db_float: above
+# about 50 dB the rounding decides the 8-bit figure); isosurface cases use the GL renderer
 # (the same renderer on both sides). Also the coarsest level against a decimation of its size.
 # Writes bench/results/fidelity.json.
 #   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
-# Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50"),
+# Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50": percent of the
+#      input; "L1" a budget of level 1's tets, which shows that level whole from any view),
 #      PREPROCESS_ARGS (extra options for `tetrascope preprocess`, to compare builds),
 #      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after"; the store is built
 #      once per tag and options), TETRASCOPE (a tetrascope binary to use instead of building one),
@@ -69,12 +72,14 @@ for spec in "${cases[@]}"; do
     args+=(--mode iso --attribute "${tf%%=*}" --iso "${tf#*=}")
     image() { "$bin" render "$1" -o "$2.png" "${args[@]}" "${@:3}" --json; }
     shown() { echo "$1.png"; }
+    exact() { echo ""; }  # the GL renderer writes 8-bit images only
   else
     echo "$tf" > "$out/$name.tf.json"
     args+=(--tf "$out/$name.tf.json")
     [[ "$unit" != 0 ]] && args+=(--unit-distance "$unit")
     image() { "$bin" render "$1" -o "$2.png" "${args[@]}" "${@:3}" --reference --json; }
     shown() { echo "$1.reference.png"; }
+    exact() { echo "$1.reference.pfm"; }  # the integrator's colours before 8-bit rounding
   fi
   image "$mesh" "$out/$name.full" > /dev/null
   full=$(shown "$out/$name.full")
@@ -83,17 +88,24 @@ for spec in "${cases[@]}"; do
   store_id=$(cat "$store/dag.bin" "$store/segments.bin" | sha256sum | cut -c1-16)
   for pct in coarsest $budgets; do
     budget=$coarsest
-    [[ "$pct" != coarsest ]] && budget=$((input_tets * pct / 100))
+    if [[ "$pct" =~ ^L([0-9]+)$ ]]; then  # a whole level: the budget of its tets
+      budget=$("$bin" info --json "$store" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["multiresolution"]["levels"][int(sys.argv[1])]["tets"])' "${BASH_REMATCH[1]}")
+    elif [[ "$pct" != coarsest ]]; then
+      budget=$((input_tets * pct / 100))
+    fi
     cut_json=$(image "$store" "$out/$name.cut$pct" --budget "$budget" | tail -1)
     tets=$(tets_of <<< "$cut_json")
     est=$("$py" -c 'import json,sys; print(json.loads(sys.stdin.read()).get("cut_estimated_error", "null"))' <<< "$cut_json")
     cut_db=$(psnr "$full" "$(shown "$out/$name.cut$pct")")
+    cut_float=null dec_float=null
+    [[ -n "$(exact "$out/$name.full")" ]] && cut_float=$(psnr "$(exact "$out/$name.full")" "$(exact "$out/$name.cut$pct")")
     dec="$out/$base.dec$tets.vtk"
     [[ -s "$dec" ]] || "$bin" simplify "$mesh" -o "$dec" --tets "$tets" > /dev/null
     dec_tets=$("$bin" info --json "$dec" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
     image "$dec" "$out/$name.dec$pct" > /dev/null
     dec_db=$(psnr "$full" "$(shown "$out/$name.dec$pct")")
-    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db,\"store\":\"$store_id\",\"coarsest_tets\":$coarsest,\"commit\":\"$commit\"}"
+    [[ -n "$(exact "$out/$name.full")" ]] && dec_float=$(psnr "$(exact "$out/$name.full")" "$(exact "$out/$name.dec$pct")")
+    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db,\"cut_db_float\":$cut_float,\"decimated_db_float\":$dec_float,\"store\":\"$store_id\",\"coarsest_tets\":$coarsest,\"commit\":\"$commit\"}"
     echo "$row"
     rows+=("$row")
   done

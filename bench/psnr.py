@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
 """PSNR in dB between two PNG images of the same size (8-bit RGB or RGBA, not interlaced, as
-`tetrascope render` writes them). Pure Python + numpy (no imaging library needed).
-usage: psnr.py A.png B.png"""
+`tetrascope render` writes them), or two Portable Float Maps (`render --reference` writes the
+exact image's unrounded colours, 0..1, as OUT.reference.pfm). The peak is 255 for PNG and 1 for
+PFM, so both give the same dB for the same colours; 8-bit rounding alone limits a PNG's PSNR
+(images that differ by under half a level in every pixel are equal, one level in 2% of the
+values is 65 dB), a PFM's is not. Pure Python + numpy (no imaging library needed).
+usage: psnr.py A.png B.png | A.pfm B.pfm"""
 import struct
 import sys
 import zlib
@@ -55,14 +59,37 @@ def read_png(path):
     return out.reshape(height, width, channels)[:, :, :3].astype(np.float64)
 
 
-def psnr(a, b):
+def read_pfm(path):
+    data = open(path, "rb").read()
+    fields, pos = [], 0
+    while len(fields) < 4:  # "PF", width, height, scale (negative: little-endian), whitespace apart
+        while data[pos:pos + 1].isspace():
+            pos += 1
+        end = pos
+        while not data[end:end + 1].isspace():
+            end += 1
+        fields.append(data[pos:end].decode("ascii"))
+        pos = end
+    if fields[0] != "PF":
+        raise SystemExit(f"{path}: not an RGB Portable Float Map")
+    width, height, scale = int(fields[1]), int(fields[2]), float(fields[3])
+    pixels = np.frombuffer(data[pos + 1:], dtype="<f4" if scale < 0 else ">f4", count=width * height * 3)
+    return pixels.reshape(height, width, 3)[::-1].astype(np.float64)
+
+
+def psnr(a, b, peak=255.0):
     if a.shape != b.shape:
         raise SystemExit(f"sizes differ: {a.shape} and {b.shape}")
     mse = np.mean((a - b) ** 2)
-    return 99.0 if mse == 0 else 10 * np.log10(255.0 ** 2 / mse)
+    return 99.0 if mse == 0 else 10 * np.log10(peak ** 2 / mse)
 
 
 if __name__ == "__main__":
     if len(sys.argv) != 3:
         raise SystemExit(__doc__)
-    print(f"{psnr(read_png(sys.argv[1]), read_png(sys.argv[2])):.2f}")
+    if sys.argv[1].endswith(".pfm") != sys.argv[2].endswith(".pfm"):
+        raise SystemExit("compare two PNGs or two PFMs")
+    if sys.argv[1].endswith(".pfm"):
+        print(f"{psnr(read_pfm(sys.argv[1]), read_pfm(sys.argv[2]), 1.0):.2f}")
+    else:
+        print(f"{psnr(read_png(sys.argv[1]), read_png(sys.argv[2])):.2f}")

@@ -661,7 +661,7 @@ class GlRenderer final : public Renderer {
   // The colour target through a pixel buffer, rows flipped to top first.
   Image read_back(uint32_t width, uint32_t height, FrameTimings& tm) {
     const auto read_start = clock_type::now();
-    Image image{width, height, std::vector<uint8_t>(size_t{width} * height * 4)};
+    Image image{width, height, std::vector<uint8_t>(size_t{width} * height * 4), {}};
     glNamedFramebufferReadBuffer(framebuffer_, GL_COLOR_ATTACHMENT0);
     glBlitNamedFramebuffer(framebuffer_, resolve_framebuffer_, 0, 0, static_cast<GLint>(width), static_cast<GLint>(height), 0, 0, static_cast<GLint>(width),
                            static_cast<GLint>(height), GL_COLOR_BUFFER_BIT, GL_NEAREST);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -21,7 +22,7 @@ Image read_png(const std::string& path) {
     png_image_free(&png);
     throw std::invalid_argument(path + ": image sides must be 1.." + std::to_string(kMaxImageSide));
   }
-  Image image{png.width, png.height, std::vector<uint8_t>(PNG_IMAGE_SIZE(png))};
+  Image image{png.width, png.height, std::vector<uint8_t>(PNG_IMAGE_SIZE(png)), {}};
   if (!png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr)) throw std::invalid_argument(path + ": unreadable PNG (" + png.message + ")");
   return image;
 }
@@ -57,13 +58,9 @@ std::vector<uint8_t> encode_png(const Image& image) {
   return out;
 }
 
-void write_image(const std::string& path, const Image& image, int quality) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  std::vector<uint8_t> bytes;
-  if (ext == ".png") bytes = encode_png(image);
-  else if (ext == ".jpg" || ext == ".jpeg") bytes = encode_jpeg(image, quality);
-  else throw std::invalid_argument(path + ": the output must end in .png, .jpg or .jpeg");
+namespace {
+// bytes to path.tmp, renamed to path when complete
+void write_whole(const std::string& path, const std::vector<uint8_t>& bytes) {
   const std::string temp = path + ".tmp";
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
@@ -75,6 +72,34 @@ void write_image(const std::string& path, const Image& image, int quality) {
     }
   }
   std::filesystem::rename(temp, path);
+}
+}  // namespace
+
+void write_image(const std::string& path, const Image& image, int quality) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::vector<uint8_t> bytes;
+  if (ext == ".png") bytes = encode_png(image);
+  else if (ext == ".jpg" || ext == ".jpeg") bytes = encode_jpeg(image, quality);
+  else throw std::invalid_argument(path + ": the output must end in .png, .jpg or .jpeg");
+  write_whole(path, bytes);
+}
+
+void write_pfm(const std::string& path, const Image& image) {
+  const size_t row = size_t{image.width} * 3;
+  if (image.rgb.size() != row * image.height) throw std::invalid_argument(path + ": the image has no float colours (only the reference renderer keeps them)");
+  const std::string header = "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n-1.0\n";  // -1: little-endian
+  std::vector<uint8_t> bytes(header.begin(), header.end());
+  bytes.reserve(header.size() + 4 * row * image.height);
+  for (uint32_t y = image.height; y-- > 0;) {  // PFM rows go bottom to top
+    const auto* first = reinterpret_cast<const uint8_t*>(&image.rgb[y * row]);
+    for (size_t b = 0; b < 4 * row; b += 4) {  // as little-endian bytes whatever the host
+      uint32_t v;
+      std::memcpy(&v, first + b, 4);
+      for (int k = 0; k < 4; ++k) bytes.push_back(static_cast<uint8_t>(v >> (8 * k)));
+    }
+  }
+  write_whole(path, bytes);
 }
 
 }  // namespace tetrascope::renderer

@@ -82,7 +82,7 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
   }
   // slices are opaque: rays end at the nearest one, which shows behind the volume before it
   const SliceHits slices = slice_hits(mesh, settings, lo, hi);
-  Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4)};
+  Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4), std::vector<float>(size_t{W} * H * 3)};
   for (size_t i = 0; i < pixels.size(); ++i) {
     auto& list = pixels[i];
     std::sort(list.begin(), list.end(), [](const Segment& a, const Segment& b) { return a.t_in < b.t_in; });
@@ -119,7 +119,10 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
     const bool hit = std::isfinite(stop);
     const std::array<float, 3> behind = hit ? slices.rgb[i] : settings.background;
     const double out[3] = {r + (1 - a) * behind[0], g + (1 - a) * behind[1], b + (1 - a) * behind[2]};
-    for (int k = 0; k < 3; ++k) image.rgba[4 * i + k] = static_cast<uint8_t>(std::lround(std::clamp(out[k], 0.0, 1.0) * 255));
+    for (int k = 0; k < 3; ++k) {
+      image.rgba[4 * i + k] = static_cast<uint8_t>(std::lround(std::clamp(out[k], 0.0, 1.0) * 255));
+      image.rgb[3 * i + k] = static_cast<float>(std::clamp(out[k], 0.0, 1.0));
+    }
     image.rgba[4 * i + 3] = 255;
     std::vector<Segment>().swap(list);
   }

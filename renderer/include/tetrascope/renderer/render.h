@@ -61,6 +61,7 @@ class RenderError : public std::runtime_error {
 struct Image {
   uint32_t width = 0, height = 0;
   std::vector<uint8_t> rgba;  // top row first
+  std::vector<float> rgb;     // reference_render only: the colours before rounding to 8 bits (RGB, top row first)
 };
 
 // Stream lines ready to draw (§7.3): points of all lines back to back in flow order, line l
@@ -232,6 +233,9 @@ std::vector<uint8_t> encode_png(const Image& image);
 Image read_png(const std::string& path);
 // Writes .png or .jpg/.jpeg by the extension (atomically: temp name, then rename).
 void write_image(const std::string& path, const Image& image, int quality);
+// image.rgb as a Portable Float Map (little-endian, rows bottom first): a measurement's image
+// without the 8-bit rounding, which decides a PSNR above about 50 dB. Throws without image.rgb.
+void write_pfm(const std::string& path, const Image& image);
 
 // Marching tetrahedra: triangles (xyz per corner, 9 floats a triangle) where the values cross
 // `isovalue`, oriented towards increasing values. With `iso_color`, also the scene's
