@@ -33,6 +33,13 @@ TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
   EXPECT_EQ(j["frames"], 2);
   EXPECT_EQ(j["legend"]["attribute"], "Temp");
   EXPECT_GT(std::filesystem::file_size(out), 100u);
+  // --reference: the exact integrator's image beside the output, as PNG and as unrounded floats
+  const std::string exact = (dir / "exact.png").string();
+  Result reference = run("render " + sample_mesh().string() + " -o " + exact + " --size 48x32 --attribute Temp --reference --json");
+  ASSERT_EQ(reference.status, 0) << reference.out;
+  EXPECT_GT(last_json_line(reference.out)["reference_psnr_db"].get<double>(), 20);
+  EXPECT_GT(std::filesystem::file_size(dir / "exact.reference.png"), 100u);
+  EXPECT_EQ(std::filesystem::file_size(dir / "exact.reference.pfm"), std::string("PF\n48 32\n-1.0\n").size() + 48u * 32 * 3 * 4);
   Result jpeg = run("render " + sample_mesh().string() + " -o " + (dir / "frame.jpg").string() + " --size 64x64 --mode surface+iso --iso 500 --quality 50");
   EXPECT_EQ(jpeg.status, 0) << jpeg.out;
   Result mode = run("render " + sample_mesh().string() + " -o " + out + " --mode hologram");

@@ -7,7 +7,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <iterator>
 
 #include "mesh_checks.h"
 #include "test_paths.h"
@@ -212,6 +214,45 @@ TEST(Render, SurfaceShowsSilhouettesAndBadSettingsAreRefused) {
   EXPECT_THROW(gl().render(s), std::invalid_argument);
   EXPECT_THROW(renderer::SceneMesh::from(m, "nope"), std::invalid_argument);
   EXPECT_THROW(renderer::write_image("/tmp/x.bmp", image, 90), std::invalid_argument);
+}
+
+// The fidelity bench compares the integrator's images past 8 bits (above about 50 dB the
+// rounding decides a PNG's PSNR): the reference keeps its colours unrounded, and write_pfm
+// stores them as a Portable Float Map, rows bottom first, little-endian.
+TEST(Render, TheReferenceKeepsItsColoursUnroundedAndWritesThemAsAFloatMap) {
+  const auto scene = renderer::SceneMesh::from(box(3), "f");
+  auto s = settings_for(scene, 12);
+  s.width = 16;  // not square: width and height cannot swap unseen
+  const renderer::Image image = renderer::reference_render(scene, s);
+  ASSERT_EQ(image.rgb.size(), size_t{16} * 12 * 3);
+  size_t between = 0;  // values that 8 bits round
+  for (size_t i = 0; i < size_t{16} * 12; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const float v = image.rgb[3 * i + k];
+      ASSERT_GE(v, 0.0f);
+      ASSERT_LE(v, 1.0f);
+      EXPECT_EQ(image.rgba[4 * i + k], static_cast<uint8_t>(std::lround(v * 255))) << "pixel " << i;
+      between += std::fabs(v * 255 - std::round(v * 255)) > 0.01;
+    }
+  EXPECT_GT(between, size_t{16} * 12) << "the float colours are the rounded ones";
+  const auto path = scratch_dir("render-pfm") / "box.pfm";
+  renderer::write_pfm(path.string(), image);
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string header = "PF\n16 12\n-1.0\n";
+  ASSERT_EQ(bytes.size(), header.size() + size_t{16} * 12 * 3 * 4);
+  EXPECT_EQ(bytes.substr(0, header.size()), header);
+  for (size_t x = 0; x < 16 * 3; ++x) {  // the file's first row is the image's bottom row
+    uint32_t word = 0;
+    for (int b = 0; b < 4; ++b) word |= uint32_t(uint8_t(bytes[header.size() + 4 * x + size_t(b)])) << (8 * b);
+    float v;
+    std::memcpy(&v, &word, 4);
+    EXPECT_EQ(v, image.rgb[size_t{11} * 16 * 3 + x]) << "value " << x;
+  }
+  EXPECT_FALSE(std::filesystem::exists(path.string() + ".tmp"));
+  renderer::Image rounded = image;
+  rounded.rgb.clear();  // as the GL renderer's images: no float colours to write
+  EXPECT_THROW(renderer::write_pfm(path.string(), rounded), std::invalid_argument);
 }
 
 TEST(Render, ImageSideAtAndPastTheLimit) {
