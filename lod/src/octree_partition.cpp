@@ -56,6 +56,22 @@ void leaf_adjacency(VertexPartition& result) {
   }
 }
 
+// Whether the leaf graph is one component (a breadth-first walk from leaf 0).
+bool leaf_graph_connected(const VertexPartition& result) {
+  const size_t leaves = result.leaves.size();
+  if (leaves == 0) return true;
+  std::vector<uint8_t> seen(leaves, 0);
+  std::vector<uint32_t> queue{0};
+  seen[0] = 1;
+  for (size_t at = 0; at < queue.size(); ++at)
+    for (uint32_t e = result.adjacency_begin[queue[at]]; e < result.adjacency_begin[queue[at] + 1]; ++e)
+      if (!seen[result.adjacency[e]]) {
+        seen[result.adjacency[e]] = 1;
+        queue.push_back(result.adjacency[e]);
+      }
+  return queue.size() == leaves;
+}
+
 }  // namespace
 
 VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options, std::span<const float> tets_per_vertex) {
@@ -178,12 +194,15 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
     idx_t metis_options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(metis_options);
     metis_options[METIS_OPTION_SEED] = options.seed;
-    metis_options[METIS_OPTION_CONTIG] = 1;
+    // contiguous parts only where the leaf graph is connected: METIS refuses them otherwise,
+    // and says "METIS Error" on the console, which a user reads as a failure
+    const bool connected = leaf_graph_connected(result);
+    metis_options[METIS_OPTION_CONTIG] = connected ? 1 : 0;
     metis_options[METIS_OPTION_NUMBERING] = 0;
     int rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
                                  nullptr, metis_options, &objval, part.data());
-    result.contiguous = rc == METIS_OK;
-    if (rc != METIS_OK) {  // a graph of several components cannot be cut into contiguous parts
+    result.contiguous = connected && rc == METIS_OK;
+    if (connected && rc != METIS_OK) {  // contiguity failed all the same: cut without it
       metis_options[METIS_OPTION_CONTIG] = 0;
       rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
                                nullptr, metis_options, &objval, part.data());

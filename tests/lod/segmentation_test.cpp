@@ -269,6 +269,33 @@ TEST(Segmentation, LeafPartitionIsFaceConnected) {
   }
 }
 
+// Threat to a user's trust: two bodies apart (or any mesh whose octree leaves fall into several
+// face-connected groups) cannot be cut into contiguous parts. Asked for them, METIS printed
+// "METIS Error: A contiguous partition is requested for a non-contiguous input graph" before
+// the partitioner retried without, on ONERA and the blades: users read it as a failure. The
+// partitioner now asks for contiguity only when the leaf graph is connected.
+TEST(Segmentation, PartsOfADisconnectedLeafGraphAreCutWithoutAMetisError) {
+  std::vector<float> xyz;
+  for (int body = 0; body < 2; ++body)  // two 10x10x10 point grids, 100 units apart
+    for (int i = 0; i < 1000; ++i) xyz.insert(xyz.end(), {float(i % 10 + 100 * body), float(i / 10 % 10), float(i / 100)});
+  lod::PartitionOptions options;
+  options.leaf_vertices = 50;
+  options.parts = 4;
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  const lod::VertexPartition apart = lod::partition_vertices(xyz, options);
+  const std::string said = ::testing::internal::GetCapturedStdout() + ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(said.find("METIS"), std::string::npos) << said;
+  EXPECT_FALSE(apart.contiguous);
+  ASSERT_EQ(apart.part_of_vertex.size(), 2000u);
+  std::vector<uint32_t> per_part(apart.parts, 0);
+  for (uint32_t p : apart.part_of_vertex) ++per_part[p];
+  for (uint32_t n : per_part) EXPECT_GT(n, 0u) << "every part holds vertices";
+  // one body alone is connected: contiguous parts, as before
+  xyz.resize(3000);
+  EXPECT_TRUE(lod::partition_vertices(xyz, options).contiguous);
+}
+
 TEST(Segmentation, EverySharedDatasetSegmentsAndVerifies) {
   if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to this checkout";
   std::vector<std::filesystem::path> meshes;
