@@ -10,7 +10,8 @@
 # Writes bench/results/fidelity.json.
 #   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
 # Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50": percent of the
-#      input; "L1" a budget of level 1's tets, which shows that level whole from any view),
+#      input; "L1": a budget of level 1's tets, a cut the size of that level: the level whole
+#      where the view shows the whole mesh),
 #      PREPROCESS_ARGS (extra options for `tetrascope preprocess`, to compare builds),
 #      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after"; the store is built
 #      once per tag and options), TETRASCOPE (a tetrascope binary to use instead of building one),
