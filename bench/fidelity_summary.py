@@ -1,0 +1,57 @@
+"""Issue 14's goals over the rows of bench/results/fidelity.json: per case, the cut's PSNR minus
+the decimation's at the same tets (dB; > 0: the cut wins) at the coarsest level and 5/10/25/50%,
+then over the volume cells at 5-50%: how many lose, by more than 1 dB, the median and the worst;
+how many 10-25% cells are >= 3 dB better; how many coarsest levels are within 1 dB. With
+--float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows since stop 32).
+usage: python3 bench/fidelity_summary.py [--float] TAG [TAG...] [--for CASE=TAG ...]
+A case takes the first TAG it has rows of, unless --for names its tag (the defaults differ by
+mesh: e.g. the uniform meshes' rows under one tag, the graded ones' under another)."""
+import json
+import os
+import statistics
+import sys
+
+os.chdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+args = sys.argv[1:]
+use_float = "--float" in args
+args = [a for a in args if a != "--float"]
+given = {}
+while "--for" in args:
+    i = args.index("--for")
+    case, tag = args[i + 1].split("=", 1)
+    given[case] = tag
+    del args[i:i + 2]
+if not args:
+    raise SystemExit(__doc__)
+tags = args
+cut_key, dec_key = ("cut_db_float", "decimated_db_float") if use_float else ("cut_db", "decimated_db")
+rows = [r for r in json.load(open("bench/results/fidelity.json"))["runs"] if r["tag"] in tags or r["tag"] in given.values()]
+cases = []
+for r in rows:
+    if r["case"] not in cases:
+        cases.append(r["case"])
+chosen = {}
+for c in cases:
+    chosen[c] = given.get(c) or next((t for t in tags if any(r["case"] == c and r["tag"] == t for r in rows)), None)
+cell = {(r["case"], r["budget"]): r for r in rows if r["tag"] == chosen.get(r["case"]) and r.get(cut_key) is not None}
+budgets = ["coarsest", "5", "10", "25", "50"]
+
+
+def gain(r):
+    return r[cut_key] - r[dec_key]
+
+
+print(f"{'case':22} {'tag':12} " + " ".join(f"{b:>8}" for b in budgets))
+for c in cases:
+    if not any((c, b) in cell for b in budgets):
+        continue
+    print(f"{c:22} {chosen[c]:12} " + " ".join(f"{gain(cell[(c, b)]):+8.1f}" if (c, b) in cell else f"{'.':>8}" for b in budgets))
+volume = [r for (c, b), r in cell.items() if b in budgets[1:] and "iso" not in c]
+if volume:
+    d = [gain(r) for r in volume]
+    middle = [gain(r) for r in volume if r["budget"] in ("10", "25")]
+    coarsest = [gain(r) for (c, b), r in cell.items() if b == "coarsest" and "iso" not in c]
+    print(json.dumps({"psnr": cut_key, "volume_cells": len(d), "lose": sum(x < 0 for x in d), "lose_by_over_1db": sum(x < -1 for x in d),
+                      "median_db": round(statistics.median(d), 2), "worst_db": round(min(d), 2),
+                      "at_10_25_pct_3db_better": f"{sum(x >= 3 for x in middle)} of {len(middle)}",
+                      "coarsest_within_1db": f"{sum(x >= -1 for x in coarsest)} of {len(coarsest)}"}))
