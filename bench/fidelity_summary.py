@@ -3,9 +3,11 @@ the decimation's at the same tets (dB; > 0: the cut wins) at the coarsest level 
 then over the volume cells at 5-50%: how many lose, by more than 1 dB, the median and the worst;
 how many 10-25% cells are >= 3 dB better; how many coarsest levels are within 1 dB. With
 --float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows since stop 32).
-usage: python3 bench/fidelity_summary.py [--float] TAG [TAG...] [--for CASE=TAG ...]
+usage: python3 bench/fidelity_summary.py [--float] [--median] TAG [TAG...] [--for CASE=TAG ...]
 A case takes the first TAG it has rows of, unless --for names its tag (the defaults differ by
-mesh: e.g. the uniform meshes' rows under one tag, the graded ones' under another)."""
+mesh: e.g. the uniform meshes' rows under one tag, the graded ones' under another). With
+--median every cell is the median over the TAGs that have it (the same build from several
+--seed values: one partition's luck moves a cell by a median 2.6 dB, stop 32)."""
 import json
 import os
 import statistics
@@ -14,7 +16,8 @@ import sys
 os.chdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 args = sys.argv[1:]
 use_float = "--float" in args
-args = [a for a in args if a != "--float"]
+use_median = "--median" in args
+args = [a for a in args if a not in ("--float", "--median")]
 given = {}
 while "--for" in args:
     i = args.index("--for")
@@ -33,12 +36,20 @@ for r in rows:
 chosen = {}
 for c in cases:
     chosen[c] = given.get(c) or next((t for t in tags if any(r["case"] == c and r["tag"] == t for r in rows)), None)
-cell = {(r["case"], r["budget"]): r for r in rows if r["tag"] == chosen.get(r["case"]) and r.get(cut_key) is not None}
 budgets = ["coarsest", "5", "10", "25", "50"]
+if use_median:  # a cell: the median gain over the tags
+    gains = {}
+    for r in rows:
+        if r["tag"] in tags and r.get(cut_key) is not None:
+            gains.setdefault((r["case"], r["budget"]), []).append(r[cut_key] - r[dec_key])
+    cell = {k: {"gain": statistics.median(v), "budget": k[1], "runs": len(v)} for k, v in gains.items()}
+    chosen = {c: f"median of {max((v['runs'] for k, v in cell.items() if k[0] == c), default=0)}" for c in cases}
+else:
+    cell = {(r["case"], r["budget"]): r for r in rows if r["tag"] == chosen.get(r["case"]) and r.get(cut_key) is not None}
 
 
 def gain(r):
-    return r[cut_key] - r[dec_key]
+    return r["gain"] if "gain" in r else r[cut_key] - r[dec_key]
 
 
 print(f"{'case':22} {'tag':12} " + " ".join(f"{b:>8}" for b in budgets))
