@@ -3,11 +3,15 @@
 #include <png.h>
 #include <turbojpeg.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 #include "tetrascope/renderer/render.h"
 
@@ -59,9 +63,11 @@ std::vector<uint8_t> encode_png(const Image& image) {
 }
 
 namespace {
-// bytes to path.tmp, renamed to path when complete
+// bytes to a temporary name of this process and call, renamed to path when complete: two
+// writers of one path never share a half-written file
 void write_whole(const std::string& path, const std::vector<uint8_t>& bytes) {
-  const std::string temp = path + ".tmp";
+  static std::atomic<uint64_t> calls{0};
+  const std::string temp = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(calls++);
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));

@@ -5,11 +5,13 @@
 #include <png.h>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <thread>
 
 #include "mesh_checks.h"
 #include "test_paths.h"
@@ -249,10 +251,40 @@ TEST(Render, TheReferenceKeepsItsColoursUnroundedAndWritesThemAsAFloatMap) {
     std::memcpy(&v, &word, 4);
     EXPECT_EQ(v, image.rgb[size_t{11} * 16 * 3 + x]) << "value " << x;
   }
-  EXPECT_FALSE(std::filesystem::exists(path.string() + ".tmp"));
+  for (const auto& entry : std::filesystem::directory_iterator(path.parent_path()))  // no temporary left
+    EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();
   renderer::Image rounded = image;
   rounded.rgb.clear();  // as the GL renderer's images: no float colours to write
   EXPECT_THROW(renderer::write_pfm(path.string(), rounded), std::invalid_argument);
+}
+
+// Threat: two renders writing one output path at once. Both used PATH.tmp: one could rename
+// the other's half-written file into place, or find its temporary gone. Each write now has a
+// temporary of its own; the file left is whole and one of the two images.
+TEST(Render, TwoWritersOfOneImagePathNeverShareATemporaryFile) {
+  auto solid = [](uint8_t red) {
+    renderer::Image image{64, 48, std::vector<uint8_t>(size_t{64} * 48 * 4, 255), {}};
+    for (size_t i = 0; i < size_t{64} * 48; ++i) image.rgba[4 * i] = red;
+    return image;
+  };
+  const renderer::Image a = solid(10), b = solid(200);
+  const auto dir = scratch_dir("render-two-writers");
+  const std::string path = (dir / "frame.png").string();
+  std::atomic<int> failures{0};
+  auto writer = [&](const renderer::Image& image) {
+    for (int i = 0; i < 40; ++i) try {
+        renderer::write_image(path, image, 90);
+      } catch (const std::exception&) {
+        ++failures;
+      }
+  };
+  std::thread first(writer, std::cref(a)), second(writer, std::cref(b));
+  first.join();
+  second.join();
+  EXPECT_EQ(failures.load(), 0);
+  const renderer::Image left = renderer::read_png(path);
+  EXPECT_TRUE(left.rgba == a.rgba || left.rgba == b.rgba) << "the file is neither image whole";
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) EXPECT_EQ(entry.path().filename().string(), "frame.png");
 }
 
 TEST(Render, ImageSideAtAndPastTheLimit) {
