@@ -63,16 +63,20 @@ def read_pfm(path):
     data = open(path, "rb").read()
     fields, pos = [], 0
     while len(fields) < 4:  # "PF", width, height, scale (negative: little-endian), whitespace apart
-        while data[pos:pos + 1].isspace():
+        while pos < len(data) and data[pos:pos + 1].isspace():
             pos += 1
         end = pos
-        while not data[end:end + 1].isspace():
+        while end < len(data) and not data[end:end + 1].isspace():
             end += 1
+        if end >= len(data):
+            raise SystemExit(f"{path}: truncated PFM header")
         fields.append(data[pos:end].decode("ascii"))
         pos = end
     if fields[0] != "PF":
         raise SystemExit(f"{path}: not an RGB Portable Float Map")
     width, height, scale = int(fields[1]), int(fields[2]), float(fields[3])
+    if len(data) - (pos + 1) < 12 * width * height:
+        raise SystemExit(f"{path}: truncated PFM ({width}x{height})")
     pixels = np.frombuffer(data[pos + 1:], dtype="<f4" if scale < 0 else ">f4", count=width * height * 3)
     return pixels.reshape(height, width, 3)[::-1].astype(np.float64)
 

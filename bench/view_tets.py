@@ -18,6 +18,10 @@ AZIMUTH_CAMERA_DISTANCE = 1.6  # lod/include/tetrascope/lod/view.h: kAzimuthCame
 def camera(text, lo, hi):
     items, keys = {}, []
     for part in text.split(","):
+        if part == "ortho":
+            raise SystemExit("view_tets.py: orthographic cameras are not modelled")
+        if part == "perspective" or not part:
+            continue
         if "=" in part:
             k, v = part.split("=", 1)
             items[k] = [float(v)]
@@ -26,9 +30,9 @@ def camera(text, lo, hi):
             items[keys[-1]].append(float(part))
     fov = items.get("fov", [30.0])[0]
     centre = (lo + hi) / 2
-    if "eye" in items:
-        eye, target = np.array(items["eye"]), np.array(items.get("target", centre))
-        up = np.array(items.get("up", [0.0, 0.0, 1.0]))
+    if "eye" in items:  # lod::Camera's defaults: target at the origin, y up
+        eye, target = np.array(items["eye"]), np.array(items.get("target", [0.0, 0.0, 0.0]))
+        up = np.array(items.get("up", [0.0, 1.0, 0.0]))
     else:
         az = math.radians(items.get("azimuth", [30.0])[0])
         el = math.radians(items.get("elevation", [20.0])[0])
