@@ -206,8 +206,8 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
       metis_options[METIS_OPTION_CONTIG] = 0;
       rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
                                nullptr, metis_options, &objval, part.data());
-      if (rc != METIS_OK) throw std::runtime_error("METIS failed to partition " + std::to_string(leaves) + " octree leaves (code " + std::to_string(rc) + ")");
     }
+    if (rc != METIS_OK) throw std::runtime_error("METIS failed to partition " + std::to_string(leaves) + " octree leaves (code " + std::to_string(rc) + ")");
     for (size_t l = 0; l < leaves; ++l) result.part_of_leaf[l] = static_cast<uint32_t>(part[l]);
   } else {
     result.contiguous = true;
