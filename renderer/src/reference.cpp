@@ -120,8 +120,9 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
     const std::array<float, 3> behind = hit ? slices.rgb[i] : settings.background;
     const double out[3] = {r + (1 - a) * behind[0], g + (1 - a) * behind[1], b + (1 - a) * behind[2]};
     for (int k = 0; k < 3; ++k) {
-      image.rgba[4 * i + k] = static_cast<uint8_t>(std::lround(std::clamp(out[k], 0.0, 1.0) * 255));
-      image.rgb[3 * i + k] = static_cast<float>(std::clamp(out[k], 0.0, 1.0));
+      const double c = std::clamp(out[k], 0.0, 1.0);
+      image.rgba[4 * i + k] = static_cast<uint8_t>(std::lround(c * 255));
+      image.rgb[3 * i + k] = static_cast<float>(c);
     }
     image.rgba[4 * i + 3] = 255;
     std::vector<Segment>().swap(list);
