@@ -9,19 +9,20 @@ RANK_TAG_FOR ("bracket-inside=r0.5,...") names its tag (the defaults, when they 
 mesh); RANK_CASES (a comma list) keeps those cases only, RANK_OUT
 names the output (default bench/results/fidelity_rank.json); RANK_FLOAT=1 ranks by the PSNR of the
 integrator's unrounded colours (cut_db_float, rows since stop 32) instead of the 8-bit one."""
-import json, os, re
+import json, os
 import numpy as np
+from fidelity_rows import choose_tags, volume_cases
 os.chdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
 tag = os.environ.get('RANK_TAG', 'capped')
 tags = tag.split(',')
 only = set(filter(None, os.environ.get('RANK_CASES', '').split(',')))
 out = os.environ.get('RANK_OUT', 'bench/results/fidelity_rank.json')
 db = 'cut_db_float' if os.environ.get('RANK_FLOAT') == '1' else 'cut_db'
-volume = {m.group(1) for m in re.finditer(r'^  "([^"|]+)\|[^|]+\|[^|]+\|dvr\|', open('bench/fidelity_bench.sh').read(), re.M)}
+volume = volume_cases()
 every = [r for r in json.load(open('bench/results/fidelity.json'))['runs']
          if r['tag'] in tags and r['case'] in volume and (not only or r['case'] in only) and r.get('cut_estimated_error') is not None and r.get(db) is not None]
 given = dict(kv.split('=', 1) for kv in filter(None, os.environ.get('RANK_TAG_FOR', '').split(',')))
-chosen = {c: given.get(c) or next(t for t in tags if any(r['case'] == c and r['tag'] == t for r in every)) for c in {r['case'] for r in every}}
+chosen = choose_tags(every, tags, given)
 rows = [r for r in every if r['tag'] == chosen[r['case']]]
 seen, cuts = set(), []
 for r in rows:  # a budget below the coarsest level gives the same cut: counted once

@@ -13,6 +13,8 @@ import os
 import statistics
 import sys
 
+from fidelity_rows import choose_tags, volume_cases
+
 os.chdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 args = sys.argv[1:]
 use_float = "--float" in args
@@ -33,9 +35,8 @@ cases = []
 for r in rows:
     if r["case"] not in cases:
         cases.append(r["case"])
-chosen = {}
-for c in cases:
-    chosen[c] = given.get(c) or next((t for t in tags if any(r["case"] == c and r["tag"] == t for r in rows)), None)
+chosen = choose_tags(rows, tags, given)
+volume_case = volume_cases()
 budgets = ["coarsest", "5", "10", "25", "50"]
 if use_median:  # a cell: the median gain over the tags
     gains = {}
@@ -57,11 +58,11 @@ for c in cases:
     if not any((c, b) in cell for b in budgets):
         continue
     print(f"{c:22} {chosen[c]:12} " + " ".join(f"{gain(cell[(c, b)]):+8.1f}" if (c, b) in cell else f"{'.':>8}" for b in budgets))
-volume = [r for (c, b), r in cell.items() if b in budgets[1:] and "iso" not in c]
+volume = [r for (c, b), r in cell.items() if b in budgets[1:] and c in volume_case]
 if volume:
     d = [gain(r) for r in volume]
     middle = [gain(r) for r in volume if r["budget"] in ("10", "25")]
-    coarsest = [gain(r) for (c, b), r in cell.items() if b == "coarsest" and "iso" not in c]
+    coarsest = [gain(r) for (c, b), r in cell.items() if b == "coarsest" and c in volume_case]
     print(json.dumps({"psnr": cut_key, "volume_cells": len(d), "lose": sum(x < 0 for x in d), "lose_by_over_1db": sum(x < -1 for x in d),
                       "median_db": round(statistics.median(d), 2), "worst_db": round(min(d), 2),
                       "at_10_25_pct_3db_better": f"{sum(x >= 3 for x in middle)} of {len(middle)}",
