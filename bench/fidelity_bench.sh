@@ -6,7 +6,10 @@
 # (`render --reference`), so renderer errors stay out, and are compared twice: as 8-bit PNGs
 # (cut_db, decimated_db) and as its unrounded colours (cut_db_float, decimated_db_float: above
 # about 50 dB the rounding decides the 8-bit figure); isosurface cases use the GL renderer
-# (the same renderer on both sides). Also the coarsest level against a decimation of its size.
+# (the same renderer on both sides). Every render also draws the GL renderer's image (the
+# default volume method), so each row carries the GL figures as well (cut_db_gl,
+# decimated_db_gl: GL against GL, 8 bits; issue 14 asks for both once GL agrees with the
+# integrator). Also the coarsest level against a decimation of its size.
 # Writes bench/results/fidelity.json.
 #   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
 # Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50": percent of the
@@ -103,13 +106,15 @@ for spec in "${cases[@]}"; do
     cut_db=$(psnr "$full" "$(shown "$out/$name.cut$pct")")
     cut_float=null dec_float=null
     [[ -n "$full_exact" ]] && cut_float=$(psnr "$full_exact" "$(exact "$out/$name.cut$pct")")
+    cut_gl=$(psnr "$out/$name.full.png" "$out/$name.cut$pct.png")
     dec="$out/$base.dec$tets.vtk"
     [[ -s "$dec" ]] || "$bin" simplify "$mesh" -o "$dec" --tets "$tets" > /dev/null
     dec_tets=$("$bin" info --json "$dec" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
     image "$dec" "$out/$name.dec$pct" > /dev/null
     dec_db=$(psnr "$full" "$(shown "$out/$name.dec$pct")")
     [[ -n "$full_exact" ]] && dec_float=$(psnr "$full_exact" "$(exact "$out/$name.dec$pct")")
-    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db,\"cut_db_float\":$cut_float,\"decimated_db_float\":$dec_float,\"store\":\"$store_id\",\"coarsest_tets\":$coarsest,\"commit\":\"$commit\"}"
+    dec_gl=$(psnr "$out/$name.full.png" "$out/$name.dec$pct.png")
+    row="{\"case\":\"$name\",\"tag\":\"$tag\",\"budget\":\"$pct\",\"input_tets\":$input_tets,\"cut_tets\":$tets,\"cut_db\":$cut_db,\"cut_estimated_error\":$est,\"decimated_tets\":$dec_tets,\"decimated_db\":$dec_db,\"cut_db_float\":$cut_float,\"decimated_db_float\":$dec_float,\"cut_db_gl\":$cut_gl,\"decimated_db_gl\":$dec_gl,\"store\":\"$store_id\",\"coarsest_tets\":$coarsest,\"commit\":\"$commit\"}"
     echo "$row"
     rows+=("$row")
   done
@@ -122,7 +127,7 @@ rows = [json.loads(r) for r in sys.argv[2:]]
 keys = {(r["case"], r["tag"], r["budget"]) for r in rows}
 kept = [r for r in old.get("runs", []) if (r["case"], r["tag"], r["budget"]) not in keys]
 old.update({"date": datetime.date.today().isoformat(), "size": sys.argv[1],
-            "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; decimation by tetrascope simplify --tets (the cut's tet count)",
+            "method": "PSNR against the full mesh; volume cases by the exact CPU integrator (render --reference), isosurface cases by the GL renderer; every case also GL against GL (cut_db_gl, decimated_db_gl); decimation by tetrascope simplify --tets (the cut's tet count)",
             "runs": kept + rows})  # other keys (tags, notes) are kept
 json.dump(old, open(path, "w"), indent=1)
 PY

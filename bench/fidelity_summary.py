@@ -2,8 +2,10 @@
 the decimation's at the same tets (dB; > 0: the cut wins) at the coarsest level and 5/10/25/50%,
 then over the volume cells at 5-50%: how many lose, by more than 1 dB, the median and the worst;
 how many 10-25% cells are >= 3 dB better; how many coarsest levels are within 1 dB. With
---float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows since stop 32).
-usage: python3 bench/fidelity_summary.py [--float] [--median] TAG [TAG...] [--for CASE=TAG ...]
+--float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows since stop 32);
+with --gl, by the GL renderer's images against the GL image of the full mesh (cut_db_gl, since
+stop 33).
+usage: python3 bench/fidelity_summary.py [--float|--gl] [--median] TAG [TAG...] [--for CASE=TAG ...]
 A case takes the first TAG it has rows of, unless --for names its tag (the defaults differ by
 mesh: e.g. the uniform meshes' rows under one tag, the graded ones' under another). With
 --median every cell is the median over the TAGs that have it (the same build from several
@@ -18,8 +20,11 @@ from fidelity_rows import choose_tags, volume_cases
 os.chdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 args = sys.argv[1:]
 use_float = "--float" in args
+use_gl = "--gl" in args
 use_median = "--median" in args
-args = [a for a in args if a not in ("--float", "--median")]
+if use_float and use_gl:
+    raise SystemExit("--float and --gl: one PSNR at a time")
+args = [a for a in args if a not in ("--float", "--gl", "--median")]
 given = {}
 while "--for" in args:
     i = args.index("--for")
@@ -29,7 +34,7 @@ while "--for" in args:
 if not args:
     raise SystemExit(__doc__)
 tags = args
-cut_key, dec_key = ("cut_db_float", "decimated_db_float") if use_float else ("cut_db", "decimated_db")
+cut_key, dec_key = ("cut_db_float", "decimated_db_float") if use_float else ("cut_db_gl", "decimated_db_gl") if use_gl else ("cut_db", "decimated_db")
 rows = [r for r in json.load(open("bench/results/fidelity.json"))["runs"] if r["tag"] in tags or r["tag"] in given.values()]
 cases = []
 for r in rows:
