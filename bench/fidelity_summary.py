@@ -4,8 +4,10 @@ then over the volume cells at 5-50%: how many lose, by more than 1 dB, the media
 how many 10-25% cells are >= 3 dB better; how many coarsest levels are within 1 dB. With
 --float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows since stop 32);
 with --gl, by the GL renderer's images against the GL image of the full mesh (cut_db_gl, since
-stop 33).
-usage: python3 bench/fidelity_summary.py [--float|--gl] [--median] TAG [TAG...] [--for CASE=TAG ...]
+stop 33). With --at-budget, against the decimation to the budget asked for rather than to the
+cut's tets, where the cut stops short of its budget (decimated_at_budget, rows since stop 33;
+older rows are left out).
+usage: python3 bench/fidelity_summary.py [--float|--gl] [--at-budget] [--median] TAG [TAG...] [--for CASE=TAG ...]
 A case takes the first TAG it has rows of, unless --for names its tag (the defaults differ by
 mesh: e.g. the uniform meshes' rows under one tag, the graded ones' under another). With
 --median every cell is the median over the TAGs that have it (the same build from several
@@ -22,9 +24,10 @@ args = sys.argv[1:]
 use_float = "--float" in args
 use_gl = "--gl" in args
 use_median = "--median" in args
+at_budget = "--at-budget" in args
 if use_float and use_gl:
     raise SystemExit("--float and --gl: one PSNR at a time")
-args = [a for a in args if a not in ("--float", "--gl", "--median")]
+args = [a for a in args if a not in ("--float", "--gl", "--median", "--at-budget")]
 given = {}
 while "--for" in args:
     i = args.index("--for")
@@ -36,6 +39,12 @@ if not args:
 tags = args
 cut_key, dec_key = ("cut_db_float", "decimated_db_float") if use_float else ("cut_db_gl", "decimated_db_gl") if use_gl else ("cut_db", "decimated_db")
 rows = [r for r in json.load(open("bench/results/fidelity.json"))["runs"] if r["tag"] in tags or r["tag"] in given.values()]
+if at_budget:  # the decimation to the whole budget where the cut stopped short of it
+    rows = [dict(r) for r in rows if "budget_tets" in r]
+    field = {"cut_db": "db", "cut_db_float": "db_float", "cut_db_gl": "db_gl"}[cut_key]
+    for r in rows:
+        if r.get("decimated_at_budget"):
+            r[dec_key] = r["decimated_at_budget"][field]
 cases = []
 for r in rows:
     if r["case"] not in cases:
