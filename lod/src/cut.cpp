@@ -278,6 +278,9 @@ std::vector<uint32_t> Cut::resident_segments() const {
 CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   CutChanges changes;
   const uint32_t n = dag_.node_count();
+  const std::vector<uint8_t> variants_before = variant_;
+  variant_.assign(variants_ ? n : 0, 0);  // the refinements below see the segments' own tets
+  variant_tets_ = 0;
   // Σ H·C per node, cached while the transfer function and isovalues stay the same
   if (weight_.size() != n || weight_channel_ != criteria.channel || weight_opacity_ != criteria.opacity || weight_isovalues_ != criteria.isovalues) {
     weight_.assign(n, 0);
@@ -428,6 +431,8 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       break;
     }
   }
+  if (variants_) fill_variants(e, budget);
+  changes.variants_changed = variant_ != variants_before;
   // what changed, as patches
   for (uint32_t p : flips_) {
     const bool now = active(p);
@@ -437,7 +442,7 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   flips_.clear();
   std::sort(changes.added.begin(), changes.added.end());
   std::sort(changes.removed.begin(), changes.removed.end());
-  changes.tets = tets_;
+  changes.tets = tets_ + variant_tets_;
   changes.over_budget = tets_ > budget;
   // each shown patch carries its share of its segment's error: a segment shown in part (its
   // other parents unrefined) counts in part, so refining never adds a whole child's error
@@ -445,9 +450,44 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     if (!active(p)) continue;
     const dag::Patch& q = dag_.patch(p);
     const uint32_t tets = dag_.node(q.floor).tet_count;
-    if (tets > 0) changes.estimated_error += e[q.floor] * double(q.tet_count) / double(tets);
+    if (tets > 0) changes.estimated_error += e[q.floor] * double(q.tet_count) / double(tets) * variant_share(q.floor);
   }
   return changes;
+}
+
+// PROTOTYPE. A segment's error is taken to fall as 1/tets from its own tets (t0) to a
+// variant's (t): t0/t of it remains. Each step from one variant to the next finer removes
+// e·t0·(1/t_j - 1/t_{j+1}) for t_{j+1} - t_j tets; the steps of largest error removed per tet
+// are taken while they fit (a step that does not fit ends that segment's offers).
+void Cut::fill_variants(const std::vector<double>& e, uint64_t budget) {
+  const uint32_t n = dag_.node_count();
+  auto tets_of = [&](uint32_t v, uint32_t j) { return j == 0 ? double(dag_.node(v).tet_count) : double(variants_->of_node[v][j - 1].tet_count()); };
+  auto priority = [&](uint32_t v, uint32_t j) {  // of the step from j to j + 1
+    const double t0 = tets_of(v, 0), a = tets_of(v, j), b = tets_of(v, j + 1);
+    return e[v] * t0 * (1 / a - 1 / b) / std::max(1.0, b - a);
+  };
+  using Item = std::pair<double, uint32_t>;
+  std::priority_queue<Item> queue;
+  for (uint32_t v = 0; v < n && v < variants_->of_node.size(); ++v)
+    if (displayed(v) && e[v] > 0 && !variants_->of_node[v].empty() && dag_.node(v).tet_count > 0) queue.push({priority(v, 0), v});
+  int64_t left = static_cast<int64_t>(budget) - static_cast<int64_t>(tets_);
+  while (!queue.empty() && left > 0) {
+    const uint32_t v = queue.top().second;
+    queue.pop();
+    const uint32_t j = variant_[v];
+    const int64_t step = static_cast<int64_t>(tets_of(v, j + 1) - tets_of(v, j));
+    if (step > left) continue;
+    variant_[v] = static_cast<uint8_t>(j + 1);
+    left -= step;
+    variant_tets_ = static_cast<uint64_t>(static_cast<int64_t>(variant_tets_) + step);
+    if (j + 1 < variants_->of_node[v].size()) queue.push({priority(v, j + 1), v});
+  }
+}
+
+double Cut::variant_share(uint32_t node) const {
+  const uint32_t j = variant_of(node);
+  if (j == 0) return 1.0;
+  return double(dag_.node(node).tet_count) / double(variants_->of_node[node][j - 1].tet_count());
 }
 
 size_t ResidentSegments::update(const Cut& cut, storage::SegmentCache& cache) {
@@ -505,6 +545,16 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   CutMesh out;
   out.patches = cut.active_patches();
   if (!clip.empty()) std::erase_if(out.patches, [&](uint32_t p) { return clipped_away(clip, dag.node(dag.patch(p).floor).bounds); });
+  std::vector<uint32_t> shown_variants;  // PROTOTYPE: nodes shown as a variant, their patches left out
+  if (cut.variants() && !adjacency) {  // (the variants carry no adjacency)
+    for (uint32_t p : out.patches) {
+      const uint32_t f = dag.patch(p).floor;
+      if (cut.variant_of(f) != 0) shown_variants.push_back(f);
+    }
+    std::sort(shown_variants.begin(), shown_variants.end());
+    shown_variants.erase(std::unique(shown_variants.begin(), shown_variants.end()), shown_variants.end());
+    std::erase_if(out.patches, [&](uint32_t p) { return cut.variant_of(dag.patch(p).floor) != 0; });
+  }
   const auto& attributes = store.manifest().attributes;
   for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components}, {}});
   std::unordered_map<uint32_t, uint32_t> vertex_of;
@@ -558,6 +608,31 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
         }
       }
     }
+  }
+  for (uint32_t v : shown_variants) {
+    const VariantMesh& m = cut.variants()->of_node[v][cut.variant_of(v) - 1];
+    std::vector<uint32_t> local(m.vertex_count());
+    for (size_t l = 0; l < m.vertex_count(); ++l) {
+      const uint32_t g = m.global[l];
+      if (g != 0xFFFFFFFFu) {
+        auto [it, inserted] = vertex_of.try_emplace(g, static_cast<uint32_t>(out.mesh.x.size()));
+        local[l] = it->second;
+        if (!inserted) continue;
+      } else {
+        local[l] = static_cast<uint32_t>(out.mesh.x.size());
+      }
+      out.mesh.x.push_back(m.xyz[3 * l]);
+      out.mesh.y.push_back(m.xyz[3 * l + 1]);
+      out.mesh.z.push_back(m.xyz[3 * l + 2]);
+      out.global_ids.push_back(g);
+      size_t offset = 0;
+      for (size_t a = 0; a < attributes.size(); ++a) {
+        const uint32_t c = attributes[a].components;
+        for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(m.values[l * cut.variants()->floats + offset + q]);
+        offset += c;
+      }
+    }
+    for (uint32_t l : m.tets) out.mesh.tets.push_back(local[l]);
   }
   if (adjacency) {
     pair_open_faces(open, [&](const OpenFace& a, const OpenFace& b) {

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <numeric>
@@ -461,8 +462,54 @@ class LevelBuilder {
       out.global[l] = same ? global[src] : kNone;
     }
     out.tetgen_failure = sr.tetgen_failure;
+    out.variants = ceiling_variants(before, locked, global, m.tet_count(), cap);
     out.error = measure_ceiling_error(m, original_vertices, mesh_, options_.histogram_bins);
     out.mesh = std::move(m);
+    return out;
+  }
+
+  // PROTOTYPE: TETRASCOPE_VARIANTS=K versions of the ceiling between its fine mesh (F tets)
+  // and its simplified one (c tets), at F^(1-j/(K+1)) c^(j/(K+1)) tets, each simplified from
+  // the fine mesh with the same border locked and the same cap; fewest tets first.
+  std::vector<VariantMesh> ceiling_variants(const storage::TetMesh& fine, const std::vector<uint8_t>& locked, const std::vector<uint32_t>& global, uint64_t coarse,
+                                            double cap) const {
+    std::vector<VariantMesh> out;
+    const char* env = std::getenv("TETRASCOPE_VARIANTS");
+    const int count = env ? std::atoi(env) : 0;
+    const double f_tets = double(fine.tet_count()), c_tets = double(std::max<uint64_t>(1, coarse));
+    if (count <= 0 || shared() || options_.simplifier != SimplifyMethod::kQem || f_tets < 1.2 * c_tets) return out;
+    for (int j = count; j >= 1; --j) {
+      const double f = double(j) / (count + 1);
+      const uint64_t target = static_cast<uint64_t>(std::llround(std::pow(f_tets, 1 - f) * std::pow(c_tets, f)));
+      storage::TetMesh m = fine;
+      SimplifyOptions so = ceiling_options(target);
+      so.max_error = cap;
+      const SimplifyReport sr = simplify(m, so, locked);
+      const double t = double(m.tet_count());
+      if (t > 0.97 * f_tets || t < 1.05 * c_tets || (!out.empty() && t < 1.05 * double(out.back().tet_count()))) continue;
+      VariantMesh v;
+      const size_t nv = m.vertex_count();
+      v.global.resize(nv);
+      v.xyz.resize(3 * nv);
+      for (size_t l = 0; l < nv; ++l) {
+        const uint32_t src = sr.source_vertex[l];
+        v.xyz[3 * l] = m.x[l];
+        v.xyz[3 * l + 1] = m.y[l];
+        v.xyz[3 * l + 2] = m.z[l];
+        bool same = src != kNone && m.x[l] == fine.x[src] && m.y[l] == fine.y[src] && m.z[l] == fine.z[src];
+        for (size_t a = 0; a < m.attributes.size() && same; ++a) {
+          const uint32_t c = m.attributes[a].info.components;
+          same = std::memcmp(&m.attributes[a].values[l * c], &fine.attributes[a].values[size_t{src} * c], 4 * c) == 0;
+        }
+        v.global[l] = same ? global[src] : kNone;
+        for (const auto& a : m.attributes)
+          for (uint32_t c = 0; c < a.info.components; ++c) v.values.push_back(a.values[l * a.info.components + c]);
+      }
+      v.tets = m.tets;
+      out.push_back(std::move(v));
+    }
+    // fewest tets first
+    std::sort(out.begin(), out.end(), [](const VariantMesh& a, const VariantMesh& b) { return a.tet_count() < b.tet_count(); });
     return out;
   }
 
@@ -493,6 +540,8 @@ class LevelBuilder {
       std::vector<uint32_t> tets(m.tets.size());
       for (size_t i = 0; i < m.tets.size(); ++i) tets[i] = res.global[m.tets[i]];
       const uint32_t id = out_.nodes.add(level, std::move(tets), spill);
+      if (out_.variants.size() <= id) out_.variants.resize(id + 1);
+      out_.variants[id] = std::move(res.variants);
       std::copy(res.error.field.begin(), res.error.field.end(), out_.field.begin() + size_t{id} * values);
       std::copy(res.error.spatial.begin(), res.error.spatial.end(), out_.spatial.begin() + size_t{id} * values);
       std::copy(res.error.mass.begin(), res.error.mass.end(), out_.mass.begin() + size_t{id} * values * 4);

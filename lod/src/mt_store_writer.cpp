@@ -310,6 +310,13 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
   }
   StoreOutput out;
   out.dag_bytes = write_dag_file(in, node_bounds, writer.temp_directory());
+  {  // PROTOTYPE: the ceilings' variants, when built
+    Variants variants;
+    variants.floats = table.floats;
+    variants.of_node = h.variants;
+    variants.of_node.resize(node_count);
+    if (!variants.empty()) write_variants(writer.temp_directory() / "variants.bin", variants);
+  }
   out.levels = level_reports(h, in.arcs, vertex_total);
   nlohmann::json manifest = manifest_json(in, order, out.levels);
   stage("write", 0.95);

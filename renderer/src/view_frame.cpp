@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <stdexcept>
 
 #include "tetrascope/lod/dag.h"
@@ -31,7 +32,13 @@ const storage::StoreAttribute* find_attribute(const storage::StoreManifest& mani
 }  // namespace
 
 ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache)
-    : store_(&store), dag_(&dag), cache_(&cache), cut_(std::make_unique<lod::Cut>(dag)), bounds_(store.manifest().bounds) {}
+    : store_(&store), dag_(&dag), cache_(&cache), cut_(std::make_unique<lod::Cut>(dag)), bounds_(store.manifest().bounds) {
+  // PROTOTYPE: the store's variants, unless TETRASCOPE_NO_VARIANTS is set
+  if (!std::getenv("TETRASCOPE_NO_VARIANTS")) {
+    variants_ = std::make_unique<lod::Variants>(lod::read_variants(store.path() / "variants.bin"));
+    cut_->attach_variants(variants_.get());
+  }
+}
 
 ViewPipeline::ViewPipeline(storage::TetMesh mesh) : mesh_(std::move(mesh)), bounds_(storage::compute_bounds(*mesh_)) {}
 
@@ -170,7 +177,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     start = Clock::now();
     // segments wholly clipped away are not read (a change of the clip may need others)
     std::optional<lod::CutMesh> assembled;
-    if (!scene_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || attribute_ != s.tf.attribute ||
+    if (!scene_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute ||
         iso_color_attribute_ != request.iso_color_attribute || !(assembled_clip_ == criteria.clip)) {
       assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip, should_stop);
       if (assembled->interrupted || (should_stop && should_stop())) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/variants.h"
 #include "tetrascope/lod/view.h"
 #include "tetrascope/protocol/planes.h"
 #include "tetrascope/storage/mesh.h"
@@ -70,6 +71,7 @@ struct CutChanges {
   // Σ E over the segments the cut shows unrefined (those with an active patch): the image
   // error the cut is estimated to leave, in the units of E (field error × opacity × view share)
   double estimated_error = 0;
+  bool variants_changed = false;  // PROTOTYPE: the variants shown changed
 };
 
 class Cut {
@@ -99,7 +101,20 @@ class Cut {
   std::vector<uint32_t> resident_segments() const;
   const Dag& dag() const { return dag_; }
 
+  // PROTOTYPE: with variants attached, update() ends by spending what the budget has left
+  // on variants of shown segments (variant_of: 0 the segment itself, j its variant j-1).
+  void attach_variants(const Variants* variants) { variants_ = variants && !variants->empty() ? variants : nullptr; }
+  const Variants* variants() const { return variants_; }
+  uint32_t variant_of(uint32_t node) const { return node < variant_.size() ? variant_[node] : 0; }
+  uint64_t variant_tets() const { return variant_tets_; }
+
  private:
+  void fill_variants(const std::vector<double>& e, uint64_t budget);
+  double variant_share(uint32_t node) const;  // of the segment's error a variant leaves
+  const Variants* variants_ = nullptr;
+  std::vector<uint8_t> variant_;
+  uint64_t variant_tets_ = 0;  // tets the variants add over their segments'
+
   void apply_refine(uint32_t node, CutChanges* changes);
   void apply_coarsen(uint32_t node, CutChanges* changes);
   void note(uint32_t patch);
