@@ -9,6 +9,7 @@
 #include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/mt_build.h"
 #include "tetrascope/lod/store_check.h"
+#include "tetrascope/lod/variants.h"
 #include "tetrascope/lod/segmentation.h"
 #include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/segment_codec.h"
@@ -37,6 +38,8 @@ int print_store_info(const std::string& path, bool json) {
     j["tetrahedra"] = m.json["multiresolution"]["input"]["tetrahedra"];
     j["stored_vertices"] = m.vertex_count;
     j["stored_tetrahedra"] = m.tet_count;
+    const auto variants_file = std::filesystem::path(path) / "variants.bin";
+    if (std::filesystem::exists(variants_file)) j["files"]["variants.bin"]["bytes"] = std::filesystem::file_size(variants_file, ec);
   }
   if (json) {
     std::cout << j.dump(2) << "\n";
@@ -57,6 +60,9 @@ int print_store_info(const std::string& path, bool json) {
     const double bytes = j["files"]["segments.bin"]["bytes"].get<double>() + j["files"]["dag.bin"]["bytes"].get<double>();
     std::printf("files       segments.bin %.1f MB (segments: %s), dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
                 storage::compression_name(store->compression()), j["files"]["dag.bin"]["bytes"].get<double>() / 1e6, bytes / input_tets);
+    if (j["files"].contains("variants.bin"))
+      std::printf("            variants.bin %.1f MB (%llu tets in segment variants, %.1f bytes per input tet)\n", j["files"]["variants.bin"]["bytes"].get<double>() / 1e6,
+                  mr.contains("variants") ? mr["variants"]["tets"].get<unsigned long long>() : 0ull, j["files"]["variants.bin"]["bytes"].get<double>() / input_tets);
     return 0;
   }
   std::printf("store       %s (format %u)\n", path.c_str(), m.version);
@@ -103,6 +109,7 @@ int run_verify(const Arguments& raw) {
       auto store = storage::Store::open(args.positionals()[0]);
       if (auto dag = lod::open_dag(*store)) {
         for (auto& p : lod::verify_dag(*store, *dag)) report.problems.push_back(p);
+        for (auto& p : lod::verify_variants(*store, *dag)) report.problems.push_back(p);
       }
     } catch (const std::exception& e) {
       report.problems.push_back(e.what());
@@ -150,9 +157,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -166,6 +173,7 @@ int run_preprocess(const Arguments& raw) {
     if (options.segment_tets == 0) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
   }
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
+  options.variants = static_cast<uint32_t>(args.number("--variants", options.variants));
   // auto (the default): 0.25 on a graded mesh, 0.5 on a nearly uniform one (auto_level_ratio)
   if (args.has("--level-ratio") && args.get("--level-ratio") != "auto") {
     options.level_ratio = args.real("--level-ratio");

@@ -293,6 +293,8 @@ int run_cut(const Arguments& all) {
   }
   criteria.clip = clip.half_spaces();
   lod::Cut cut(*opened.dag);
+  const std::unique_ptr<lod::Variants> variants = lod::Variants::open(store, *opened.dag);  // as render shows the cut
+  cut.attach_variants(variants.get());
   const auto start = Clock::now();
   const auto changes = cut.update(criteria, budget);
   const double update_ms = ms_since(start);
@@ -302,7 +304,8 @@ int run_cut(const Arguments& all) {
   storage::write_vtk(args.get("--output"), mesh.mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
                       {"refinements", changes.refinements}, {"forced_refinements", changes.forced_refinements}, {"coarsenings", changes.coarsenings},
-                      {"budget_limited", changes.budget_limited}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms}};
+                      {"budget_limited", changes.budget_limited}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms},
+                      {"variant_extra_tets", cut.variant_extra_tets()}};
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %zu tets, %zu vertices from %zu patches (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.mesh.tet_count(),
                    mesh.mesh.vertex_count(), mesh.patches.size(), static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);

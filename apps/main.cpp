@@ -19,7 +19,7 @@ constexpr const char* kUsage =
     "  segment MESH -o STORE [--leaf-vertices K] [--segment-tets T | --segments N] [--seed S]\n"
     "                                [--max-inflate-ratio R] [--force] [--progress bar|json|none] [--json]\n"
     "                                out-of-core segmentation (stage 1 of preprocess); the store passes verify's checks\n"
-    "  preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N]\n"
+    "  preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N]\n"
     "                                [--threads N] [--seed S] [--force] [--progress bar|json|none] [--json]\n"
     "                                [--max-inflate-ratio R]  compressed input may inflate to R x its size + 64 MiB (100)\n"
     "                                [--simplifier qem|sample]  the levels' simplifier (qem)\n"

@@ -66,6 +66,7 @@ void Cut::note(uint32_t patch) {
 }
 
 void Cut::apply_refine(uint32_t node, CutChanges* changes) {
+  drop_variant(node);  // its tets give way to its children's
   refined_[node] = 1;
   tets_ = static_cast<uint64_t>(static_cast<int64_t>(tets_) + gain_[node]);
   for (uint32_t p : dag_.parent_patches(node)) {
@@ -81,6 +82,8 @@ void Cut::apply_refine(uint32_t node, CutChanges* changes) {
 }
 
 void Cut::apply_coarsen(uint32_t node, CutChanges* changes) {
+  if (variants_)  // its children stop being shown whole
+    for (const auto& c : dag_.child_patches(node)) drop_variant(c.floor);
   refined_[node] = 0;
   tets_ = static_cast<uint64_t>(static_cast<int64_t>(tets_) - gain_[node]);
   for (uint32_t p : dag_.parent_patches(node)) {
@@ -228,7 +231,7 @@ std::vector<uint32_t> needed_refinements(const Dag& dag, uint32_t node, Refined&
 int64_t Cut::refinement_cost(uint32_t node) const {
   if (refined_[node] || dag_.node(node).child_count == 0) return 0;
   int64_t cost = 0;
-  for (uint32_t v : needed_refinements(dag_, node, [&](uint32_t c) { return refined_[c] != 0; })) cost += gain_[v];
+  for (uint32_t v : needed_refinements(dag_, node, [&](uint32_t c) { return refined_[c] != 0; })) cost += gain_[v] - variant_extra(v);
   return cost;
 }
 
@@ -236,8 +239,8 @@ bool Cut::refine(uint32_t node, uint64_t budget, CutChanges* changes) {
   if (refined_[node] || dag_.node(node).child_count == 0) return false;
   auto need = needed_refinements(dag_, node, [&](uint32_t c) { return refined_[c] != 0; });
   int64_t cost = 0;
-  for (uint32_t v : need) cost += gain_[v];
-  if (budget && static_cast<int64_t>(tets_) + cost > static_cast<int64_t>(budget)) return false;
+  for (uint32_t v : need) cost += gain_[v] - variant_extra(v);
+  if (budget && static_cast<int64_t>(tets_ + variant_tets_) + cost > static_cast<int64_t>(budget)) return false;
   for (uint32_t v : need) apply_refine(v, changes);
   if (changes) changes->forced_refinements += static_cast<uint32_t>(need.size() - 1);
   return true;
@@ -350,7 +353,7 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   std::vector<double> e(n);
   for (uint32_t v = 0; v < n; ++v) e[v] = error(v);
   // error removed per tet added (forced refinements included), and error added per tet freed
-  auto refine_priority = [&](uint32_t v) { return e[v] / double(std::max<int64_t>(1, refinement_cost(v))); };
+  auto refine_priority = [&](uint32_t v) { return e[v] * variant_share(v) / double(std::max<int64_t>(1, refinement_cost(v))); };
   auto coarsen_priority = [&](uint32_t v) { return e[v] / double(std::max<int64_t>(1, gain_[v])); };
   using Item = std::pair<double, uint32_t>;
   // 1. coarsen: everything invisible, then the cheapest until the budget holds
@@ -410,7 +413,7 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       }
     if (want == dag::kRoot) break;
     const int64_t cost = refinement_cost(want);
-    if (static_cast<int64_t>(tets_) + cost <= static_cast<int64_t>(budget)) {
+    if (static_cast<int64_t>(tets_ + variant_tets_) + cost <= static_cast<int64_t>(budget)) {
       refine(want, budget, &changes);
       continue;
     }
@@ -424,7 +427,7 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       cheapest = coarsen_priority(v);
       give = v;
     }
-    if (give == dag::kRoot || static_cast<int64_t>(tets_) - gain_[give] + cost > static_cast<int64_t>(budget)) break;
+    if (give == dag::kRoot || static_cast<int64_t>(tets_ + variant_tets_) - gain_[give] + cost > static_cast<int64_t>(budget)) break;
     apply_coarsen(give, &changes);
     if (!refine(want, budget, &changes)) {  // the coarsening made the wanted one dearer: undo
       apply_refine(give, &changes);
@@ -455,39 +458,58 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
   return changes;
 }
 
-// PROTOTYPE. A segment's error is taken to fall as 1/tets from its own tets (t0) to a
-// variant's (t): t0/t of it remains. Each step from one variant to the next finer removes
-// e·t0·(1/t_j - 1/t_{j+1}) for t_{j+1} - t_j tets; the steps of largest error removed per tet
-// are taken while they fit (a step that does not fit ends that segment's offers).
+// Step 4 of update(), with variants: the budget refinement could not use. A segment's error is
+// taken to fall as 1/tets from its own tets (t0) to a variant's (t): t0/t of it remains. The
+// steps from one variant to the next finer (variant_priority) that remove the most error a tet
+// are taken while they fit; one that does not fit ends that segment's steps.
 void Cut::fill_variants(const std::vector<double>& e, uint64_t budget) {
   const uint32_t n = dag_.node_count();
-  auto tets_of = [&](uint32_t v, uint32_t j) { return j == 0 ? double(dag_.node(v).tet_count) : double(variants_->of_node[v][j - 1].tet_count()); };
-  auto priority = [&](uint32_t v, uint32_t j) {  // of the step from j to j + 1
-    const double t0 = tets_of(v, 0), a = tets_of(v, j), b = tets_of(v, j + 1);
-    return e[v] * t0 * (1 / a - 1 / b) / std::max(1.0, b - a);
-  };
   using Item = std::pair<double, uint32_t>;
   std::priority_queue<Item> queue;
-  for (uint32_t v = 0; v < n && v < variants_->of_node.size(); ++v)
-    if (displayed(v) && e[v] > 0 && !variants_->of_node[v].empty() && dag_.node(v).tet_count > 0) queue.push({priority(v, 0), v});
-  int64_t left = static_cast<int64_t>(budget) - static_cast<int64_t>(tets_);
+  for (uint32_t v = 0; v < n; ++v)
+    if (displayed(v) && e[v] > 0 && variant_[v] < variant_count(v)) queue.push({variant_priority(e[v], v, variant_[v]), v});
+  int64_t left = static_cast<int64_t>(budget) - static_cast<int64_t>(tets_ + variant_tets_);
   while (!queue.empty() && left > 0) {
     const uint32_t v = queue.top().second;
     queue.pop();
     const uint32_t j = variant_[v];
-    const int64_t step = static_cast<int64_t>(tets_of(v, j + 1) - tets_of(v, j));
+    const int64_t step = static_cast<int64_t>(variant_tets(v, j + 1) - variant_tets(v, j));
     if (step > left) continue;
     variant_[v] = static_cast<uint8_t>(j + 1);
     left -= step;
     variant_tets_ = static_cast<uint64_t>(static_cast<int64_t>(variant_tets_) + step);
-    if (j + 1 < variants_->of_node[v].size()) queue.push({priority(v, j + 1), v});
+    if (j + 1 < variant_count(v)) queue.push({variant_priority(e[v], v, j + 1), v});
   }
+}
+
+uint32_t Cut::variant_count(uint32_t node) const {
+  return variants_ && dag_.node(node).tet_count > 0 ? variants_->count(node) : 0;
+}
+
+uint64_t Cut::variant_tets(uint32_t node, uint32_t j) const { return j == 0 ? dag_.node(node).tet_count : variants_->tets(node, j - 1); }
+
+int64_t Cut::variant_extra(uint32_t node) const {
+  const uint32_t j = variant_of(node);
+  return j == 0 ? 0 : static_cast<int64_t>(variant_tets(node, j)) - static_cast<int64_t>(dag_.node(node).tet_count);
+}
+
+void Cut::drop_variant(uint32_t node) {
+  if (variant_of(node) == 0) return;
+  variant_tets_ = static_cast<uint64_t>(static_cast<int64_t>(variant_tets_) - variant_extra(node));
+  variant_[node] = 0;
+}
+
+// The step from variant j to j + 1: a segment's error taken to fall as 1/tets, e·t0·(1/t_j -
+// 1/t_{j+1}) removed for t_{j+1} - t_j tets.
+double Cut::variant_priority(double e, uint32_t node, uint32_t j) const {
+  const double t0 = double(variant_tets(node, 0)), a = double(variant_tets(node, j)), b = double(variant_tets(node, j + 1));
+  return e * t0 * (1 / a - 1 / b) / std::max(1.0, b - a);
 }
 
 double Cut::variant_share(uint32_t node) const {
   const uint32_t j = variant_of(node);
   if (j == 0) return 1.0;
-  return double(dag_.node(node).tet_count) / double(variants_->of_node[node][j - 1].tet_count());
+  return double(variant_tets(node, 0)) / double(variant_tets(node, j));
 }
 
 size_t ResidentSegments::update(const Cut& cut, storage::SegmentCache& cache) {
@@ -545,8 +567,8 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   CutMesh out;
   out.patches = cut.active_patches();
   if (!clip.empty()) std::erase_if(out.patches, [&](uint32_t p) { return clipped_away(clip, dag.node(dag.patch(p).floor).bounds); });
-  std::vector<uint32_t> shown_variants;  // PROTOTYPE: nodes shown as a variant, their patches left out
-  if (cut.variants() && !adjacency) {  // (the variants carry no adjacency)
+  std::vector<uint32_t> shown_variants;  // segments shown as a variant: their patches left out
+  if (cut.variants()) {
     for (uint32_t p : out.patches) {
       const uint32_t f = dag.patch(p).floor;
       if (cut.variant_of(f) != 0) shown_variants.push_back(f);
@@ -610,11 +632,11 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
     }
   }
   for (uint32_t v : shown_variants) {
-    const VariantMesh& m = cut.variants()->of_node[v][cut.variant_of(v) - 1];
-    std::vector<uint32_t> local(m.vertex_count());
-    for (size_t l = 0; l < m.vertex_count(); ++l) {
+    const VariantView m = cut.variants()->view(v, cut.variant_of(v) - 1);
+    std::vector<uint32_t> local(m.vertex_count);
+    for (size_t l = 0; l < m.vertex_count; ++l) {
       const uint32_t g = m.global[l];
-      if (g != 0xFFFFFFFFu) {
+      if (g != kNoGlobal) {
         auto [it, inserted] = vertex_of.try_emplace(g, static_cast<uint32_t>(out.mesh.x.size()));
         local[l] = it->second;
         if (!inserted) continue;
@@ -628,11 +650,28 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
       size_t offset = 0;
       for (size_t a = 0; a < attributes.size(); ++a) {
         const uint32_t c = attributes[a].components;
-        for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(m.values[l * cut.variants()->floats + offset + q]);
+        for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(m.values[l * cut.variants()->floats() + offset + q]);
         offset += c;
       }
     }
+    const uint32_t first = static_cast<uint32_t>(out.mesh.tet_count());
     for (uint32_t l : m.tets) out.mesh.tets.push_back(local[l]);
+    if (!adjacency) continue;
+    // its own faces paired among its tets; the rest glued to the neighbours' by global ids,
+    // or the mesh boundary (a face with a moved vertex has no neighbour outside)
+    out.opposites.resize(out.mesh.tets.size(), kMeshBoundary);
+    const FacePairing pairs = pair_faces(m.tets);
+    for (uint32_t f = 0; f < pairs.opposite.size(); ++f) {
+      const uint32_t here = 4 * first + f;
+      if (pairs.opposite[f] != kNoOppositeFace) {
+        out.opposites[here] = 4 * first + pairs.opposite[f];
+        continue;
+      }
+      FaceVertices face = tet_face(out.mesh.tets, here / 4, int(f % 4));
+      bool named = true;
+      for (uint32_t& id : face) named &= (id = out.global_ids[id]) != kNoGlobal;
+      if (named) open.push_back({face_key(face), dag.patch_count() + v, here});
+    }
   }
   if (adjacency) {
     pair_open_faces(open, [&](const OpenFace& a, const OpenFace& b) {

@@ -13,6 +13,7 @@
 // are held in memory when they fit a quarter of --memory-mb, else in a spill file read a
 // segment at a time (NodeTets), so that the input need never be whole in memory. Segment-wise work (simplification, error measure) runs on `threads`, and
 // under MPI (options.ranks) is shared among the ranks, each of which holds the whole build.
+#include "tetrascope/lod/variants.h"
 #include "tetrascope/lod/mt_build.h"
 
 #include <chrono>
@@ -32,7 +33,7 @@ nlohmann::json PreprocessReport::to_json() const {
   nlohmann::json levels_json = nlohmann::json::array();
   for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
-          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
+          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"variants_bytes", variants_bytes}, {"variant_tets", variant_tets}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
           {"segment_tets", segment_tets}, {"level_ratio", level_ratio}, {"grading", grading}, {"seconds", seconds},
           {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
 }
@@ -46,6 +47,9 @@ void check_options(const PreprocessOptions& options, const std::filesystem::path
     throw std::invalid_argument("--level-ratio must be 'auto' or in (0.01, 0.95)");
   if (options.histogram_bins < 2 || options.histogram_bins > dag::kMaxBins) throw std::invalid_argument("--bins must be 2 to " + std::to_string(dag::kMaxBins));
   if (options.threads < 1 || options.threads > 64) throw std::invalid_argument("--threads must be 1 to 64");
+  if (options.variants > kMaxVariants) throw std::invalid_argument("--variants must be 0 to " + std::to_string(kMaxVariants));
+  if (options.variants > 0 && options.simplifier != SimplifyMethod::kQem) throw std::invalid_argument("--variants needs --simplifier qem");
+  if (options.variants > 0 && options.ranks && options.ranks->size() > 1) throw std::invalid_argument("--variants is not built under mpirun yet: preprocess on one rank");
   if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
   if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
 }
@@ -102,6 +106,8 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   report.patches = static_cast<uint32_t>(arcs.size());
   report.store_bytes = written.store_bytes;
   report.dag_bytes = written.dag_bytes;
+  report.variants_bytes = written.variants_bytes;
+  report.variant_tets = hierarchy.variants ? hierarchy.variants->tets() : 0;
   report.write_seconds = seconds_since(write_start);
   report.seconds = seconds_since(start);
   if (progress) progress->finish();

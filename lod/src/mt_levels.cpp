@@ -17,7 +17,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <numeric>
@@ -468,16 +467,16 @@ class LevelBuilder {
     return out;
   }
 
-  // PROTOTYPE: TETRASCOPE_VARIANTS=K versions of the ceiling between its fine mesh (F tets)
-  // and its simplified one (c tets), at F^(1-j/(K+1)) c^(j/(K+1)) tets, each simplified from
-  // the fine mesh with the same border locked and the same cap; fewest tets first.
+  // options_.variants = K versions of the ceiling between its fine mesh (F tets) and its
+  // simplified one (c tets), at F^(1-j/(K+1)) c^(j/(K+1)) tets, each simplified from the fine
+  // mesh with the same border locked and the same cap (variants.h); fewest tets first. One
+  // that comes out within 5% of the next coarser is left out.
   std::vector<VariantMesh> ceiling_variants(const storage::TetMesh& fine, const std::vector<uint8_t>& locked, const std::vector<uint32_t>& global, uint64_t coarse,
                                             double cap) const {
     std::vector<VariantMesh> out;
-    const char* env = std::getenv("TETRASCOPE_VARIANTS");
-    const int count = env ? std::atoi(env) : 0;
+    const int count = static_cast<int>(options_.variants);
     const double f_tets = double(fine.tet_count()), c_tets = double(std::max<uint64_t>(1, coarse));
-    if (count <= 0 || shared() || options_.simplifier != SimplifyMethod::kQem || f_tets < 1.2 * c_tets) return out;
+    if (count <= 0 || f_tets < 1.2 * c_tets) return out;
     for (int j = count; j >= 1; --j) {
       const double f = double(j) / (count + 1);
       const uint64_t target = static_cast<uint64_t>(std::llround(std::pow(f_tets, 1 - f) * std::pow(c_tets, f)));
@@ -506,6 +505,8 @@ class LevelBuilder {
           for (uint32_t c = 0; c < a.info.components; ++c) v.values.push_back(a.values[l * a.info.components + c]);
       }
       v.tets = m.tets;
+      const std::pair<uint32_t, uint32_t> all{0, static_cast<uint32_t>(m.tet_count())};
+      PatchOrderer().order(v.tets, {&all, 1});  // depth first, for the connectivity coding
       out.push_back(std::move(v));
     }
     // fewest tets first
@@ -540,8 +541,10 @@ class LevelBuilder {
       std::vector<uint32_t> tets(m.tets.size());
       for (size_t i = 0; i < m.tets.size(); ++i) tets[i] = res.global[m.tets[i]];
       const uint32_t id = out_.nodes.add(level, std::move(tets), spill);
-      if (out_.variants.size() <= id) out_.variants.resize(id + 1);
-      out_.variants[id] = std::move(res.variants);
+      if (!res.variants.empty()) {
+        if (!out_.variants) out_.variants = std::make_unique<VariantSpill>(mesh_.spill_directory, table.floats);
+        out_.variants->add(id, res.variants);
+      }
       std::copy(res.error.field.begin(), res.error.field.end(), out_.field.begin() + size_t{id} * values);
       std::copy(res.error.spatial.begin(), res.error.spatial.end(), out_.spatial.begin() + size_t{id} * values);
       std::copy(res.error.mass.begin(), res.error.mass.end(), out_.mass.begin() + size_t{id} * values * 4);

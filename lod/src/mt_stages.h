@@ -183,7 +183,7 @@ struct Hierarchy {
   std::vector<uint32_t> level0_owner;     // the level-0 segment that owns each input vertex
   double partition_seconds = 0;           // of level 0
   uint32_t tetgen_fallbacks = 0;          // ceilings this rank simplified by collapses after TetGen failed
-  std::vector<std::vector<VariantMesh>> variants;  // PROTOTYPE: per node (TETRASCOPE_VARIANTS)
+  std::unique_ptr<VariantSpill> variants;  // --variants: the segments' variants, null when none
   uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
   uint64_t level_tets(uint32_t level) const {
     uint64_t sum = 0;
@@ -208,7 +208,7 @@ struct CeilingResult {
   std::vector<uint32_t> global;  // per output vertex: kept global id, or kNone (new)
   CeilingError error;
   std::string tetgen_failure;    // --simplifier sample: TetGen failed, quadric collapses did it
-  std::vector<VariantMesh> variants;  // PROTOTYPE: fewest tets first
+  std::vector<VariantMesh> variants;  // --variants: fewest tets first
 };
 
 // Level 0 and every coarser level, until the base budget, one segment or max_levels. Grows
@@ -266,7 +266,7 @@ struct StoreInput {
 };
 
 struct StoreOutput {
-  uint64_t store_bytes = 0, dag_bytes = 0;
+  uint64_t store_bytes = 0, dag_bytes = 0, variants_bytes = 0;
   std::vector<LevelReport> levels;
 };
 

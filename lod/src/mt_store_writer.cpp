@@ -276,7 +276,8 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
   const PreprocessOptions& options = in.options;
   manifest["multiresolution"] = {{"dag", "dag.bin"}, {"input", {{"vertices", mesh.input_vertices}, {"tetrahedra", mesh.input_tets}}}, {"levels", level_list},
                                  {"patches", in.arcs.size()}, {"histogram_bins", options.histogram_bins},
-                                 {"build", {{"segment_tets", options.segment_tets}, {"grading", mesh.grading}, {"min_segments", options.min_segments}, {"base_tets", options.base_tets}, {"level_ratio", options.level_ratio}, {"level_targets", options.common_error ? "error" : "ratio"}, {"seed", options.seed}}}};
+                                 {"build", {{"segment_tets", options.segment_tets}, {"grading", mesh.grading}, {"min_segments", options.min_segments}, {"base_tets", options.base_tets}, {"level_ratio", options.level_ratio}, {"level_targets", options.common_error ? "error" : "ratio"}, {"variants", options.variants}, {"seed", options.seed}}}};
+  if (h.variants && !h.variants->empty()) manifest["multiresolution"]["variants"] = {{"file", "variants.bin"}, {"tets", h.variants->tets()}};
   return manifest;
 }
 
@@ -310,18 +311,12 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
   }
   StoreOutput out;
   out.dag_bytes = write_dag_file(in, node_bounds, writer.temp_directory());
-  {  // PROTOTYPE: the ceilings' variants, when built
-    Variants variants;
-    variants.floats = table.floats;
-    variants.of_node = h.variants;
-    variants.of_node.resize(node_count);
-    if (!variants.empty()) write_variants(writer.temp_directory() / "variants.bin", variants);
-  }
+  if (h.variants) out.variants_bytes = h.variants->write(writer.temp_directory() / "variants.bin", node_count);
   out.levels = level_reports(h, in.arcs, vertex_total);
   nlohmann::json manifest = manifest_json(in, order, out.levels);
   stage("write", 0.95);
   writer.finish(adjacency.neighbours, manifest);
-  out.store_bytes = writer.bytes_written() + out.dag_bytes;
+  out.store_bytes = writer.bytes_written() + out.dag_bytes + out.variants_bytes;
   return out;
 }
 

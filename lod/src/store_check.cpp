@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/variants.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 
@@ -17,6 +18,7 @@ std::vector<std::string> check_store(const std::filesystem::path& directory) {
     auto store = storage::Store::open(directory);
     if (auto dag = open_dag(*store)) {
       for (auto& p : verify_dag(*store, *dag)) problems.push_back(p);
+      for (auto& p : verify_variants(*store, *dag)) problems.push_back(p);
     }
   } catch (const std::exception& e) {
     problems.push_back(e.what());

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cstdlib>
 #include <stdexcept>
 
 #include "tetrascope/lod/dag.h"
@@ -33,11 +32,8 @@ const storage::StoreAttribute* find_attribute(const storage::StoreManifest& mani
 
 ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache)
     : store_(&store), dag_(&dag), cache_(&cache), cut_(std::make_unique<lod::Cut>(dag)), bounds_(store.manifest().bounds) {
-  // PROTOTYPE: the store's variants, unless TETRASCOPE_NO_VARIANTS is set
-  if (!std::getenv("TETRASCOPE_NO_VARIANTS")) {
-    variants_ = std::make_unique<lod::Variants>(lod::read_variants(store.path() / "variants.bin"));
-    cut_->attach_variants(variants_.get());
-  }
+  variants_ = lod::Variants::open(store, dag);  // null without variants.bin
+  cut_->attach_variants(variants_.get());
 }
 
 ViewPipeline::ViewPipeline(storage::TetMesh mesh) : mesh_(std::move(mesh)), bounds_(storage::compute_bounds(*mesh_)) {}

@@ -11,19 +11,21 @@
 
 namespace tetrascope::testing {
 
-const Built& built(const std::string& name) {
+const Built& built(const std::string& name, uint32_t variants) {
   static std::map<std::string, Built> cache;
-  auto it = cache.find(name);
+  const std::string key = name + (variants ? "-variants" + std::to_string(variants) : "");
+  auto it = cache.find(key);
   if (it != cache.end()) return it->second;
   const std::filesystem::path mesh = name == "sample" ? sample_mesh() : shared_data() / name;
   Built b;
-  b.store = run_scratch_dir("multires-" + std::filesystem::path(name).stem().string()) / "store";
+  b.store = run_scratch_dir("multires-" + std::filesystem::path(name).stem().string() + (variants ? "-variants" + std::to_string(variants) : "")) / "store";
   lod::PreprocessOptions options;
   options.segment_tets = 2000;
   options.base_tets = 3000;
+  options.variants = variants;
   options.replace = true;
   b.report = lod::preprocess(mesh, b.store, options);
-  return cache[name] = b;
+  return cache[key] = b;
 }
 
 std::multiset<Tet> tets_by_global_id(const lod::CutMesh& m) {

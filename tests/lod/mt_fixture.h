@@ -19,8 +19,8 @@ struct Built {
 };
 
 // The store of `name` ("sample" or a file of ../shared/data) with 2000-tet segments and a
-// 3000-tet base, built on first use.
-const Built& built(const std::string& name);
+// 3000-tet base (and `variants` variants a segment, variants.h), built on first use.
+const Built& built(const std::string& name, uint32_t variants = 0);
 
 using Tet = std::array<uint32_t, 4>;
 

@@ -71,7 +71,7 @@ struct CutChanges {
   // Σ E over the segments the cut shows unrefined (those with an active patch): the image
   // error the cut is estimated to leave, in the units of E (field error × opacity × view share)
   double estimated_error = 0;
-  bool variants_changed = false;  // PROTOTYPE: the variants shown changed
+  bool variants_changed = false;  // a segment's variant shown changed (its patches may not have)
 };
 
 class Cut {
@@ -80,7 +80,8 @@ class Cut {
 
   // Coarsens invisible and cheapest segments until the budget holds, then refines the
   // segments of largest error while the refinement (forced ones included) fits; then trades
-  // the cheapest refined segment for a dearer unrefined one while that lowers the error.
+  // the cheapest refined segment for a dearer unrefined one while that lowers the error; with
+  // variants attached, spends what is left on them.
   CutChanges update(const CutCriteria& criteria, uint64_t budget);
 
   // Single steps (tests, tools). refine() refines the node and the parents it needs, if the
@@ -95,22 +96,32 @@ class Cut {
 
   bool active(uint32_t patch) const;
   std::vector<uint32_t> active_patches() const;
-  uint64_t tet_count() const { return tets_; }
+  uint64_t tet_count() const { return tets_ + variant_tets_; }  // shown: variants' tets included
   // Segments a viewer should keep loaded: those with an active patch and their neighbours in
   // the DAG (parents and children), which the next refinements or coarsenings will need.
   std::vector<uint32_t> resident_segments() const;
   const Dag& dag() const { return dag_; }
 
-  // PROTOTYPE: with variants attached, update() ends by spending what the budget has left
-  // on variants of shown segments (variant_of: 0 the segment itself, j its variant j-1).
-  void attach_variants(const Variants* variants) { variants_ = variants && !variants->empty() ? variants : nullptr; }
+  // With the store's variants attached (variants.h; null: none), update() ends by spending
+  // what the budget has left, too little for any refinement, on variants of segments shown
+  // whole (variant_of: 0 the segment itself, j its variant j-1); assemble_cut shows them.
+  void attach_variants(const Variants* variants) {
+    variants_ = variants;
+    variant_.assign(variants ? dag_.node_count() : 0, 0);
+    variant_tets_ = 0;
+  }
   const Variants* variants() const { return variants_; }
   uint32_t variant_of(uint32_t node) const { return node < variant_.size() ? variant_[node] : 0; }
-  uint64_t variant_tets() const { return variant_tets_; }
+  uint64_t variant_extra_tets() const { return variant_tets_; }  // what the variants shown add
 
  private:
   void fill_variants(const std::vector<double>& e, uint64_t budget);
   double variant_share(uint32_t node) const;  // of the segment's error a variant leaves
+  uint32_t variant_count(uint32_t node) const;
+  uint64_t variant_tets(uint32_t node, uint32_t j) const;  // j = 0: the segment's own
+  int64_t variant_extra(uint32_t node) const;              // tets its variant adds
+  void drop_variant(uint32_t node);
+  double variant_priority(double e, uint32_t node, uint32_t j) const;
   const Variants* variants_ = nullptr;
   std::vector<uint8_t> variant_;
   uint64_t variant_tets_ = 0;  // tets the variants add over their segments'

@@ -37,6 +37,9 @@ struct PreprocessOptions {
   // (24 dB against a decimation's 43), with 2 it is within 0.6 dB (issue 14).
   uint32_t min_segments = 2;
   uint32_t min_segment_tets = 1024;
+  // Finer versions of every segment above level 0 that keep its border (variants.h): the cut
+  // shows one where the budget has room left but not for a refinement. 0: none.
+  uint32_t variants = 0;
   uint32_t histogram_bins = 256;  // N
   uint32_t threads = 2;           // segments simplified at once
   uint32_t max_levels = 24;
@@ -93,6 +96,7 @@ struct PreprocessReport {
   std::vector<LevelReport> levels;
   uint32_t segments = 0, patches = 0;
   uint64_t store_bytes = 0, dag_bytes = 0;
+  uint64_t variants_bytes = 0, variant_tets = 0;  // variants.bin (--variants)
   uint64_t spilled_bytes = 0;  // the largest the spill files grew (--memory-mb), input and levels
   // --simplifier sample: segments TetGen failed or crashed on (it runs in a child process),
   // simplified by quadric collapses instead; this rank's under MPI

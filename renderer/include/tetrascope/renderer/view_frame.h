@@ -128,7 +128,7 @@ class ViewPipeline {
   const storage::Store* store_ = nullptr;
   const lod::Dag* dag_ = nullptr;
   storage::SegmentCache* cache_ = nullptr;
-  std::unique_ptr<lod::Variants> variants_;  // PROTOTYPE (before cut_: it outlives the cut's pointer)
+  std::unique_ptr<lod::Variants> variants_;  // the store's, null when none (declared before cut_, which points to it)
   std::unique_ptr<lod::Cut> cut_;
   std::optional<storage::TetMesh> mesh_;  // the whole mesh, without a store
   storage::Bounds bounds_;
