@@ -174,6 +174,32 @@ TEST(PreprocessCli, UnknownLevelTargetsIsRefusedNamingTheChoices) {
   }
 }
 
+// --variants K (issue 14): 0 to 8 segment variants; more is refused naming the range and
+// leaves no store. With some, the store holds variants.bin, which info lists and verify checks,
+// and `cut` exports a cut that uses the budget its refinements could not.
+TEST(PreprocessCli, VariantsOutOfRangeAreRefusedAndVariantsBuiltAreListedAndVerified) {
+  auto dir = scratch_dir("pre_variants");
+  write_file(dir / "grid.off", grid_off(12));  // 8,640 tets
+  Result bad = run("preprocess " + (dir / "grid.off").string() + " -o " + (dir / "bad").string() + " --progress none --variants 9");
+  EXPECT_EQ(bad.status, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--variants must be 0 to 8"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+  Result ok = run("preprocess " + (dir / "grid.off").string() + " -o " + (dir / "s").string() + " --progress none --segment-tets 1000 --base-tets 500 --variants 3 --json");
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  EXPECT_TRUE(std::filesystem::exists(dir / "s" / "variants.bin"));
+  EXPECT_EQ(manifest(dir / "s")["multiresolution"]["build"]["variants"], 3);
+  EXPECT_GT(manifest(dir / "s")["multiresolution"]["variants"]["tets"].get<uint64_t>(), 0u);
+  Result info = run("info " + (dir / "s").string());
+  EXPECT_NE(info.out.find("variants.bin"), std::string::npos) << info.out;
+  Result verify = run("verify " + (dir / "s").string());
+  EXPECT_EQ(verify.status, 0) << verify.out;
+  // a store built without: no file, and the same segments
+  Result plain = run("preprocess " + (dir / "grid.off").string() + " -o " + (dir / "p").string() + " --progress none --segment-tets 1000 --base-tets 500");
+  ASSERT_EQ(plain.status, 0) << plain.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "p" / "variants.bin"));
+  EXPECT_EQ(read_file(dir / "p" / "segments.bin"), read_file(dir / "s" / "segments.bin")) << "variants changed the segments";
+}
+
 // The grid of grid_off(k) with x stretched: the cubes grow `ratio`-fold a step along x.
 std::string graded_grid_off(int k, double ratio) {
   std::istringstream in(grid_off(k));
