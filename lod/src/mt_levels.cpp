@@ -470,7 +470,7 @@ class LevelBuilder {
   // options_.variants = K versions of the ceiling between its fine mesh (F tets) and its
   // simplified one (c tets), at F^(1-j/(K+1)) c^(j/(K+1)) tets, each simplified from the fine
   // mesh with the same border locked and the same cap (variants.h); fewest tets first. One
-  // that comes out within 5% of the next coarser is left out.
+  // that comes out above 97% of F, or under 105% of c or of the next smaller one, is left out.
   std::vector<VariantMesh> ceiling_variants(const storage::TetMesh& fine, const std::vector<uint8_t>& locked, const std::vector<uint32_t>& global, uint64_t coarse,
                                             double cap) const {
     std::vector<VariantMesh> out;
