@@ -305,10 +305,11 @@ int run_cut(const Arguments& all) {
   nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
                       {"refinements", changes.refinements}, {"forced_refinements", changes.forced_refinements}, {"coarsenings", changes.coarsenings},
                       {"budget_limited", changes.budget_limited}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms},
-                      {"variant_extra_tets", cut.variant_extra_tets()}};
+                      {"variant_segments", mesh.variant_segments.size()}, {"variant_extra_tets", cut.variant_extra_tets()}};
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
-  else std::printf("%s: %zu tets, %zu vertices from %zu patches (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.mesh.tet_count(),
-                   mesh.mesh.vertex_count(), mesh.patches.size(), static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
+  else std::printf("%s: %zu tets, %zu vertices from %zu patches and %zu segment variants (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(),
+                   mesh.mesh.tet_count(), mesh.mesh.vertex_count(), mesh.patches.size(), mesh.variant_segments.size(), static_cast<unsigned long long>(budget),
+                   changes.budget_limited ? ", budget reached" : "", update_ms);
   return 0;
 }
 

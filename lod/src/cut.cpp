@@ -567,7 +567,7 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   CutMesh out;
   out.patches = cut.active_patches();
   if (!clip.empty()) std::erase_if(out.patches, [&](uint32_t p) { return clipped_away(clip, dag.node(dag.patch(p).floor).bounds); });
-  std::vector<uint32_t> shown_variants;  // segments shown as a variant: their patches left out
+  std::vector<uint32_t>& shown_variants = out.variant_segments;  // their patches left out
   if (cut.variants()) {
     for (uint32_t p : out.patches) {
       const uint32_t f = dag.patch(p).floor;

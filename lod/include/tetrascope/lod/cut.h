@@ -172,7 +172,8 @@ struct CutMesh {
   std::vector<uint32_t> global_ids;  // per vertex
   std::vector<uint32_t> opposites;
   std::vector<uint32_t> patch_first_tet;  // per active patch (in active_patches() order)
-  std::vector<uint32_t> patches;
+  std::vector<uint32_t> patches;          // active, less those of segments shown as a variant
+  std::vector<uint32_t> variant_segments; // segments shown as a variant, their tets after the patches'
   bool interrupted = false;  // should_stop said so between two patches: the mesh is partial
 };
 // With `clip`, the patches of segments wholly clipped away (clipped_away) are not read.
