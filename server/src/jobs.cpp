@@ -48,7 +48,7 @@ std::string new_id() {
 // Options a client may pass to preprocess, and their flags.
 const std::map<std::string, std::string> kOptionFlags = {{"base_tets", "--base-tets"}, {"segment_tets", "--segment-tets"}, {"level_ratio", "--level-ratio"},
                                                          {"bins", "--bins"},           {"threads", "--threads"},           {"seed", "--seed"},
-                                                         {"memory_mb", "--memory-mb"}};
+                                                         {"memory_mb", "--memory-mb"}, {"variants", "--variants"}};
 
 // What a job leaves while it runs: the store (out/), the writer's temporary (out.tmp/) and
 // the copy it replaces (out.old/). None of them outlives the job.
@@ -144,7 +144,7 @@ nlohmann::json JobRunner::submit(const nlohmann::json& body) {
   if (body.contains("options")) {
     if (!body["options"].is_object()) throw BadRequest(400, "bad_request", "options: an object");
     for (const auto& [key, value] : body["options"].items()) {
-      if (!kOptionFlags.count(key)) throw BadRequest(400, "bad_request", "options: unknown option '" + key + "' (base_tets, segment_tets, level_ratio, bins, threads, seed, memory_mb)");
+      if (!kOptionFlags.count(key)) throw BadRequest(400, "bad_request", "options: unknown option '" + key + "' (base_tets, segment_tets, level_ratio, bins, threads, seed, memory_mb, variants)");
       const bool whole = key != "level_ratio";
       if (!value.is_number() || (whole && !value.is_number_unsigned()) || value.get<double>() <= 0 || value.get<double>() > 4e9)
         throw BadRequest(400, "bad_request", "options." + key + ": " + (whole ? "a whole number" : "a number") + " above 0");

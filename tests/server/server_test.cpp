@@ -416,8 +416,8 @@ TEST_F(ServerTest, AJobTurnsAnUploadIntoADatasetThatOpensAndRenders) {
   start();
   const std::string source = upload(shared_data() / "fea_bracket.vtk", "fea_bracket.vtk");
   EXPECT_EQ(source, "uploads/fea_bracket.vtk");
-  HttpResult r = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "bracket"}, {"options", {{"base_tets", 5000}, {"memory_mb", 1}}}}).dump());
-  ASSERT_EQ(r.status, 202) << r.body;  // memory_mb 1: the input's tets go through a spill file
+  HttpResult r = http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "bracket"}, {"options", {{"base_tets", 5000}, {"memory_mb", 1}, {"variants", 2}}}}).dump());
+  ASSERT_EQ(r.status, 202) << r.body;  // memory_mb 1: the input's tets go through a spill file; variants 2: variants.bin, which the session's cut reads
   const std::string id = nlohmann::json::parse(r.body)["id"];
   // a second job for the same name is refused while the first runs
   EXPECT_EQ(http_request(base_ + "/api/v1/jobs", "POST", nlohmann::json({{"source", source}, {"name", "bracket"}}).dump()).status, 409);
@@ -429,6 +429,7 @@ TEST_F(ServerTest, AJobTurnsAnUploadIntoADatasetThatOpensAndRenders) {
   for (const auto& d : datasets)
     if (d["name"] == "bracket") listed = d["state"] == "ready";
   EXPECT_TRUE(listed) << datasets.dump();
+  EXPECT_TRUE(fs::exists(data_dir() / "bracket" / "variants.bin"));
   SessionClient c(ws_);
   c.send("hello", {{"version", 1}});
   c.expect("hello.ok");
