@@ -207,8 +207,10 @@ std::unique_ptr<Variants> Variants::open(const storage::Store& store, const Dag&
     if (e.node >= h.node_count) damaged("an entry names segment " + std::to_string(e.node) + " of " + std::to_string(h.node_count));
     if (i > 0 && (e.node < index[i - 1].node)) damaged("its index is out of order");
     const bool same_node = i > 0 && index[i - 1].node == e.node;
-    // (the vertices' bytes bound their count below; a mesh has a few tets a vertex)
-    if (e.tets == 0 || e.vertices == 0 || e.vertices >= (uint64_t{1} << 32) || e.tets > 32 * e.vertices + 1024) damaged("a variant of implausible size");
+    // (the vertices' bytes bound their count below, and every tet takes a byte of the
+    // stream at least, so what a view allocates stays within a few times the file)
+    if (e.tets == 0 || e.vertices == 0 || e.vertices >= (uint64_t{1} << 32) || e.tets >= (uint64_t{1} << 32) || e.tets > e.stream_bytes)
+      damaged("a variant of implausible size");
     if (e.tets <= (same_node ? index[i - 1].tets : uint64_t{dag.node(e.node).tet_count}))
       damaged("the variants of segment " + std::to_string(e.node) + " do not grow from the segment's tets");
     if (e.offset % 4 != 0 || e.offset > data || e.stream_bytes > data || block_bytes(e.vertices, e.stream_bytes, h.floats) > data - e.offset)

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include "tetrascope/lod/variants.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/store.h"
 
 namespace tetrascope::testing {
 namespace {
@@ -177,6 +179,23 @@ TEST(Variants, AVariantsFileWithADamagedIndexIsRefused) {
   if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
   // a byte of the first index entry (after the 56-byte header): the index checksum fails
   expect_refused(damaged_copy("index", [](std::vector<char>& b) { b[56 + 17] ^= 0x40; }), "a damaged index");
+}
+
+// An index that checks out (its CRCs recomputed) but claims 2^31 tets for the first variant:
+// refused when opened, before anything is allocated for them.
+TEST(Variants, AVariantsFileClaimingHugeCountsIsRefusedBeforeAllocating) {
+  if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
+  expect_refused(damaged_copy("huge", [](std::vector<char>& b) {
+                   uint32_t entries = 0;
+                   std::memcpy(&entries, &b[20], 4);
+                   const uint64_t tets = uint64_t{1} << 31;
+                   std::memcpy(&b[56 + 24], &tets, 8);  // entry 0's tets
+                   const uint32_t index_crc = storage::crc32_of(&b[56], size_t{entries} * 40);
+                   std::memcpy(&b[48], &index_crc, 4);
+                   const uint32_t header_crc = storage::crc32_of(b.data(), 52);
+                   std::memcpy(&b[52], &header_crc, 4);
+                 }),
+                 "a variant of 2^31 tets");
 }
 
 // The tets' stream of the last variant damaged: the index still checks out, the block does
