@@ -75,7 +75,7 @@ void read_all(int fd, void* data, uint64_t bytes, uint64_t at, const std::filesy
   }
 }
 
-[[noreturn]] void damaged(const std::string& what) { throw std::runtime_error("variants.bin: " + what + "; preprocess the mesh again (or delete variants.bin to use the store without them)"); }
+[[noreturn]] void damaged(const std::string& what) { throw VariantsError("variants.bin: " + what + "; preprocess the mesh again (or delete variants.bin to use the store without them)"); }
 
 }  // namespace
 

@@ -90,6 +90,37 @@ int main(int argc, char** argv) {
       write_file(out / "segment_codec" / ("segment" + std::to_string(s)), seed + bytes.substr(layout.bytes));
     }
   }
+  // with segment variants (variants.bin after dag.bin): a grid of 6^3 cubes, 5 tets each, with
+  // a value, in segments small enough to make levels
+  {
+    constexpr int k = 6;
+    std::string text;
+    auto at = [](int i, int j, int l) { return (l * (k + 1) + j) * (k + 1) + i; };
+    text += std::to_string((k + 1) * (k + 1) * (k + 1)) + " " + std::to_string(5 * k * k * k) + "\n";
+    for (int l = 0; l <= k; ++l)
+      for (int j = 0; j <= k; ++j)
+        for (int i = 0; i <= k; ++i) text += std::to_string(i) + " " + std::to_string(j) + " " + std::to_string(l) + " " + std::to_string(i * j + l) + "\n";
+    for (int l = 0; l < k; ++l)
+      for (int j = 0; j < k; ++j)
+        for (int i = 0; i < k; ++i) {
+          const int c[8] = {at(i, j, l), at(i + 1, j, l), at(i + 1, j + 1, l), at(i, j + 1, l), at(i, j, l + 1), at(i + 1, j, l + 1), at(i + 1, j + 1, l + 1), at(i, j + 1, l + 1)};
+          const int odd[5][4] = {{0, 1, 3, 4}, {1, 2, 3, 6}, {1, 4, 5, 6}, {3, 4, 6, 7}, {1, 3, 4, 6}}, even[5][4] = {{0, 1, 2, 5}, {0, 2, 3, 7}, {0, 4, 5, 7}, {2, 5, 6, 7}, {0, 2, 5, 7}};
+          for (const auto& t : (i + j + l) % 2 ? odd : even)
+            text += std::to_string(c[t[0]]) + " " + std::to_string(c[t[1]]) + " " + std::to_string(c[t[2]]) + " " + std::to_string(c[t[3]]) + "\n";
+        }
+    write_file(out / "grid.off", text);
+  }
+  std::filesystem::remove_all(store);
+  tetrascope::lod::PreprocessOptions options;
+  options.threads = 1;
+  options.segment_tets = 256;
+  options.base_tets = 100;
+  options.variants = 2;
+  tetrascope::lod::preprocess(out / "grid.off", store, options, nullptr);
+  std::filesystem::remove(out / "grid.off");
+  if (std::filesystem::exists(store / "variants.bin"))
+    write_file(out / "store" / "multires_variants", read_file(store / "manifest.json") + "#segments.bin\n" + read_file(store / "segments.bin") + "\n#dag.bin\n" +
+                                                          read_file(store / "dag.bin") + "\n#variants.bin\n" + read_file(store / "variants.bin"));
   std::filesystem::remove_all(store);
   return 0;
 }

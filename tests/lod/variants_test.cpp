@@ -162,7 +162,7 @@ void expect_refused(const std::filesystem::path& store_dir, const std::string& w
   try {
     auto variants = lod::Variants::open(*store, *dag);
     ADD_FAILURE() << "a variants.bin with " << what << " was opened";
-  } catch (const std::runtime_error& e) {
+  } catch (const lod::VariantsError& e) {
     EXPECT_NE(std::string(e.what()).find("variants.bin"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("preprocess"), std::string::npos) << e.what();
   }

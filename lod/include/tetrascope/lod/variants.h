@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <memory>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,12 @@ namespace tetrascope::lod {
 class Dag;
 
 constexpr uint32_t kNoGlobal = 0xFFFFFFFFu;
+
+// A damaged or mismatched variants.bin (what is wrong, and what to do).
+class VariantsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 constexpr uint32_t kMaxVariants = 8;  // a segment
 
 struct VariantMesh {
