@@ -632,6 +632,10 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
     }
   }
   for (uint32_t v : shown_variants) {
+    if (should_stop && should_stop()) {
+      out.interrupted = true;
+      return out;
+    }
     const VariantView m = cut.variants()->view(v, cut.variant_of(v) - 1);
     std::vector<uint32_t> local(m.vertex_count);
     for (size_t l = 0; l < m.vertex_count; ++l) {

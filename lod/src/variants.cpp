@@ -170,6 +170,10 @@ std::unique_ptr<Variants> Variants::open(const storage::Store& store, const Dag&
     io_error(file, "cannot stat");
   }
   const uint64_t length = static_cast<uint64_t>(st.st_size);
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    damaged("not a regular file");
+  }
   if (length < sizeof(FileHeader)) {
     ::close(fd);
     damaged("shorter than its header");
@@ -194,7 +198,8 @@ std::unique_ptr<Variants> Variants::open(const storage::Store& store, const Dag&
   }();
   if (h.floats != attribute_floats) damaged("its vertices carry " + std::to_string(h.floats) + " values, the store's " + std::to_string(attribute_floats));
   if (h.node_count != dag.node_count()) damaged("made for " + std::to_string(h.node_count) + " segments, the DAG has " + std::to_string(dag.node_count()));
-  if (h.index_offset != sizeof(FileHeader) || h.data_offset < h.index_offset + uint64_t{h.entry_count} * sizeof(FileEntry) || h.data_offset > length)
+  if (h.index_offset != sizeof(FileHeader) || h.data_offset < h.index_offset + uint64_t{h.entry_count} * sizeof(FileEntry) || h.data_offset > length ||
+      h.data_offset % 16 != 0)  // (blocks 4-aligned from there: the views read u32 and float)
     damaged("its index lies outside the file");
   const auto* index = reinterpret_cast<const FileEntry*>(base + h.index_offset);
   if (h.index_crc != storage::crc32_of(index, uint64_t{h.entry_count} * sizeof(FileEntry))) damaged("its index is damaged (checksum)");
@@ -218,7 +223,10 @@ std::unique_ptr<Variants> Variants::open(const storage::Store& store, const Dag&
     out->entries_.push_back({h.data_offset + e.offset, e.vertices, e.tets, e.stream_bytes});
     ++out->first_[e.node + 1];
   }
-  for (size_t n = 1; n < out->first_.size(); ++n) out->first_[n] += out->first_[n - 1];
+  for (size_t n = 1; n < out->first_.size(); ++n) {
+    if (out->first_[n] > kMaxVariants) damaged("segment " + std::to_string(n - 1) + " has " + std::to_string(out->first_[n]) + " variants, at most " + std::to_string(kMaxVariants));
+    out->first_[n] += out->first_[n - 1];
+  }
   return out;
 }
 
