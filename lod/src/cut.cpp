@@ -580,6 +580,20 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   const auto& attributes = store.manifest().attributes;
   for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components}, {}});
   std::unordered_map<uint32_t, uint32_t> vertex_of;
+  // A vertex appended: its position, global id and every attribute's components, value(offset,
+  // components, q) giving component q of the attribute `offset` floats into a vertex's.
+  auto append_vertex = [&](uint32_t g, float x, float y, float z, auto&& value) {
+    out.mesh.x.push_back(x);
+    out.mesh.y.push_back(y);
+    out.mesh.z.push_back(z);
+    out.global_ids.push_back(g);
+    size_t offset = 0;
+    for (size_t a = 0; a < attributes.size(); ++a) {
+      const uint32_t c = attributes[a].components;
+      for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(value(offset, c, q));
+      offset += c;
+    }
+  };
   std::vector<OpenFace> open;  // faces glued to another patch's or segment's
   for (uint32_t p : out.patches) {
     if (should_stop && should_stop()) {
@@ -598,18 +612,8 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
         if (local[l] == 0xFFFFFFFFu) {
           const uint32_t g = s.global_ids[l];
           auto [it, inserted] = vertex_of.try_emplace(g, static_cast<uint32_t>(out.mesh.x.size()));
-          if (inserted) {
-            out.mesh.x.push_back(s.x[l]);
-            out.mesh.y.push_back(s.y[l]);
-            out.mesh.z.push_back(s.z[l]);
-            out.global_ids.push_back(g);
-            size_t offset = 0;
-            for (size_t a = 0; a < attributes.size(); ++a) {
-              const uint32_t c = attributes[a].components;
-              for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(s.attributes[size_t{s.vertex_count} * offset + size_t{l} * c + q]);
-              offset += c;
-            }
-          }
+          if (inserted)  // a segment's values are attribute-major
+            append_vertex(g, s.x[l], s.y[l], s.z[l], [&](size_t offset, uint32_t c, uint32_t q) { return s.attributes[size_t{s.vertex_count} * offset + size_t{l} * c + q]; });
           local[l] = it->second;
         }
         out.mesh.tets.push_back(local[l]);
@@ -647,16 +651,8 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
       } else {
         local[l] = static_cast<uint32_t>(out.mesh.x.size());
       }
-      out.mesh.x.push_back(m.xyz[3 * l]);
-      out.mesh.y.push_back(m.xyz[3 * l + 1]);
-      out.mesh.z.push_back(m.xyz[3 * l + 2]);
-      out.global_ids.push_back(g);
-      size_t offset = 0;
-      for (size_t a = 0; a < attributes.size(); ++a) {
-        const uint32_t c = attributes[a].components;
-        for (uint32_t q = 0; q < c; ++q) out.mesh.attributes[a].values.push_back(m.values[l * cut.variants()->floats() + offset + q]);
-        offset += c;
-      }
+      // a variant's values are per vertex
+      append_vertex(g, m.xyz[3 * l], m.xyz[3 * l + 1], m.xyz[3 * l + 2], [&](size_t offset, uint32_t, uint32_t q) { return m.values[l * cut.variants()->floats() + offset + q]; });
     }
     const uint32_t first = static_cast<uint32_t>(out.mesh.tet_count());
     for (uint32_t l : m.tets) out.mesh.tets.push_back(local[l]);

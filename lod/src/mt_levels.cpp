@@ -431,6 +431,25 @@ class LevelBuilder {
     return so;
   }
 
+  // Per vertex of `simplified`: the global id of the `before` vertex it continues (source),
+  // while its position and values are bit-identical to that vertex's; kNone for one moved,
+  // changed or added (by the sampling simplifier).
+  static std::vector<uint32_t> kept_global_ids(const storage::TetMesh& simplified, const storage::TetMesh& before, const std::vector<uint32_t>& source,
+                                               const std::vector<uint32_t>& global) {
+    std::vector<uint32_t> out(simplified.vertex_count(), kNone);
+    for (size_t l = 0; l < out.size(); ++l) {
+      const uint32_t src = source[l];
+      if (src == kNone) continue;
+      bool same = simplified.x[l] == before.x[src] && simplified.y[l] == before.y[src] && simplified.z[l] == before.z[src];
+      for (size_t a = 0; a < simplified.attributes.size() && same; ++a) {
+        const uint32_t c = simplified.attributes[a].info.components;
+        same = std::memcmp(&simplified.attributes[a].values[l * c], &before.attributes[a].values[size_t{src} * c], 4 * c) == 0;
+      }
+      if (same) out[l] = global[src];
+    }
+    return out;
+  }
+
   // One ceiling simplified with its border locked to `target` tets (0: level_ratio of its
   // tets), or until a collapse would cost more than `cap` (0: no cap), its error measured at
   // the original vertices it covers. Runs on worker threads:
@@ -445,21 +464,7 @@ class LevelBuilder {
     so.max_error = cap;
     const storage::TetMesh before = m;
     SimplifyReport sr = simplify(m, so, locked);
-    // a vertex keeps its global id while its position and values are unchanged
-    out.global.resize(m.vertex_count());
-    for (size_t l = 0; l < m.vertex_count(); ++l) {
-      const uint32_t src = sr.source_vertex[l];
-      if (src == kNone) {  // a point the sampling simplifier added
-        out.global[l] = kNone;
-        continue;
-      }
-      bool same = m.x[l] == before.x[src] && m.y[l] == before.y[src] && m.z[l] == before.z[src];
-      for (size_t a = 0; a < m.attributes.size() && same; ++a) {
-        const uint32_t c = m.attributes[a].info.components;
-        same = std::memcmp(&m.attributes[a].values[l * c], &before.attributes[a].values[size_t{src} * c], 4 * c) == 0;
-      }
-      out.global[l] = same ? global[src] : kNone;
-    }
+    out.global = kept_global_ids(m, before, sr.source_vertex, global);
     out.tetgen_failure = sr.tetgen_failure;
     out.variants = ceiling_variants(before, locked, global, m.tet_count(), cap);
     out.error = measure_ceiling_error(m, original_vertices, mesh_, options_.histogram_bins);
@@ -488,19 +493,12 @@ class LevelBuilder {
       if (t > 0.97 * f_tets || t < 1.05 * c_tets || (!out.empty() && t < 1.05 * double(out.back().tet_count()))) continue;
       VariantMesh v;
       const size_t nv = m.vertex_count();
-      v.global.resize(nv);
       v.xyz.resize(3 * nv);
+      v.global = kept_global_ids(m, fine, sr.source_vertex, global);
       for (size_t l = 0; l < nv; ++l) {
-        const uint32_t src = sr.source_vertex[l];
         v.xyz[3 * l] = m.x[l];
         v.xyz[3 * l + 1] = m.y[l];
         v.xyz[3 * l + 2] = m.z[l];
-        bool same = src != kNone && m.x[l] == fine.x[src] && m.y[l] == fine.y[src] && m.z[l] == fine.z[src];
-        for (size_t a = 0; a < m.attributes.size() && same; ++a) {
-          const uint32_t c = m.attributes[a].info.components;
-          same = std::memcmp(&m.attributes[a].values[l * c], &fine.attributes[a].values[size_t{src} * c], 4 * c) == 0;
-        }
-        v.global[l] = same ? global[src] : kNone;
         for (const auto& a : m.attributes)
           for (uint32_t c = 0; c < a.info.components; ++c) v.values.push_back(a.values[l * a.info.components + c]);
       }

@@ -21,6 +21,7 @@
 #include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/store_format.h"
 #include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::lod {
 
@@ -50,29 +51,24 @@ uint64_t block_bytes(uint64_t vertices, uint64_t stream_bytes, uint32_t floats) 
   throw std::runtime_error(where.string() + ": " + what + ": " + std::strerror(errno));
 }
 
-// All of [p, p + bytes) written at `at`, however many calls that takes.
-void write_all(int fd, const void* data, uint64_t bytes, uint64_t at, const std::filesystem::path& where) {
-  const char* p = static_cast<const char*>(data);
+// All `bytes` between `p` and the file at `at`, by ::pread or ::pwrite, however many calls that
+// takes (as the build's spill of tets does, mt_node_tets.cpp).
+template <class Io, class Pointer>
+void whole(Io io, int fd, Pointer p, uint64_t bytes, uint64_t at, const std::filesystem::path& where, const char* failure) {
   while (bytes > 0) {
-    const ssize_t done = ::pwrite(fd, p, bytes, static_cast<off_t>(at));
+    const ssize_t done = io(fd, p, bytes, static_cast<off_t>(at));
     if (done < 0 && errno == EINTR) continue;
-    if (done <= 0) io_error(where, "cannot write");
+    if (done <= 0) io_error(where, failure);
     p += done;
     at += static_cast<uint64_t>(done);
     bytes -= static_cast<uint64_t>(done);
   }
 }
-
+void write_all(int fd, const void* data, uint64_t bytes, uint64_t at, const std::filesystem::path& where) {
+  whole(::pwrite, fd, static_cast<const char*>(data), bytes, at, where, "cannot write");
+}
 void read_all(int fd, void* data, uint64_t bytes, uint64_t at, const std::filesystem::path& where) {
-  char* p = static_cast<char*>(data);
-  while (bytes > 0) {
-    const ssize_t done = ::pread(fd, p, bytes, static_cast<off_t>(at));
-    if (done < 0 && errno == EINTR) continue;
-    if (done <= 0) io_error(where, "cannot read");
-    p += done;
-    at += static_cast<uint64_t>(done);
-    bytes -= static_cast<uint64_t>(done);
-  }
+  whole(::pread, fd, static_cast<char*>(data), bytes, at, where, "cannot read");
 }
 
 [[noreturn]] void damaged(const std::string& what) { throw VariantsError("variants.bin: " + what + "; preprocess the mesh again (or delete variants.bin to use the store without them)"); }
@@ -191,11 +187,7 @@ std::unique_ptr<Variants> Variants::open(const storage::Store& store, const Dag&
   if (h.header_crc != storage::crc32_of(&h, offsetof(FileHeader, header_crc))) damaged("its header is damaged (checksum)");
   if (h.version != kVersion) damaged("version " + std::to_string(h.version) + ", this build reads " + std::to_string(kVersion));
   if (h.file_bytes != length) damaged("its header says " + std::to_string(h.file_bytes) + " bytes, the file has " + std::to_string(length) + " (truncated?)");
-  const uint64_t attribute_floats = [&] {
-    uint64_t f = 0;
-    for (const auto& a : store.manifest().attributes) f += a.components;
-    return f;
-  }();
+  const uint32_t attribute_floats = store.header().floats_per_vertex;
   if (h.floats != attribute_floats) damaged("its vertices carry " + std::to_string(h.floats) + " values, the store's " + std::to_string(attribute_floats));
   if (h.node_count != dag.node_count()) damaged("made for " + std::to_string(h.node_count) + " segments, the DAG has " + std::to_string(dag.node_count()));
   if (h.index_offset != sizeof(FileHeader) || h.data_offset < h.index_offset + uint64_t{h.entry_count} * sizeof(FileEntry) || h.data_offset > length ||
@@ -267,13 +259,9 @@ std::vector<std::string> verify_variants(const storage::Store& store, const Dag&
     return {e.what()};
   }
   if (!variants) return problems;
-  using Face = std::array<uint32_t, 3>;
+  using Face = FaceVertices;  // by global ids, face_key order
   struct FaceHash {
     size_t operator()(const Face& f) const { return (size_t{f[0]} * 0x9E3779B97F4A7C15ull) ^ (size_t{f[1]} * 0xC2B2AE3D27D4EB4Full) ^ f[2]; }
-  };
-  auto sorted = [](Face f) {
-    std::sort(f.begin(), f.end());
-    return f;
   };
   for (uint32_t node = 0; node < dag.node_count() && problems.size() < 20; ++node) {
     if (variants->count(node) == 0) continue;
@@ -285,10 +273,9 @@ std::vector<std::string> verify_variants(const storage::Store& store, const Dag&
     for (uint32_t t = 0; t < s.tet_count; ++t)
       for (int f = 0; f < 4; ++f) {
         if (s.opposites[4 * size_t{t} + f] != storage::store::kSegmentBorder) continue;
-        Face face;
-        for (int k = 0, i = 0; k < 4; ++k)
-          if (k != f) face[i++] = s.global_ids[s.tets[4 * size_t{t} + k]];
-        border.push_back(sorted(face));
+        Face face = tet_face(s.tets, t, f);
+        for (uint32_t& id : face) id = s.global_ids[id];
+        border.push_back(face_key(face));
       }
     for (uint32_t l = 0; l < s.vertex_count; ++l) position[s.global_ids[l]] = {s.x[l], s.y[l], s.z[l]};
     for (uint32_t j = 0; j < variants->count(node) && problems.size() < 20; ++j) {
@@ -311,21 +298,16 @@ std::vector<std::string> verify_variants(const storage::Store& store, const Dag&
       std::unordered_map<Face, uint32_t, FaceHash> uses;
       uint64_t inverted = 0;
       for (uint64_t t = 0; t < v.tet_count; ++t) {
-        const uint32_t* q = &v.tets[4 * t];
-        auto p = [&](int k) { return &v.xyz[3 * size_t{q[k]}]; };
-        const double a[3] = {p(1)[0] - p(0)[0], p(1)[1] - p(0)[1], p(1)[2] - p(0)[2]}, b[3] = {p(2)[0] - p(0)[0], p(2)[1] - p(0)[1], p(2)[2] - p(0)[2]},
-                     c[3] = {p(3)[0] - p(0)[0], p(3)[1] - p(0)[1], p(3)[2] - p(0)[2]};
-        const double volume = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
-        if (!(volume > 0)) ++inverted;
+        auto p = [&](int k) {
+          const float* x = &v.xyz[3 * size_t{v.tets[4 * t + k]}];
+          return Vec3{x[0], x[1], x[2]};
+        };
+        if (!(dot(cross(p(1) - p(0), p(2) - p(0)), p(3) - p(0)) > 0)) ++inverted;
         for (int f = 0; f < 4; ++f) {
-          Face face;
+          Face face = tet_face(v.tets, t, f);
           bool named = true;
-          for (int k = 0, i = 0; k < 4; ++k)
-            if (k != f) {
-              face[i++] = v.global[q[k]];
-              named &= v.global[q[k]] != kNoGlobal;
-            }
-          if (named) ++uses[sorted(face)];
+          for (uint32_t& id : face) named &= (id = v.global[id]) != kNoGlobal;
+          if (named) ++uses[face_key(face)];
         }
       }
       if (inverted) problems.push_back(name + ": " + std::to_string(inverted) + " tets are not positively oriented");

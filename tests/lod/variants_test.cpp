@@ -31,15 +31,29 @@ lod::TransferFunction stress_tf() {
   return tf;
 }
 
+// A built store opened as a viewer opens it: segments, DAG and variants (null when none).
+struct Opened {
+  std::unique_ptr<storage::Store> store;
+  std::unique_ptr<lod::Dag> dag;
+  std::unique_ptr<lod::Variants> variants;
+};
+Opened open_with_variants(const Built& b) {
+  Opened o;
+  o.store = storage::Store::open(b.store);
+  o.dag = lod::open_dag(*o.store);
+  o.variants = lod::Variants::open(*o.store, *o.dag);
+  return o;
+}
+
 TEST(Variants, EverySimplifiedSegmentGetsVariantsBetweenItAndItsRegionAndTheyVerify) {
   if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
   const Built& b = built("fea_bracket.vtk", kVariants);
   EXPECT_GT(b.report.variant_tets, 0u);
   EXPECT_GT(b.report.variants_bytes, 0u);
   EXPECT_EQ(lod::check_store(b.store), std::vector<std::string>{}) << "verify's checks, the variants' border faces among them";
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
-  auto variants = lod::Variants::open(*store, *dag);
+  const Opened o = open_with_variants(b);
+  const auto& dag = o.dag;
+  const auto& variants = o.variants;
   ASSERT_TRUE(variants);
   uint32_t with = 0, simplified = 0;
   for (uint32_t v = 0; v < dag->node_count(); ++v) {
@@ -71,9 +85,10 @@ TEST(Variants, EverySimplifiedSegmentGetsVariantsBetweenItAndItsRegionAndTheyVer
 TEST(Variants, ACutSpendsWhatItsBudgetLeavesOnVariantsAndStaysConforming) {
   if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
   const Built& b = built("fea_bracket.vtk", kVariants);
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
-  auto variants = lod::Variants::open(*store, *dag);
+  const Opened o = open_with_variants(b);
+  const auto& store = o.store;  // (not a structured binding: lambdas below capture it)
+  const auto& dag = o.dag;
+  const auto& variants = o.variants;
   ASSERT_TRUE(variants);
   storage::SegmentCache cache(*store, 1ull << 28);
   const uint64_t input = store->manifest().json["multiresolution"]["input"]["tetrahedra"].get<uint64_t>();
@@ -103,9 +118,10 @@ TEST(Variants, FillingTheBudgetWithVariantsNeverLowersThePsnr) {
   if (shared_data().empty()) GTEST_SKIP() << "no shared data (../shared/data)";
   if (kSanitized) GTEST_SKIP() << "about 30 s under a sanitizer: the release run covers it";
   const Built& b = built("fea_bracket.vtk", kVariants);
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
-  auto variants = lod::Variants::open(*store, *dag);
+  const Opened o = open_with_variants(b);
+  const auto& store = o.store;  // (not a structured binding: lambdas below capture it)
+  const auto& dag = o.dag;
+  const auto& variants = o.variants;
   ASSERT_TRUE(variants);
   storage::SegmentCache cache(*store, 1ull << 28);
   const storage::TetMesh input = storage::load_mesh(shared_data() / "fea_bracket.vtk");
