@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
 
 namespace tetrascope::server {
@@ -68,6 +69,7 @@ RenderedFrame FrameMaker::render(const ViewState& state, const FramePlan& plan, 
 }
 
 void FrameMaker::open(const std::shared_ptr<Dataset>& dataset) {
+  if (!dataset) throw std::logic_error("a frame of no dataset");  // the session checks first; never a null dereference
   if (dataset_ == dataset) return;
   dataset_ = dataset;
   pipeline_ = std::make_unique<renderer::ViewPipeline>(*dataset_->store, *dataset_->dag, *dataset_->cache);

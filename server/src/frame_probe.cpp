@@ -7,10 +7,7 @@
 namespace tetrascope::server {
 
 std::string FrameMaker::probe(const ViewState& state, double x, double y, uint32_t id) {
-  if (dataset_ != state.dataset) {
-    dataset_ = state.dataset;
-    pipeline_ = std::make_unique<renderer::ViewPipeline>(*dataset_->store, *dataset_->dag, *dataset_->cache);
-  }
+  open(state.dataset);
   const renderer::RenderSettings settings = pipeline_->update(state.view);
   const renderer::SceneMesh& scene = pipeline_->scene();
   const renderer::ProbeHit hit = renderer::probe(scene, settings, x, y);

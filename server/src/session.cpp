@@ -124,9 +124,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     }
   }
 
+  [[noreturn]] static void no_dataset(uint32_t id) { throw protocol::ProtocolError(protocol::code::kNoDataset, "open a dataset first (dataset.open)", id); }
   std::shared_ptr<Dataset> need_dataset(uint32_t id) {
     std::lock_guard lock(mutex_);
-    if (!state_.dataset) throw protocol::ProtocolError(protocol::code::kNoDataset, "open a dataset first (dataset.open)", id);
+    if (!state_.dataset) no_dataset(id);
     return state_.dataset;
   }
 
@@ -302,12 +303,12 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   // probe: answered from a pool worker, between (never during) the session's render turns
   Then on_message(const protocol::Probe& m, uint32_t id) {
-    need_dataset(id);
     ViewState snapshot;
     {
       std::lock_guard lock(mutex_);
       snapshot = state_;
     }
+    if (!snapshot.dataset) no_dataset(id);  // deleted (the strand sets it) or never opened
     server_.pool->submit([self = shared_from_this(), snapshot, m, id](Worker&) {
       std::string reply;
       try {
@@ -387,7 +388,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       queued_refinement_ = false;
       kind = pending_;
       pending_ = Pending::kNone;
-      if (kind == Pending::kNone || closed_) {
+      // no dataset: it was deleted while the step before was drawing, which then asked for
+      // the next step (ManageTest.DeletingADatasetWhileItsSessionRefinesNeverCrashesTheServer)
+      if (kind == Pending::kNone || closed_ || !state_.dataset) {
         busy_ = false;
         return;
       }
@@ -466,7 +469,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     uint64_t next_ticket;
     {
       std::lock_guard lock(mutex_);
-      if (pending_ == Pending::kNone || closed_) {
+      if (pending_ == Pending::kNone || closed_ || !state_.dataset) {
         busy_ = false;
         return;
       }

@@ -104,6 +104,39 @@ TEST_F(ManageTest, DeletingADatasetInUseClosesItForItsSessionsWithAMessage) {
   next_text(c, "pong");
 }
 
+// A refinement step in flight when its dataset is deleted used to queue the next step: a turn
+// that rendered no dataset and crashed the server (a null dataset), for every user. Many small
+// steps (frame_ms 2, growth 1.3) so that a step is drawing when the deletion lands.
+TEST_F(ManageTest, DeletingADatasetWhileItsSessionRefinesNeverCrashesTheServer) {
+  ServerOptions o = options();
+  o.frame_ms = 2;
+  o.refine_growth = 1.3;
+  o.still_delay = 0ms;
+  start(o);
+  SessionClient c(ws_);
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  c.send("view.resize", {{"width", 320}, {"height", 240}});
+  for (int round = 0; round < 12; ++round) {
+    const std::string name = "victim-" + std::to_string(round);
+    fs::copy(testing::sample_store(), data_dir() / name, fs::copy_options::recursive);
+    c.send("dataset.open", {{"name", name}});
+    c.expect("dataset.info", 60s);
+    c.send("camera.set", {{"eye", {0, 0, 30}}, {"target", {0, 0, 0}}, {"up", {0, 1, 0}}, {"fov", 30}});
+    std::this_thread::sleep_for(std::chrono::milliseconds(5 * round));  // somewhere in the refinement
+    ASSERT_EQ(call("DELETE", "/api/v1/datasets/" + name).status, 200) << "round " << round;
+    EXPECT_EQ(next_text(c, "error")["code"], "dataset_deleted") << "round " << round;
+    // what was in flight has landed: the session and the server still answer
+    std::this_thread::sleep_for(200ms);
+    c.send("ping", nlohmann::json::object());
+    next_text(c, "pong");
+  }
+  c.send("dataset.open", {{"name", "disk"}});
+  c.expect("dataset.info", 60s);
+  EXPECT_EQ(testing::get_json(base_, "/api/v1/datasets")["datasets"].size(), 1u);
+  EXPECT_TRUE(no_trash_left());
+}
+
 TEST_F(ManageTest, DeletingADatasetNoSessionViewsTellsNobody) {
   start();
   const HttpResult r = call("DELETE", "/api/v1/datasets/disk");
