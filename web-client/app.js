@@ -36,6 +36,8 @@ const state = {
   dataset: null,    // dataset.info
   errors: [],
   sent: [],         // the last messages sent: {type, body}
+  received: [],     // the last text messages received: {type, id, code}
+  closes: [],       // the connection's ends: {code, reason, at (ms since the page loaded)}
   view: viewFromHash(location.hash),
   closeSocket: () => socket?.close(),
   opacityPoints: () => effectiveOpacity(state.view),
@@ -114,6 +116,7 @@ function connect() {
   socket.onmessage = (event) => (typeof event.data === 'string' ? onText(event.data) : onFrame(event.data));
   socket.onclose = (event) => {
     state.connected = false;
+    state.closes.push({ code: event.code, reason: event.reason, at: Math.round(performance.now()) });
     const seconds = (reconnectDelay / 1000).toFixed(1);
     banner(`Connection lost${event.reason ? ` (${event.reason})` : ''}; reconnecting in ${seconds} s`);
     capture?.reject(new Error('the connection was lost'));
@@ -126,6 +129,8 @@ let openId = 0;
 
 function onText(text) {
   const message = JSON.parse(text);
+  state.received.push({ type: message.type, id: message.id, code: message.code });
+  if (state.received.length > 20) state.received.shift();
   switch (message.type) {
     case 'hello.ok':
       limits = { ...limits, ...message.limits };
@@ -134,7 +139,7 @@ function onText(text) {
       $('interaction-budget').value = state.view.interactionBudget ?? serverDefaults.interaction_budget ?? '';
       sendSize();
       // a reconnect reopens the dataset shown; onDataset then sends the whole view again
-      loadDatasets().then((datasets) => openDataset(state.view.dataset ?? firstReady(datasets)));
+      datasetList().then((datasets) => openDataset(state.view.dataset ?? firstReady(datasets)));
       break;
     case 'dataset.info':
       onDataset(message);
@@ -257,17 +262,26 @@ async function loadDatasets() {
   return datasets;
 }
 
+// The list, or where it cannot be loaded the one last loaded, less `gone` (a dataset just
+// deleted): the session still answers dataset.open, and a name deleted since is answered
+// not_found, which opens the first one left.
+async function datasetList(gone) {
+  try {
+    return await loadDatasets();
+  } catch (error) {
+    state.errors.push({ code: 'dataset_list', message: error.message });
+    console.warn(error.message);
+    lastDatasets = lastDatasets.filter((d) => d.name !== gone);
+    [...$('dataset').options].find((o) => o.value === gone)?.remove();
+    return lastDatasets;
+  }
+}
+
 // The dataset shown was deleted (here or elsewhere): say so and open another.
 async function datasetDeleted(text) {
   const gone = state.view.dataset;
   state.dataset = null;
-  let datasets;
-  try {
-    datasets = await loadDatasets();
-  } catch (error) {
-    $('dataset-summary').textContent = `${text}\n${error.message}: reload the page.`;
-    return;
-  }
+  const datasets = await datasetList(gone);
   const next = datasets.find((d) => d.state === 'ready' && d.name !== gone)?.name;
   openDataset(next);
   if (next) datasetNotice = `${text}\nNow showing ${next}.`;  // shown with its dataset.info
