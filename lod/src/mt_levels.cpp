@@ -472,29 +472,48 @@ class LevelBuilder {
     return out;
   }
 
-  // options_.variants = K versions of the ceiling between its fine mesh (F tets) and its
-  // simplified one (c tets), at F^(1-j/(K+1)) c^(j/(K+1)) tets, each simplified from the fine
-  // mesh with the same border locked and the same cap (variants.h); fewest tets first. One
-  // that comes out above 97% of F, or under 105% of c or of the next smaller one, is left out.
-  std::vector<VariantMesh> ceiling_variants(const storage::TetMesh& fine, const std::vector<uint8_t>& locked, const std::vector<uint32_t>& global, uint64_t coarse,
-                                            double cap) const {
-    std::vector<VariantMesh> out;
+  // The tets of the options_.variants = K versions of a ceiling between its fine mesh (F tets)
+  // and its simplified one (c tets): F^(1-j/(K+1)) c^(j/(K+1)), j = K..1 (fewest first). None
+  // where F < 1.2 c.
+  std::vector<uint64_t> variant_targets(uint64_t fine, uint64_t coarse) const {
+    std::vector<uint64_t> out;
     const int count = static_cast<int>(options_.variants);
-    const double f_tets = double(fine.tet_count()), c_tets = double(std::max<uint64_t>(1, coarse));
+    const double f_tets = double(fine), c_tets = double(std::max<uint64_t>(1, coarse));
     if (count <= 0 || f_tets < 1.2 * c_tets) return out;
     for (int j = count; j >= 1; --j) {
       const double f = double(j) / (count + 1);
-      const uint64_t target = static_cast<uint64_t>(std::llround(std::pow(f_tets, 1 - f) * std::pow(c_tets, f)));
-      storage::TetMesh m = fine;
-      SimplifyOptions so = ceiling_options(target);
-      so.max_error = cap;
-      const SimplifyReport sr = simplify(m, so, locked);
+      out.push_back(static_cast<uint64_t>(std::llround(std::pow(f_tets, 1 - f) * std::pow(c_tets, f))));
+    }
+    return out;
+  }
+
+  // The K versions (variant_targets) of the ceiling, each as a run from the fine mesh with the
+  // same border locked, the same cap and that target would leave it (variants.h): one run to
+  // the fewest, with snapshots at the others (the simplifier is deterministic, and a run to
+  // more tets is a run to fewer stopped earlier). Fewest tets first. One that comes out above
+  // 97% of F, or under 105% of c or of the next smaller one, is left out. The ceiling's own
+  // run cannot give them: its count c, which sets the targets, is known only at its end (most
+  // ceilings stop at the level's common error, short of their target).
+  std::vector<VariantMesh> ceiling_variants(const storage::TetMesh& fine, const std::vector<uint8_t>& locked, const std::vector<uint32_t>& global, uint64_t coarse,
+                                            double cap) const {
+    std::vector<VariantMesh> out;
+    const std::vector<uint64_t> targets = variant_targets(fine.tet_count(), coarse);
+    if (targets.empty()) return out;
+    const double f_tets = double(fine.tet_count()), c_tets = double(std::max<uint64_t>(1, coarse));
+    storage::TetMesh run = fine;
+    SimplifyOptions so = ceiling_options(*std::min_element(targets.begin(), targets.end()));
+    so.max_error = cap;
+    so.snapshot_tets = targets;
+    SimplifyReport sr = simplify(run, so, locked);
+    const std::vector<SimplifySnapshot>& meshes = sr.snapshots;
+    for (size_t k = 0; k < targets.size(); ++k) {
+      const storage::TetMesh& m = meshes[k].mesh;
       const double t = double(m.tet_count());
       if (t > 0.97 * f_tets || t < 1.05 * c_tets || (!out.empty() && t < 1.05 * double(out.back().tet_count()))) continue;
       VariantMesh v;
       const size_t nv = m.vertex_count();
       v.xyz.resize(3 * nv);
-      v.global = kept_global_ids(m, fine, sr.source_vertex, global);
+      v.global = kept_global_ids(m, fine, meshes[k].source_vertex, global);
       for (size_t l = 0; l < nv; ++l) {
         v.xyz[3 * l] = m.x[l];
         v.xyz[3 * l + 1] = m.y[l];

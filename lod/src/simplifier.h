@@ -88,6 +88,10 @@ class Simplifier {
   void push_edges_of(Worker& w, uint32_t v, MinQueue& queue, bool independent_only);
   void push(Worker& w, uint32_t p, uint32_t q, MinQueue& queue);
   void compact();
+  // the live mesh, compacted into `out`, and per output vertex the vertex it continues
+  void compacted(storage::TetMesh& out, std::vector<uint32_t>& source) const;
+  // the snapshots (SimplifyOptions::snapshot_tets) the run has reached; `last`: all left
+  void take_snapshots(bool last);
   bool done(const Worker& w) const {
     return (options_.target_tets && alive_tets_.load(std::memory_order_relaxed) <= options_.target_tets) || (w.remove_limit && w.removed >= w.remove_limit);
   }
@@ -115,6 +119,7 @@ class Simplifier {
   QuadricSet quadrics_;
   std::atomic<uint64_t> alive_tets_{0};
   SimplifyReport report_;
+  std::vector<uint8_t> snapshot_taken_;  // per SimplifyOptions::snapshot_tets
   std::vector<uint8_t> region_;  // per vertex: the worker that may collapse its edges, or kNoRegion
 };
 

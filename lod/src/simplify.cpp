@@ -50,6 +50,10 @@ Simplifier::Simplifier(storage::TetMesh& mesh, const SimplifyOptions& options, c
   if (options.vertex_weight > 0) add_vertex_quadrics(length);
   report_.tets_before = tets_.size() / 4;
   report_.vertices_before = n;
+  if (!options.snapshot_tets.empty() && options.independent) throw std::invalid_argument("snapshots need one global queue (not independent runs)");
+  report_.snapshots.resize(options.snapshot_tets.size());
+  for (size_t k = 0; k < options.snapshot_tets.size(); ++k) report_.snapshots[k].target = options.snapshot_tets[k];
+  snapshot_taken_.assign(options.snapshot_tets.size(), 0);
 }
 
 // Per-vertex values of all attributes, and the quadrics' channels over them.
@@ -304,7 +308,7 @@ SimplifyReport Simplifier::run() {
   region_.assign(vertex_alive_.size(), 0);
   // regions pay off only when each holds many tets; small meshes (and the MT's segments,
   // which it simplifies in parallel itself) take one thread
-  const int threads = options_.independent || options_.trace_costs ? 1 : static_cast<int>(std::min<uint64_t>(std::max(options_.threads, 1u), alive_tets_.load() / std::max<uint64_t>(options_.min_tets_per_thread, 1)));
+  const int threads = options_.independent || options_.trace_costs || !options_.snapshot_tets.empty() ? 1 : static_cast<int>(std::min<uint64_t>(std::max(options_.threads, 1u), alive_tets_.load() / std::max<uint64_t>(options_.min_tets_per_thread, 1)));
   if (options_.independent) {
     Worker w;
     run_independent(w);
@@ -317,18 +321,36 @@ SimplifyReport Simplifier::run() {
     merge_counts(w);
   }
   report_.threads = std::max(threads, 1);
+  take_snapshots(true);
   compact();
   report_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report_;
 }
 
+void Simplifier::take_snapshots(bool last) {
+  const uint64_t alive = alive_tets_.load(std::memory_order_relaxed);
+  for (size_t k = 0; k < options_.snapshot_tets.size(); ++k) {
+    if (snapshot_taken_[k] || (!last && alive > options_.snapshot_tets[k])) continue;
+    snapshot_taken_[k] = 1;
+    compacted(report_.snapshots[k].mesh, report_.snapshots[k].source_vertex);
+  }
+}
+
 void Simplifier::compact() {
+  storage::TetMesh out;
+  compacted(out, report_.source_vertex);
+  report_.tets_after = out.tet_count();
+  report_.vertices_after = out.vertex_count();
+  mesh_ = std::move(out);
+}
+
+void Simplifier::compacted(storage::TetMesh& out, std::vector<uint32_t>& source) const {
   const size_t n = vertex_alive_.size();
   std::vector<uint32_t> remap(n, kNone);
   uint32_t next = 0;
   for (size_t v = 0; v < n; ++v)
     if (vertex_alive_[v] && !star_[v].empty()) remap[v] = next++;
-  storage::TetMesh out;
+  out = storage::TetMesh{};
   out.x.resize(next);
   out.y.resize(next);
   out.z.resize(next);
@@ -354,18 +376,18 @@ void Simplifier::compact() {
     if (!tet_alive_[t]) continue;
     for (int k = 0; k < 4; ++k) out.tets.push_back(remap[tets_[4 * t + k]]);
   }
-  report_.source_vertex.assign(next, 0);
+  source.assign(next, 0);
   for (size_t v = 0; v < n; ++v)
-    if (remap[v] != kNone) report_.source_vertex[remap[v]] = static_cast<uint32_t>(v);
-  report_.tets_after = out.tet_count();
-  report_.vertices_after = out.vertex_count();
-  mesh_ = std::move(out);
+    if (remap[v] != kNone) source[remap[v]] = static_cast<uint32_t>(v);
 }
 
 }  // namespace detail
 
 SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
-  if (options.method == SimplifyMethod::kSample) return simplify_sampled(mesh, options, locked);
+  if (options.method == SimplifyMethod::kSample) {
+    if (!options.snapshot_tets.empty()) throw std::invalid_argument("snapshots need the quadric simplifier");
+    return simplify_sampled(mesh, options, locked);
+  }
   detail::Simplifier simplifier(mesh, options, locked);
   return simplifier.run();
 }

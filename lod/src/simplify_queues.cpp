@@ -59,6 +59,7 @@ void Simplifier::run_queue(Worker& w) {
     w.cost_limit = e.cost + 1e-12 + 1e-9 * std::fabs(e.cost);
     if (try_collapse(w, e.p, e.q)) {
       if (options_.trace_costs && !options_.independent) report_.cost_trace.emplace_back(alive_tets_.load(std::memory_order_relaxed), e.cost);
+      if (!options_.snapshot_tets.empty()) take_snapshots(false);
       uint32_t keep = vertex_alive_[e.p] ? e.p : e.q;
       push_edges_of(w, keep, queue, false);
     } else if (w.deferred_cost >= 0) {

@@ -125,6 +125,68 @@ TEST(Simplify, TwoRegionsAtOnceAreConformingDeterministicAndAsGood) {
   EXPECT_LT(e2, 2 * e1 + 1e-6);
 }
 
+// Snapshots (what segment variants are built from): the mesh kept at a count is exactly the
+// mesh a run with that target leaves, with the same source vertices; with a cap that ends
+// the run first, and with a count the run never reaches (the final mesh). Threads are
+// asked for and not used: snapshots need the one queue.
+TEST(Simplify, ASnapshotIsTheMeshARunToItsCountLeaves) {
+  const storage::TetMesh input = linear_cube(9, 0.3);
+  std::vector<uint8_t> locked(input.vertex_count(), 0);
+  for (size_t v = 0; v < input.vertex_count(); ++v) locked[v] = input.x[v] == 0.0f;
+  const uint64_t tets = input.tet_count();
+  // a cap that ends the run between tets/4 and tets/8: the cost of the collapse that passes tets/6
+  lod::SimplifyOptions traced;
+  traced.target_tets = tets / 8;
+  traced.trace_costs = true;
+  storage::TetMesh scratch = input;
+  const auto trace = lod::simplify(scratch, traced, locked).cost_trace;
+  const auto passing = std::find_if(trace.begin(), trace.end(), [&](const auto& step) { return step.first <= tets / 6; });
+  ASSERT_NE(passing, trace.end());
+  for (const double cap : {0.0, passing->second}) {
+    auto options = [&](uint64_t target) {
+      lod::SimplifyOptions o;
+      o.target_tets = target;
+      o.max_error = cap;
+      return o;
+    };
+    const std::vector<uint64_t> counts{tets / 2, tets / 4, tets / 8};
+    storage::TetMesh mesh = input;
+    lod::SimplifyOptions with = options(tets / 8);
+    with.snapshot_tets = counts;
+    with.threads = 2;
+    with.min_tets_per_thread = 100;
+    const lod::SimplifyReport report = lod::simplify(mesh, with, locked);
+    EXPECT_EQ(report.threads, 1);
+    ASSERT_EQ(report.snapshots.size(), counts.size());
+    std::vector<uint64_t> kept;
+    for (size_t k = 0; k < counts.size(); ++k) {
+      storage::TetMesh alone = input;
+      const lod::SimplifyReport r = lod::simplify(alone, options(counts[k]), locked);
+      const lod::SimplifySnapshot& s = report.snapshots[k];
+      EXPECT_EQ(s.target, counts[k]);
+      EXPECT_EQ(s.mesh.tets, alone.tets) << "count " << counts[k] << ", cap " << cap;
+      EXPECT_EQ(s.mesh.x, alone.x);
+      EXPECT_EQ(s.mesh.z, alone.z);
+      EXPECT_EQ(s.mesh.attributes[0].values, alone.attributes[0].values);
+      EXPECT_EQ(s.source_vertex, r.source_vertex);
+      kept.push_back(s.mesh.tet_count());
+    }
+    EXPECT_EQ(report.snapshots.back().mesh.tets, mesh.tets) << "the last count is the run's own";
+    if (cap == 0) {
+      EXPECT_GT(kept[0], kept[1]) << "three different meshes";
+      EXPECT_GT(kept[1], kept[2]);
+    } else {
+      EXPECT_GT(kept.back(), tets / 8) << "the cap ends the run before its target: the last snapshot is the run's end";
+    }
+  }
+  storage::TetMesh mesh = input;
+  lod::SimplifyOptions independent;
+  independent.target_tets = tets / 2;
+  independent.independent = true;
+  independent.snapshot_tets = {tets / 2};
+  EXPECT_THROW(lod::simplify(mesh, independent), std::invalid_argument);
+}
+
 TEST(Simplify, EverySharedDatasetStaysConforming) {
   if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to this checkout";
   for (const char* name : {"disk_out_ref.vtk", "fea_bracket.vtk"}) {

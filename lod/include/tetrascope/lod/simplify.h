@@ -37,6 +37,10 @@ struct SimplifyOptions {
   uint64_t min_tets_per_thread = 100000;   // ... each holding at least this many tets (fewer: fewer threads)
   uint32_t seed = 1;
   bool trace_costs = false;                // fill SimplifyReport::cost_trace (one global queue on one thread only)
+  // Meshes kept on the way (one global queue on one thread only): for each of these tet counts,
+  // the mesh as a run with target_tets = that count (and the same other options) would leave
+  // it, in SimplifyReport::snapshots. Counts at or under target_tets give the final mesh.
+  std::vector<uint64_t> snapshot_tets;
   // Normalisation frame. By default positions are normalised by the mesh's own box and
   // attributes by their own ranges; the multi-triangulation passes the whole mesh's, so that
   // every segment weighs errors alike. attribute_ranges: per mesh attribute, [lo, hi] of the
@@ -55,6 +59,13 @@ struct SimplifyOptions {
 };
 
 constexpr uint32_t kMaxSimplifyAttributeChannels = 16;
+
+// A mesh kept on the way (SimplifyOptions::snapshot_tets), with its source_vertex.
+struct SimplifySnapshot {
+  uint64_t target = 0;
+  storage::TetMesh mesh;
+  std::vector<uint32_t> source_vertex;
+};
 
 struct SimplifyReport {
   uint64_t tets_before = 0, tets_after = 0, vertices_before = 0, vertices_after = 0;
@@ -75,6 +86,7 @@ struct SimplifyReport {
   // With trace_costs: per collapse, in order, the tets alive after it and its quadric cost.
   // Re-running with target_tets = one of these counts stops at the same mesh (deterministic).
   std::vector<std::pair<uint64_t, double>> cost_trace;
+  std::vector<SimplifySnapshot> snapshots;  // one per SimplifyOptions::snapshot_tets, in its order
 };
 
 // Simplifies `mesh` in place (vertices compacted, tets positively oriented). Vertices with
