@@ -49,7 +49,6 @@ void check_options(const PreprocessOptions& options, const std::filesystem::path
   if (options.threads < 1 || options.threads > 64) throw std::invalid_argument("--threads must be 1 to 64");
   if (options.variants > kMaxVariants) throw std::invalid_argument("--variants must be 0 to " + std::to_string(kMaxVariants));
   if (options.variants > 0 && options.simplifier != SimplifyMethod::kQem) throw std::invalid_argument("--variants needs --simplifier qem");
-  if (options.variants > 0 && options.ranks && options.ranks->size() > 1) throw std::invalid_argument("--variants is not built under mpirun yet: preprocess on one rank");
   if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
   if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
 }

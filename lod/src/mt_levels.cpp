@@ -505,9 +505,10 @@ class LevelBuilder {
     so.max_error = cap;
     so.snapshot_tets = targets;
     SimplifyReport sr = simplify(run, so, locked);
-    const std::vector<SimplifySnapshot>& meshes = sr.snapshots;
+    run = storage::TetMesh{};  // the last snapshot holds it too
+    std::vector<SimplifySnapshot>& meshes = sr.snapshots;
     for (size_t k = 0; k < targets.size(); ++k) {
-      const storage::TetMesh& m = meshes[k].mesh;
+      const storage::TetMesh m = std::move(meshes[k].mesh);  // each snapshot given back as its variant is made
       const double t = double(m.tet_count());
       if (t > 0.97 * f_tets || t < 1.05 * c_tets || (!out.empty() && t < 1.05 * double(out.back().tet_count()))) continue;
       VariantMesh v;
@@ -558,7 +559,7 @@ class LevelBuilder {
       std::vector<uint32_t> tets(m.tets.size());
       for (size_t i = 0; i < m.tets.size(); ++i) tets[i] = res.global[m.tets[i]];
       const uint32_t id = out_.nodes.add(level, std::move(tets), spill);
-      if (!res.variants.empty()) {
+      if (!res.variants.empty() && (!shared() || options_.ranks->rank() == 0)) {  // under MPI rank 0 alone writes the store
         if (!out_.variants) out_.variants = std::make_unique<VariantSpill>(mesh_.spill_directory, table.floats);
         out_.variants->add(id, res.variants);
       }

@@ -82,6 +82,13 @@ void encode(const CeilingResult& r, ByteWriter& out) {
   out.put_array<float>(r.error.spatial);
   out.put_array<float>(r.error.mass);
   out.put_array<uint32_t>(r.error.located_tet);
+  out.put<uint64_t>(r.variants.size());
+  for (const VariantMesh& v : r.variants) {
+    out.put_array<uint32_t>(v.global);
+    out.put_array<float>(v.xyz);
+    out.put_array<float>(v.values);
+    out.put_array<uint32_t>(v.tets);
+  }
 }
 
 void decode(ByteReader& in, const std::vector<storage::AttributeInfo>& attributes, CeilingResult& r) {
@@ -99,6 +106,15 @@ void decode(ByteReader& in, const std::vector<storage::AttributeInfo>& attribute
   in.get_array(r.error.spatial);
   in.get_array(r.error.mass);
   in.get_array(r.error.located_tet);
+  const uint64_t variants = in.get<uint64_t>();
+  if (variants > kMaxVariants) throw std::logic_error("MPI exchange: more variants than a segment may have");
+  r.variants.resize(variants);
+  for (VariantMesh& v : r.variants) {
+    in.get_array(v.global);
+    in.get_array(v.xyz);
+    in.get_array(v.values);
+    in.get_array(v.tets);
+  }
 }
 
 void encode(const CeilingTrace& t, ByteWriter& out) {

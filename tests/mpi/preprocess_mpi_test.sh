@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `mpirun -np 2 tetrascope preprocess` (issue 21) writes the same bytes as one process:
 # segments.bin, dag.bin and manifest.json equal to the serial store's, which verify accepts;
-# segments small enough that every level has several to share. An error (the store exists,
+# segments small enough that every level has several to share. With --variants (issue 14)
+# variants.bin too: the ranks send a ceiling's variants with it. An error (the store exists,
 # no --force) ends both ranks with the message, instead of leaving one waiting for the other.
 #   tests/mpi/preprocess_mpi_test.sh TETRASCOPE_BINARY MPIEXEC SAMPLE_MESH
 set -euo pipefail
@@ -31,6 +32,14 @@ for f in segments.bin dag.bin manifest.json; do
 done
 "$bin" verify "$work/mpi" > /dev/null
 
+"$bin" preprocess "$mesh" -o "$work/serial-variants" "${options[@]}" --threads 1 --variants 2 > /dev/null
+timeout 120 "$mpiexec" -np 2 "$bin" preprocess "$mesh" -o "$work/mpi-variants" "${options[@]}" --variants 2 > /dev/null
+[[ -s "$work/mpi-variants/variants.bin" ]] || { echo "FAIL: no variants.bin under mpirun"; exit 1; }
+for f in segments.bin dag.bin manifest.json variants.bin; do
+  cmp "$work/serial-variants/$f" "$work/mpi-variants/$f" || { echo "FAIL: $f (--variants 2) differs from the serial build's"; exit 1; }
+done
+"$bin" verify "$work/mpi-variants" > /dev/null
+
 # an error on the ranks ends the launch with a message and a failing status
 set +e
 timeout 120 "$mpiexec" -np 2 "$bin" preprocess "$mesh" -o "$work/mpi" "${options[@]}" > "$work/again.log" 2>&1
@@ -42,4 +51,4 @@ if ((status == 0 || status == 124)); then
   exit 1
 fi
 grep -q "exists (use --force to replace it)" "$work/again.log" || { cat "$work/again.log"; echo "FAIL: no message"; exit 1; }
-echo "preprocess on 2 ranks: the same store as on one"
+echo "preprocess on 2 ranks: the same store as on one, with variants too"
