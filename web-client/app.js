@@ -77,7 +77,7 @@ const planes = new PlanesPanel($('planes'), {
 const probe = new Probe(frameCanvas, $('probe'), { send });
 state.probe = probe;
 const jobs = new Jobs(authHeaders, {
-  onDatasetsChanged: () => loadDatasets(),
+  onDatasetsChanged: () => datasetList(),
   onDone: (name) => openDataset(name),
 });
 
@@ -125,7 +125,7 @@ function connect() {
   };
 }
 
-let openId = 0;
+let openId = 0, openName = null;  // the last dataset.open sent
 
 function onText(text) {
   const message = JSON.parse(text);
@@ -151,9 +151,11 @@ function onText(text) {
       state.errors.push(message);
       console.warn(`server: ${message.code}: ${message.message}`);
       $('dataset-summary').textContent = `${message.code}: ${message.message}`;
-      if (message.code === 'not_found' && message.id === openId) {  // a link to a dataset gone
+      if (message.code === 'not_found' && message.id === openId) {  // a link to a dataset gone, or a list out of date
+        const missing = openName;
+        forget(missing);
         const first = firstReady(lastDatasets);
-        if (first && first !== state.view.dataset) openDataset(first);
+        if (first) openDataset(first);  // each try forgets one name: this ends
       }
       if (message.code === 'dataset_deleted') datasetDeleted(message.message);
       break;
@@ -271,10 +273,15 @@ async function datasetList(gone) {
   } catch (error) {
     state.errors.push({ code: 'dataset_list', message: error.message });
     console.warn(error.message);
-    lastDatasets = lastDatasets.filter((d) => d.name !== gone);
-    [...$('dataset').options].find((o) => o.value === gone)?.remove();
+    forget(gone);
     return lastDatasets;
   }
+}
+
+// A dataset known to be gone, out of the list and the menu.
+function forget(name) {
+  lastDatasets = lastDatasets.filter((d) => d.name !== name);
+  [...$('dataset').options].find((o) => o.value === name)?.remove();
 }
 
 // The dataset shown was deleted (here or elsewhere): say so and open another.
@@ -282,6 +289,7 @@ async function datasetDeleted(text) {
   const gone = state.view.dataset;
   state.dataset = null;
   const datasets = await datasetList(gone);
+  if (state.dataset) return;  // another dataset was opened meanwhile (picked, or a reconnect's)
   const next = datasets.find((d) => d.state === 'ready' && d.name !== gone)?.name;
   openDataset(next);
   if (next) datasetNotice = `${text}\nNow showing ${next}.`;  // shown with its dataset.info
@@ -307,6 +315,7 @@ function openDataset(name) {
     return;
   }
   $('dataset').value = name;
+  openName = name;
   openId = send('dataset.open', { name });
 }
 

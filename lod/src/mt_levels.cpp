@@ -505,7 +505,7 @@ class LevelBuilder {
     so.max_error = cap;
     so.snapshot_tets = targets;
     SimplifyReport sr = simplify(run, so, locked);
-    run = storage::TetMesh{};  // the last snapshot holds it too
+    run = storage::TetMesh{};  // the first snapshot (fewest tets) holds it too
     std::vector<SimplifySnapshot>& meshes = sr.snapshots;
     for (size_t k = 0; k < targets.size(); ++k) {
       const storage::TetMesh m = std::move(meshes[k].mesh);  // each snapshot given back as its variant is made

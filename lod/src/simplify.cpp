@@ -308,6 +308,7 @@ SimplifyReport Simplifier::run() {
   region_.assign(vertex_alive_.size(), 0);
   // regions pay off only when each holds many tets; small meshes (and the MT's segments,
   // which it simplifies in parallel itself) take one thread
+  take_snapshots(false);  // a count at or above the input's: the input, as a run to it would leave it
   const int threads = options_.independent || options_.trace_costs || !options_.snapshot_tets.empty() ? 1 : static_cast<int>(std::min<uint64_t>(std::max(options_.threads, 1u), alive_tets_.load() / std::max<uint64_t>(options_.min_tets_per_thread, 1)));
   if (options_.independent) {
     Worker w;
@@ -324,7 +325,7 @@ SimplifyReport Simplifier::run() {
   take_snapshots(true);
   compact();
   report_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return report_;
+  return std::move(report_);  // run() is called once: its snapshots are not copied
 }
 
 void Simplifier::take_snapshots(bool last) {

@@ -200,6 +200,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       if (state_.dataset.get() != deleted) return;  // another dataset is open by now
       state_.dataset.reset();
       pending_ = Pending::kNone;
+      ++input_epoch_;  // a step under way stops at its next chunk and asks for no next one
     }
     send_text(protocol::error_reply(protocol::code::kDatasetDeleted, "the dataset '" + name + "' was deleted; open another", std::nullopt));
   }
@@ -454,7 +455,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
             refine_budget_ = frame.budget;
             }
         }
-        net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(frame.bytes)]() mutable { self->send_frame(std::move(bytes)); });
+        net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(frame.bytes), of = snapshot.dataset.get()]() mutable {
+          self->send_frame(std::move(bytes), of);
+        });
       }
     } catch (const std::invalid_argument& e) {
       const std::string reply = protocol::error_reply(protocol::code::kBadField, e.what(), snapshot.message_id);
@@ -485,7 +488,11 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     texts_.push_back(std::move(text));
     do_write();
   }
-  void send_frame(std::vector<uint8_t> bytes) {
+  void send_frame(std::vector<uint8_t> bytes, const Dataset* of) {
+    {
+      std::lock_guard lock(mutex_);
+      if (state_.dataset.get() != of) return;  // drawn before its dataset was deleted or another opened: after their replies, never
+    }
     if (waiting_frame_) ++server_.metrics.frames_dropped;  // the client is slower than we render: newest wins
     waiting_frame_ = std::move(bytes);
     do_write();

@@ -466,7 +466,7 @@ test('a dataset can be deleted from the list: the viewer opens another, and anot
         throw new Error(`${error.message}\n${p === page ? 'the deleting page' : 'the other page'}: ${JSON.stringify(seen)}`);
       }
       const listErrors = await p.evaluate(() => window.tetrascope.errors.filter((e) => e.code === 'dataset_list'));
-      if (p === other) assert.equal(listErrors.length, 1, 'the other viewer worked from the list it had');
+      if (p === other) assert.ok(listErrors.length >= 1, 'the other viewer worked from the list it had');
       else if (listErrors.length) console.log(`# the dataset list failed after the deletion: ${JSON.stringify(listErrors)}`);
       assert.match(await p.textContent('#dataset-summary'), /uploaded-disk' was deleted/);
       const options = await p.$$eval('#dataset option', (o) => o.map((x) => x.value));

@@ -149,7 +149,7 @@ TEST(Simplify, ASnapshotIsTheMeshARunToItsCountLeaves) {
       o.max_error = cap;
       return o;
     };
-    const std::vector<uint64_t> counts{tets / 2, tets / 4, tets / 8};
+    const std::vector<uint64_t> counts{tets, tets / 2, tets / 4, tets / 8};  // the first: no collapse at all
     storage::TetMesh mesh = input;
     lod::SimplifyOptions with = options(tets / 8);
     with.snapshot_tets = counts;
@@ -172,9 +172,10 @@ TEST(Simplify, ASnapshotIsTheMeshARunToItsCountLeaves) {
       kept.push_back(s.mesh.tet_count());
     }
     EXPECT_EQ(report.snapshots.back().mesh.tets, mesh.tets) << "the last count is the run's own";
+    EXPECT_EQ(kept[0], tets);
     if (cap == 0) {
-      EXPECT_GT(kept[0], kept[1]) << "three different meshes";
-      EXPECT_GT(kept[1], kept[2]);
+      EXPECT_GT(kept[1], kept[2]) << "three different meshes";
+      EXPECT_GT(kept[2], kept[3]);
     } else {
       EXPECT_GT(kept.back(), tets / 8) << "the cap ends the run before its target: the last snapshot is the run's end";
     }

@@ -37,9 +37,11 @@ struct SimplifyOptions {
   uint64_t min_tets_per_thread = 100000;   // ... each holding at least this many tets (fewer: fewer threads)
   uint32_t seed = 1;
   bool trace_costs = false;                // fill SimplifyReport::cost_trace (one global queue on one thread only)
-  // Meshes kept on the way (one global queue on one thread only): for each of these tet counts,
-  // the mesh as a run with target_tets = that count (and the same other options) would leave
-  // it, in SimplifyReport::snapshots. Counts at or under target_tets give the final mesh.
+  // Meshes kept on the way: for each of these tet counts, the mesh as a one-thread run with
+  // target_tets = that count (and the same other options) would leave it, in
+  // SimplifyReport::snapshots. Counts at or under target_tets give the final mesh. With
+  // snapshots the run takes one global queue on one thread (threads is not used);
+  // independent runs and the sampling simplifier refuse them.
   std::vector<uint64_t> snapshot_tets;
   // Normalisation frame. By default positions are normalised by the mesh's own box and
   // attributes by their own ranges; the multi-triangulation passes the whole mesh's, so that
