@@ -45,6 +45,14 @@ Cut::Cut(const Dag& dag) : dag_(dag) {
 
 bool Cut::displayed(uint32_t node) const { return !refined_[node] && unrefined_parents_[node] == 0; }
 
+bool Cut::shown(uint32_t node) const {
+  if (refined_[node]) return false;
+  if (unrefined_parents_[node] == 0) return true;
+  for (uint32_t p : dag_.parent_patches(node))
+    if (active(p)) return true;
+  return false;
+}
+
 bool Cut::active(uint32_t patch) const {
   const dag::Patch& p = dag_.patch(patch);
   return (p.ceiling == kRoot || refined_[p.ceiling]) && !refined_[p.floor];
@@ -383,8 +391,11 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
       queued[v] = 1;
     }
   };
+  // every segment shown, in whole or in part (a patch of it active): one shown in part stays
+  // shown in part across updates, so a cut refined in steps would otherwise never queue it
+  // again once a budget had not fit it (Cut.ACutRefinedInStepsReachesWhatOneUpdateReaches)
   for (uint32_t v = 0; v < n; ++v)
-    if (displayed(v)) offer(v);
+    if (shown(v)) offer(v);
   uint32_t misses = 0;
   while (!fine.empty() && misses < 16) {
     auto [priority, v] = fine.top();

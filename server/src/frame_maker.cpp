@@ -24,8 +24,8 @@ double ms_since(Clock::time_point start) { return std::chrono::duration<double, 
 // The smallest share of the view an interaction frame shrinks to when even the coarsest cut
 // is over the frame time (a store built with a large coarsest level).
 constexpr double kMinFrameScale = 0.125;
-// A refinement step whose cut holds less than this share of its budget holds all the view
-// wants (a segment's refinement never wastes half a budget that doubles each step): it is the last.
+// A refinement step whose cut holds less than this share of its budget may hold all the view
+// wants: the next step asks for the still budget (and is the last).
 constexpr double kFullCutShare = 0.5;
 
 uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protocol::kMinImageSide, static_cast<uint32_t>(std::lround(side * scale))); }
@@ -125,10 +125,13 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
   frame.predicted_ms = cost.predict(double(tets), frame.covered_pixels);
   const double estimated_error = pipeline_->cut_estimated_error().value_or(0);
   if (plan.refinement && !final_step) {
-    // the last step: the error bound is met, the cut holds the whole dataset, or it did not
-    // use its budget (it holds all the view wants)
-    final_step = (state.max_error > 0 && estimated_error <= state.max_error) || !pipeline_->cut() || tets >= finest_tets_ ||
-                 double(tets) < kFullCutShare * double(request.budget);
+    // the last step: the error bound is met, or the cut holds the whole dataset
+    final_step = (state.max_error > 0 && estimated_error <= state.max_error) || !pipeline_->cut() || tets >= finest_tets_;
+    // A cut that did not use its budget may hold all the view wants, or its next refinement
+    // did not fit: the next step asks for the still budget. So the still is the cut at the
+    // still budget whatever steps led to it (RefinementTest.TheStillIsTheSameWhateverTheStepsBefore);
+    // taking this step for the still made it depend on the step sizes, and so on the load.
+    if (!final_step && double(tets) < kFullCutShare * double(request.budget)) frame.budget = std::max<uint64_t>(state.view.budget, 1);
   }
   settings.should_stop = plan.should_stop;
   if (plan.should_stop && plan.should_stop()) {  // input came during the cut update and assembly: no upload, no draw

@@ -178,6 +178,29 @@ TEST(Cut, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {
   EXPECT_EQ(refined.active_patches(), fresh.active_patches());
 }
 
+// The server refines a still in steps of growing budget; the still must be the cut a single
+// update from the coarsest cut reaches at the still budget, whatever the steps before it.
+TEST(Cut, ACutRefinedInStepsReachesWhatOneUpdateReaches) {
+  const Built& b = built("sample");
+  auto store = storage::Store::open(b.store);
+  auto dag = lod::open_dag(*store);
+  lod::TransferFunction tf;
+  tf.attribute = "Temp";
+  auto criteria = lod::criteria_for(*store, *dag, tf);
+  lod::set_view(criteria, lod::parse_camera("eye=1.5,1,0.8,target=0,0,0.5,up=0,0,1,fov=25", store->manifest().bounds));
+  const uint64_t still = 100000;
+  lod::Cut fresh(*dag);
+  fresh.update(criteria, still);
+  lod::Cut stepped(*dag);
+  for (double budget = double(stepped.tet_count()); budget < double(still); budget *= 1.5) {
+    stepped.update(criteria, static_cast<uint64_t>(budget));
+  }
+  stepped.update(criteria, still);
+  EXPECT_LT(fresh.tet_count(), b.report.levels.front().tets) << "a view that leaves part of the mesh out";
+  EXPECT_EQ(stepped.tet_count(), fresh.tet_count());
+  EXPECT_EQ(stepped.active_patches(), fresh.active_patches());
+}
+
 // Issue 15: a refinement step's assembly stops between patches when input comes.
 TEST(Cut, AnAssemblyStoppedBetweenPatchesIsMarkedPartial) {
   const Built& b = built("sample");

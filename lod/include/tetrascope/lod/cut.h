@@ -130,6 +130,7 @@ class Cut {
   void apply_coarsen(uint32_t node, CutChanges* changes);
   void note(uint32_t patch);
   bool displayed(uint32_t node) const;  // every parent refined: all its tets are shown
+  bool shown(uint32_t node) const;      // unrefined, with a patch active: some of its tets are shown
   double slice_weight(uint32_t node, uint32_t channel);  // Σ_n H(n) of the field histogram, cached
   const Dag& dag_;
   std::vector<uint8_t> refined_;
