@@ -84,6 +84,7 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
   open(state.dataset);
   renderer::ViewRequest request = state.view;
   const lod::Camera camera = request.camera ? *request.camera : lod::default_camera(pipeline_->bounds());
+  const uint64_t still_budget = std::max<uint64_t>(state.view.budget, 1);
   RenderedFrame frame;
   bool final_step = false;
   if (!plan.refinement) {
@@ -107,7 +108,6 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     // step k aims at frame_ms * growth^(k+1), at least twice the step before, up to the still budget
     frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
     const double target_ms = options.frame_ms * std::pow(options.refine_growth, plan.step + 1);
-    const uint64_t still_budget = std::max<uint64_t>(state.view.budget, 1);
     uint64_t tets = cost.tets_for(target_ms, frame.covered_pixels, coarsest_tets_, still_budget);
     tets = std::min(still_budget, std::max(tets, 2 * plan.previous_budget));
     request.budget = tets;
@@ -131,7 +131,7 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     // did not fit: the next step asks for the still budget. So the still is the cut at the
     // still budget whatever steps led to it (RefinementTest.TheStillIsTheSameWhateverTheStepsBefore);
     // taking this step for the still made it depend on the step sizes, and so on the load.
-    if (!final_step && double(tets) < kFullCutShare * double(request.budget)) frame.budget = std::max<uint64_t>(state.view.budget, 1);
+    if (!final_step && double(tets) < kFullCutShare * double(request.budget)) frame.budget = still_budget;
   }
   settings.should_stop = plan.should_stop;
   if (plan.should_stop && plan.should_stop()) {  // input came during the cut update and assembly: no upload, no draw

@@ -25,6 +25,19 @@
 namespace tetrascope::testing {
 namespace {
 
+// The sample's store (2000-tet segments), its DAG, and the criteria of a transfer function on
+// Temp, with no view yet.
+struct OnTemp {
+  const Built& built = tetrascope::testing::built("sample");
+  std::unique_ptr<storage::Store> store = storage::Store::open(built.store);
+  std::unique_ptr<lod::Dag> dag = lod::open_dag(*store);
+  lod::CutCriteria criteria = lod::criteria_for(*store, *dag, [] {
+    lod::TransferFunction tf;
+    tf.attribute = "Temp";
+    return tf;
+  }());
+};
+
 TEST(Cut, FinestCutIsTheInputAndCoarsestFitsTheBase) {
   const Built& b = built("sample");
   auto store = storage::Store::open(b.store);
@@ -76,16 +89,14 @@ TEST(Cut, RandomCutsAreConforming) {
 }
 
 TEST(Cut, UpdateHonoursTheBudgetAndReportsWhatChanged) {
-  const Built& b = built("sample");
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
+  OnTemp t;
+  const auto& store = t.store;
+  const auto& dag = t.dag;
+  const lod::CutCriteria& criteria = t.criteria;
   lod::Cut cut(*dag);
   const uint64_t coarsest = cut.tet_count();
   std::set<uint32_t> active;
   for (uint32_t p : cut.active_patches()) active.insert(p);
-  lod::TransferFunction tf;
-  tf.attribute = "Temp";
-  auto criteria = lod::criteria_for(*store, *dag, tf);
   for (uint64_t budget : {coarsest + 2000, uint64_t{20000}, uint64_t{8000}, uint64_t{45000}, uint64_t{1000}}) {
     auto changes = cut.update(criteria, budget);
     EXPECT_EQ(changes.tets, cut.tet_count());
@@ -124,14 +135,13 @@ TEST(Cut, UpdateHonoursTheBudgetAndReportsWhatChanged) {
 // vertices, opacity 1 everywhere, the whole mesh in view), and the cut's own estimate falls
 // with it.
 TEST(Cut, ALargerBudgetNeverRaisesTheFieldError) {
-  const Built& b = built("sample");
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
+  OnTemp t;
+  const Built& b = t.built;
+  const auto& store = t.store;
+  const auto& dag = t.dag;
+  lod::CutCriteria& criteria = t.criteria;
   storage::SegmentCache cache(*store, 1ull << 28);
   const storage::TetMesh input = storage::load_mesh(sample_mesh());
-  lod::TransferFunction tf;
-  tf.attribute = "Temp";
-  auto criteria = lod::criteria_for(*store, *dag, tf);
   criteria.opacity.clear();  // every value counts
   lod::set_view(criteria, lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
   const uint64_t coarsest = lod::Cut(*dag).tet_count(), finest = b.report.levels.front().tets;
@@ -158,12 +168,11 @@ TEST(Cut, ALargerBudgetNeverRaisesTheFieldError) {
 TEST(Cut, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {
   // A viewer's cut goes through many criteria (volume, then an isosurface); the cut a new
   // criterion settles on must not depend on where the cut was before.
-  const Built& b = built("sample");
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
-  lod::TransferFunction tf;
-  tf.attribute = "Temp";
-  auto volume = lod::criteria_for(*store, *dag, tf);
+  OnTemp t;
+  const Built& b = t.built;
+  const auto& store = t.store;
+  const auto& dag = t.dag;
+  auto volume = t.criteria;
   auto iso = volume;
   iso.isovalues = {0.5};  // exactly on a bin edge, where no vertex value lies
   const lod::Camera camera = lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds);
@@ -181,12 +190,11 @@ TEST(Cut, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {
 // The server refines a still in steps of growing budget; the still must be the cut a single
 // update from the coarsest cut reaches at the still budget, whatever the steps before it.
 TEST(Cut, ACutRefinedInStepsReachesWhatOneUpdateReaches) {
-  const Built& b = built("sample");
-  auto store = storage::Store::open(b.store);
-  auto dag = lod::open_dag(*store);
-  lod::TransferFunction tf;
-  tf.attribute = "Temp";
-  auto criteria = lod::criteria_for(*store, *dag, tf);
+  OnTemp t;
+  const Built& b = t.built;
+  const auto& store = t.store;
+  const auto& dag = t.dag;
+  lod::CutCriteria& criteria = t.criteria;
   lod::set_view(criteria, lod::parse_camera("eye=1.5,1,0.8,target=0,0,0.5,up=0,0,1,fov=25", store->manifest().bounds));
   const uint64_t still = 100000;
   lod::Cut fresh(*dag);
