@@ -16,7 +16,7 @@
 #   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
 # Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50": percent of the
 #      input; "L1": a budget of level 1's tets, a cut the size of that level: the level whole
-#      where the view shows the whole mesh),
+#      where the view shows the whole mesh; "T350000": a budget of 350,000 tets),
 #      PREPROCESS_ARGS (extra options for `tetrascope preprocess`, to compare builds),
 #      FIDELITY_TAG (a label stored with the rows, e.g. "before" or "after"; the store is built
 #      once per tag and options), TETRASCOPE (a tetrascope binary to use instead of building one),
@@ -109,6 +109,8 @@ for spec in "${cases[@]}"; do
     budget=$coarsest
     if [[ "$pct" =~ ^L([0-9]+)$ ]]; then  # a whole level: the budget of its tets
       budget=${level_tets[${BASH_REMATCH[1]}]}
+    elif [[ "$pct" =~ ^T([0-9]+)$ ]]; then  # a budget of so many tets
+      budget=${BASH_REMATCH[1]}
     elif [[ "$pct" != coarsest ]]; then
       budget=$((input_tets * pct / 100))
     fi
