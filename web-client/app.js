@@ -251,6 +251,7 @@ async function loadDatasets() {
     }
   }
   lastDatasets = datasets;
+  listFailure = '';
   const select = $('dataset');
   const current = state.view.dataset ?? select.value;
   select.replaceChildren(
@@ -273,10 +274,13 @@ async function datasetList(gone) {
   } catch (error) {
     state.errors.push({ code: 'dataset_list', message: error.message });
     console.warn(error.message);
+    listFailure = error.message;
     forget(gone);
     return lastDatasets;
   }
 }
+let listFailure = '';  // why the last list request failed ('' once one succeeds)
+let listRetry = null;
 
 // A dataset known to be gone, out of the list and the menu.
 function forget(name) {
@@ -311,7 +315,19 @@ async function deleteDataset() {
 
 function openDataset(name) {
   if (!name) {
-    $('dataset-summary').textContent = 'No dataset yet: upload a mesh below.';
+    if (!listFailure) {
+      $('dataset-summary').textContent = 'No dataset yet: upload a mesh below.';
+      return;
+    }
+    // no list to pick from (the server too busy to answer, a proxy in the way): say so, not
+    // "no dataset", and ask again until a list comes or a dataset is opened
+    $('dataset-summary').textContent = `${listFailure}. Trying again…`;
+    clearTimeout(listRetry);
+    listRetry = setTimeout(async () => {
+      if (state.dataset) return;
+      const datasets = await datasetList();
+      if (!state.dataset) openDataset(firstReady(datasets));
+    }, 3000);
     return;
   }
   $('dataset').value = name;

@@ -3,7 +3,8 @@
 // editor (opacity and colour points, presets, overall opacity) changes the image, keys and
 // presets move the camera, the whole view survives a reconnect and a link, a still is saved
 // at a chosen size with its legend, the panel collapses on a phone, and an upload +
-// preprocess job survives a reload and opens its dataset, and a dataset can be deleted.
+// preprocess job survives a reload and opens its dataset, a page that cannot load the dataset
+// list says so and opens one once it comes, and a dataset can be deleted.
 //   node --test tests/browser/viewer.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -335,6 +336,23 @@ test('a link to a dataset that is gone opens the first one', async () => {
     await settled(other);
     assert.deepEqual(await lastSent('tf.set', other).then((b) => b.range), [0.1, 0.17]);
     assert.equal(await other.inputValue('#range-min'), '0.1');
+  } finally {
+    await other.close();
+  }
+});
+
+test('a page that cannot load the dataset list says so, not "no dataset", and opens one once the list comes', async () => {
+  const other = await browser.newPage({ viewport: { width: 600, height: 400 } });
+  try {
+    await other.route('**/api/v1/datasets', (route) => route.abort('connectionreset'));
+    await other.goto(url);
+    await other.waitForFunction(() => /could not be loaded/.test(document.getElementById('dataset-summary').textContent), null, { timeout: 30000 });
+    assert.doesNotMatch(await other.textContent('#dataset-summary'), /No dataset yet/);
+    assert.ok(!(await other.evaluate(() => window.tetrascope.dataset)), 'nothing opened without a list');
+    await other.unroute('**/api/v1/datasets');
+    await other.waitForFunction(() => window.tetrascope.dataset?.name === 'disk', null, { timeout: 30000 });
+    await settled(other);
+    assert.doesNotMatch(await other.textContent('#dataset-summary'), /could not be loaded/);
   } finally {
     await other.close();
   }
