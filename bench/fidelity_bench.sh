@@ -46,6 +46,7 @@ git diff --quiet HEAD -- lod storage apps 2>/dev/null || commit="$commit+changes
 cases=(
   "onera-wing-broad|$data/onera_m6_potential.vtk|eye=2.2,2.4,1.8,target=0.6,0.7,0,up=0,1,0,fov=40|dvr|0.05|{\"attribute\":\"pressure_coefficient\",\"range\":[-0.72,0.75],\"colormap\":\"viridis\",\"opacity\":[[-0.72,0.9],[-0.25,0.5],[-0.1,0],[0.1,0],[0.3,0.5],[0.75,0.9]]}"
   "onera-wing-narrow|$data/onera_m6_potential.vtk|eye=2.2,2.4,1.8,target=0.6,0.7,0,up=0,1,0,fov=40|dvr|0.05|{\"attribute\":\"pressure_coefficient\",\"range\":[-0.72,0.75],\"colormap\":\"viridis\",\"opacity\":[[-0.72,0.9],[-0.4,0.6],[-0.3,0],[0.75,0]]}"
+  "onera-wing-closeup|$data/onera_m6_potential.vtk|eye=1.3,1.5,0.9,target=0.6,0.7,0,up=0,1,0,fov=40|dvr|0.05|{\"attribute\":\"pressure_coefficient\",\"range\":[-0.72,0.75],\"colormap\":\"viridis\",\"opacity\":[[-0.72,0.9],[-0.25,0.5],[-0.1,0],[0.1,0],[0.3,0.5],[0.75,0.9]]}"
   "onera-wing-iso|$data/onera_m6_potential.vtk|eye=2.2,2.4,1.8,target=0.6,0.7,0,up=0,1,0,fov=40|iso|0|pressure_coefficient=-0.2"
   "oxygen-post-outside|$data/nasa_oxygen_post.vtk|azimuth=30,elevation=20|dvr|0|{\"attribute\":\"VelocityMagnitude\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[1.39,0.4]]}"
   "oxygen-post-inside|$data/nasa_oxygen_post.vtk|eye=0,-6,2.4,target=0,6,2.4,up=0,0,1,fov=60|dvr|0|{\"attribute\":\"VelocityMagnitude\",\"colormap\":\"viridis\",\"opacity\":[[0,0],[0.5,0],[1.39,0.6]]}"
