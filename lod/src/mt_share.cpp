@@ -2,7 +2,8 @@
 // simplifies which ceiling (longest processing time first, Graham 1969), and the bytes its
 // results travel in. Every rank decodes every other rank's results into the same slots, so
 // that every rank goes on with the state a build on one rank would have: new vertex ids and
-// patch order are assigned after the exchange, in ceiling order (mt_levels.cpp).
+// patch order are assigned after the exchange, in ceiling order (mt_levels.cpp). A ceiling's
+// variants (--variants) go to rank 0 alone, which writes them.
 //
 // The bytes come from the ranks of this launch, the same build of the same binary: they are
 // trusted, and a short or long record is a programming error, reported as one.
@@ -82,12 +83,28 @@ void encode(const CeilingResult& r, ByteWriter& out) {
   out.put_array<float>(r.error.spatial);
   out.put_array<float>(r.error.mass);
   out.put_array<uint32_t>(r.error.located_tet);
-  out.put<uint64_t>(r.variants.size());
-  for (const VariantMesh& v : r.variants) {
+}
+
+// A ceiling's variants travel apart from it (share_results): rank 0 alone writes them.
+void encode_variants(const std::vector<VariantMesh>& variants, ByteWriter& out) {
+  out.put<uint64_t>(variants.size());
+  for (const VariantMesh& v : variants) {
     out.put_array<uint32_t>(v.global);
     out.put_array<float>(v.xyz);
     out.put_array<float>(v.values);
     out.put_array<uint32_t>(v.tets);
+  }
+}
+
+void decode_variants(ByteReader& in, std::vector<VariantMesh>& variants) {
+  const uint64_t count = in.get<uint64_t>();
+  if (count > kMaxVariants) throw std::logic_error("MPI exchange: more variants than a segment may have");
+  variants.resize(count);
+  for (VariantMesh& v : variants) {
+    in.get_array(v.global);
+    in.get_array(v.xyz);
+    in.get_array(v.values);
+    in.get_array(v.tets);
   }
 }
 
@@ -106,15 +123,6 @@ void decode(ByteReader& in, const std::vector<storage::AttributeInfo>& attribute
   in.get_array(r.error.spatial);
   in.get_array(r.error.mass);
   in.get_array(r.error.located_tet);
-  const uint64_t variants = in.get<uint64_t>();
-  if (variants > kMaxVariants) throw std::logic_error("MPI exchange: more variants than a segment may have");
-  r.variants.resize(variants);
-  for (VariantMesh& v : r.variants) {
-    in.get_array(v.global);
-    in.get_array(v.xyz);
-    in.get_array(v.values);
-    in.get_array(v.tets);
-  }
 }
 
 void encode(const CeilingTrace& t, ByteWriter& out) {
@@ -183,6 +191,26 @@ std::vector<uint32_t> ceiling_owners(std::span<const uint64_t> work, uint32_t ra
 
 void share_results(Ranks& ranks, std::span<const uint32_t> owner, std::vector<CeilingResult>& results, const std::vector<storage::AttributeInfo>& attributes) {
   share(ranks, owner, results, attributes);
+  // the variants to rank 0 alone, the one that writes them: the other ranks neither receive
+  // them nor keep their own
+  const uint32_t me = static_cast<uint32_t>(ranks.rank());
+  ByteWriter out;
+  for (uint32_t k = 0; k < results.size(); ++k)
+    if (owner[k] == me && !results[k].variants.empty()) {
+      out.put<uint32_t>(k);
+      encode_variants(results[k].variants, out);
+      if (me != 0) std::vector<VariantMesh>().swap(results[k].variants);
+    }
+  std::vector<std::vector<uint8_t>> gathered = ranks.gather(out.bytes(), 0);
+  for (uint32_t r = 1; r < gathered.size(); ++r) {
+    ByteReader in(gathered[r]);
+    while (!in.done()) {
+      const uint32_t k = in.get<uint32_t>();
+      if (k >= results.size() || owner[k] != r) throw std::logic_error("MPI exchange: a rank sent variants of a segment it does not own");
+      decode_variants(in, results[k].variants);
+    }
+    std::vector<uint8_t>().swap(gathered[r]);
+  }
 }
 
 void share_traces(Ranks& ranks, std::span<const uint32_t> owner, std::vector<CeilingTrace>& traces) { share(ranks, owner, traces, {}); }

@@ -89,6 +89,30 @@ class MpiRanks final : public Ranks {
     return out;
   }
 
+  std::vector<std::vector<uint8_t>> gather(std::span<const uint8_t> mine, int root) override {
+    wait_for_all();
+    uint64_t my_bytes = mine.size();
+    std::vector<uint64_t> bytes(size_);
+    MPI_Gather(&my_bytes, 1, MPI_UINT64_T, bytes.data(), 1, MPI_UINT64_T, root, MPI_COMM_WORLD);
+    std::vector<std::vector<uint8_t>> out(size_);
+    auto pieces = [](uint64_t size, auto&& fn) {  // counts of int: pieces of at most 1 GiB
+      for (uint64_t at = 0; at < size; at += kPieceBytes) fn(at, static_cast<int>(std::min<uint64_t>(kPieceBytes, size - at)));
+    };
+    if (rank_ != root) {
+      pieces(my_bytes, [&](uint64_t at, int piece) { MPI_Send(mine.data() + at, piece, MPI_BYTE, root, kGatherTag, MPI_COMM_WORLD); });
+      return out;
+    }
+    for (int r = 0; r < size_; ++r) {
+      if (r == root) {
+        out[r].assign(mine.begin(), mine.end());
+        continue;
+      }
+      out[r].resize(bytes[r]);
+      pieces(bytes[r], [&](uint64_t at, int piece) { MPI_Recv(out[r].data() + at, piece, MPI_BYTE, r, kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE); });
+    }
+    return out;
+  }
+
   void barrier() override { wait_for_all(); }
 
   [[noreturn]] void abort(const std::string& message, int exit_code) override {
@@ -112,6 +136,7 @@ class MpiRanks final : public Ranks {
     }
   }
   static constexpr uint64_t kPieceBytes = uint64_t{1} << 30;
+  static constexpr int kGatherTag = 14;
   static constexpr std::chrono::milliseconds kIdlePoll{2};
   int rank_ = 0, size_ = 1, node_size_ = 1;
 };

@@ -44,8 +44,19 @@ class ThreadRanks final : public lod::Ranks {
     barrier();  // every slot written
     std::vector<std::vector<uint8_t>> out = launch_.slots;
     barrier();  // every slot read before the next exchange writes
+    count_received(out);
     return out;
   }
+  std::vector<std::vector<uint8_t>> gather(std::span<const uint8_t> mine, int root) override {
+    launch_.slots[rank_].assign(mine.begin(), mine.end());
+    barrier();
+    std::vector<std::vector<uint8_t>> out(launch_.size);
+    if (rank_ == root) out = launch_.slots;
+    barrier();
+    count_received(out);
+    return out;
+  }
+  uint64_t received = 0;  // bytes from the other ranks
   void barrier() override {
     std::unique_lock lock(launch_.mutex);
     const uint64_t generation = launch_.generation;
@@ -63,6 +74,10 @@ class ThreadRanks final : public lod::Ranks {
   }
 
  private:
+  void count_received(const std::vector<std::vector<uint8_t>>& out) {
+    for (int r = 0; r < static_cast<int>(out.size()); ++r)
+      if (r != rank_) received += out[r].size();
+  }
   Launch& launch_;
   const int rank_;
 };
@@ -81,31 +96,40 @@ lod::PreprocessOptions small_segments() {
   return options;
 }
 
-void expect_same_store_on(int ranks) {
-  const auto dir = scratch_dir("mt-share-" + std::to_string(ranks));
-  const lod::PreprocessReport alone = lod::preprocess(sample_mesh(), dir / "alone", small_segments());
-  ASSERT_GE(alone.levels.size(), 3u);
-  ASSERT_GE(alone.levels[1].segments, 2u * ranks) << "level 1 needs several segments a rank";
+// Builds the sample on `ranks` threads playing ranks (and alone, for the bytes to compare);
+// returns the bytes each rank received from the others.
+std::vector<uint64_t> expect_same_store_on(int ranks, uint32_t variants = 0) {
+  const auto dir = scratch_dir("mt-share-" + std::to_string(ranks) + "-" + std::to_string(variants));
+  lod::PreprocessOptions base = small_segments();
+  base.variants = variants;
+  const lod::PreprocessReport alone = lod::preprocess(sample_mesh(), dir / "alone", base);
+  EXPECT_GE(alone.levels.size(), 3u);
+  EXPECT_GE(alone.levels[1].segments, 2u * ranks) << "level 1 needs several segments a rank";
 
   Launch launch(ranks);
   std::vector<lod::PreprocessReport> reports(ranks);
+  std::vector<uint64_t> received(ranks);
   std::vector<std::thread> threads;
   for (int r = 0; r < ranks; ++r)
     threads.emplace_back([&, r] {
       ThreadRanks mine(launch, r);
-      lod::PreprocessOptions options = small_segments();
+      lod::PreprocessOptions options = base;
       options.threads = 2;  // a rank's own threads change nothing either
       options.ranks = &mine;
       reports[r] = lod::preprocess(sample_mesh(), dir / "shared", options);
+      received[r] = mine.received;
     });
   for (auto& t : threads) t.join();
 
   EXPECT_EQ(reports[0].segments, alone.segments);
   for (int r = 1; r < ranks; ++r) EXPECT_TRUE(reports[r].levels.empty()) << "rank " << r << " wrote";
-  for (const char* file : {"segments.bin", "dag.bin", "manifest.json"})
+  std::vector<const char*> files = {"segments.bin", "dag.bin", "manifest.json"};
+  if (variants) files.push_back("variants.bin");
+  for (const char* file : files)
     EXPECT_TRUE(file_bytes(dir / "alone" / file) == file_bytes(dir / "shared" / file)) << file << " differs on " << ranks << " ranks";
   const auto verified = storage::verify_store(dir / "shared");
   EXPECT_TRUE(verified.ok) << (verified.problems.empty() ? "" : verified.problems[0]);
+  return received;
 }
 
 TEST(MtShare, TwoRanksWriteTheBytesOfOne) { expect_same_store_on(2); }
@@ -113,6 +137,15 @@ TEST(MtShare, TwoRanksWriteTheBytesOfOne) { expect_same_store_on(2); }
 TEST(MtShare, ThreeRanksWriteTheBytesOfOne) {
   if (kSanitized) GTEST_SKIP() << "two ranks cover the exchange under the sanitizers";
   expect_same_store_on(3);
+}
+
+// Variants go to rank 0 alone: the others receive the same bytes as without them, rank 0
+// more, and the store is the one rank's, variants.bin included.
+TEST(MtShare, VariantsReachRankZeroAloneAndTheStoreIsTheBytesOfOne) {
+  const std::vector<uint64_t> without = expect_same_store_on(2, 0);
+  const std::vector<uint64_t> with = expect_same_store_on(2, 2);
+  EXPECT_GT(with[0], without[0]) << "rank 0 received the variants of rank 1's segments";
+  EXPECT_EQ(with[1], without[1]) << "rank 1 received variants";
 }
 
 TEST(MtShare, CeilingsGoToTheLeastLoadedRankLargestFirst) {
