@@ -111,7 +111,7 @@ for spec in "${cases[@]}"; do
     if [[ "$pct" =~ ^L([0-9]+)$ ]]; then  # a whole level: the budget of its tets
       budget=${level_tets[${BASH_REMATCH[1]}]}
     elif [[ "$pct" =~ ^T([0-9]+)$ ]]; then  # a budget of so many tets
-      budget=${BASH_REMATCH[1]}
+      budget=$((10#${BASH_REMATCH[1]}))
     elif [[ "$pct" != coarsest ]]; then
       budget=$((input_tets * pct / 100))
     fi

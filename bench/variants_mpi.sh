@@ -26,8 +26,9 @@ rows="$work/rows.jsonl"
 run() {  # BUILD BINARY RUN
   local build=$1 bin=$2 run=$3 store="$work/$1"
   rm -rf "$store" "$work"/rank.*
+  cut -d' ' -f1 /proc/loadavg > "$work/load"
   /usr/bin/time -f "%M %e" -o "$work/all" "$mpiexec" -np 2 --bind-to none \
-    sh -c 'exec /usr/bin/time -f "%M %e %U %S" -o "$0.$OMPI_COMM_WORLD_RANK" "$@"' "$work/rank" \
+    sh -c 'exec /usr/bin/time -f "%M %e %U %S" -o "$0.${OMPI_COMM_WORLD_RANK:-$PMI_RANK}" "$@"' "$work/rank" \
     "$bin" preprocess "$mesh" -o "$store" --progress none --threads 1 --variants "$variants" > /dev/null
   python3 - "$build" "$run" "$work" >> "$rows" << 'PY'
 import json, os, sys
@@ -37,7 +38,7 @@ for r in range(2):
     kb, _, user, system = open(os.path.join(work, f"rank.{r}")).read().split()
     rss.append(round(int(kb) / 1024, 1))
     cpu.append(round(float(user) + float(system), 2))
-print(json.dumps({"build": build, "run": int(run), "load_before": float(open("/proc/loadavg").read().split()[0]),
+print(json.dumps({"build": build, "run": int(run), "load_before": float(open(os.path.join(work, "load")).read()),
                   "wall_seconds": float(open(os.path.join(work, "all")).read().split()[1]), "peak_rss_mb_per_rank": rss, "cpu_seconds_per_rank": cpu}))
 PY
   tail -n 1 "$rows"
@@ -50,7 +51,7 @@ for r in $(seq "$runs"); do
   for f in segments.bin dag.bin manifest.json variants.bin; do cmp -s "$work/before/$f" "$work/after/$f" || same=false; done
 done
 
-python3 - "$rows" "$mesh" "$variants" "$same" "$BEFORE" > bench/results/variants_mpi.json << 'PY'
+python3 - "$rows" "$mesh" "$variants" "$same" "$BEFORE" > "$work/summary.json" << 'PY'
 import json, os, statistics, sys
 rows = [json.loads(l) for l in open(sys.argv[1])]
 def med(build, key, k=None):
@@ -62,4 +63,5 @@ print(json.dumps({"mesh": os.path.basename(sys.argv[2]), "variants": int(sys.arg
                   "command": "mpirun -np 2 --bind-to none tetrascope preprocess MESH -o STORE --threads 1 --variants K, each rank under /usr/bin/time",
                   "runs_per_build": len(rows) // 2, "same_store_bytes": sys.argv[4] == "true", "summary": summary, "runs": rows}, indent=2))
 PY
+mv "$work/summary.json" bench/results/variants_mpi.json
 python3 -c 'import json; j=json.load(open("bench/results/variants_mpi.json")); print(j["same_store_bytes"], json.dumps(j["summary"]))'

@@ -273,6 +273,7 @@ async function datasetList(gone) {
     return await loadDatasets();
   } catch (error) {
     state.errors.push({ code: 'dataset_list', message: error.message });
+    if (state.errors.length > 50) state.errors.shift();  // a list that keeps failing adds one every few seconds
     console.warn(error.message);
     listFailure = error.message;
     forget(gone);
@@ -281,6 +282,7 @@ async function datasetList(gone) {
 }
 let listFailure = '';  // why the last list request failed ('' once one succeeds)
 let listRetry = null;
+let listRetryGeneration = 0;  // moved by every open: a retry under way opens nothing then
 
 // A dataset known to be gone, out of the list and the menu.
 function forget(name) {
@@ -314,6 +316,8 @@ async function deleteDataset() {
 }
 
 function openDataset(name) {
+  clearTimeout(listRetry);
+  const generation = ++listRetryGeneration;
   if (!name) {
     if (!listFailure) {
       $('dataset-summary').textContent = 'No dataset yet: upload a mesh below.';
@@ -322,11 +326,9 @@ function openDataset(name) {
     // no list to pick from (the server too busy to answer, a proxy in the way): say so, not
     // "no dataset", and ask again until a list comes or a dataset is opened
     $('dataset-summary').textContent = `${listFailure}. Trying again…`;
-    clearTimeout(listRetry);
     listRetry = setTimeout(async () => {
-      if (state.dataset) return;
       const datasets = await datasetList();
-      if (!state.dataset) openDataset(firstReady(datasets));
+      if (generation === listRetryGeneration && !state.dataset) openDataset(firstReady(datasets));
     }, 3000);
     return;
   }

@@ -192,14 +192,14 @@ std::vector<uint32_t> ceiling_owners(std::span<const uint64_t> work, uint32_t ra
 void share_results(Ranks& ranks, std::span<const uint32_t> owner, std::vector<CeilingResult>& results, const std::vector<storage::AttributeInfo>& attributes) {
   share(ranks, owner, results, attributes);
   // the variants to rank 0 alone, the one that writes them: the other ranks neither receive
-  // them nor keep their own
+  // them nor keep their own (rank 0 keeps its own where they are and sends nothing)
   const uint32_t me = static_cast<uint32_t>(ranks.rank());
   ByteWriter out;
-  for (uint32_t k = 0; k < results.size(); ++k)
+  for (uint32_t k = 0; k < results.size() && me != 0; ++k)
     if (owner[k] == me && !results[k].variants.empty()) {
       out.put<uint32_t>(k);
       encode_variants(results[k].variants, out);
-      if (me != 0) std::vector<VariantMesh>().swap(results[k].variants);
+      std::vector<VariantMesh>().swap(results[k].variants);
     }
   std::vector<std::vector<uint8_t>> gathered = ranks.gather(out.bytes(), 0);
   for (uint32_t r = 1; r < gathered.size(); ++r) {

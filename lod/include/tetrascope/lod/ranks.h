@@ -26,8 +26,8 @@ class Ranks {
   // Every rank's bytes, in rank order (`mine` among them). Collective: every rank calls it,
   // in the same order of calls.
   virtual std::vector<std::vector<uint8_t>> all_gather(std::span<const uint8_t> mine) = 0;
-  // Every rank's bytes on `root`, in rank order (`mine` among them); empty on the others.
-  // Collective, as all_gather.
+  // Every rank's bytes on `root`, in rank order (`mine` among them); on the other ranks
+  // size() empty vectors. Collective, as all_gather.
   virtual std::vector<std::vector<uint8_t>> gather(std::span<const uint8_t> mine, int root) = 0;
   // Waits for every rank. Collective.
   virtual void barrier() = 0;
