@@ -299,7 +299,7 @@ async function datasetDeleted(text) {
   const next = datasets.find((d) => d.state === 'ready' && d.name !== gone)?.name;
   openDataset(next);
   if (next) datasetNotice = `${text}\nNow showing ${next}.`;  // shown with its dataset.info
-  else $('dataset-summary').textContent = text;
+  else $('dataset-summary').textContent = `${text}\n${$('dataset-summary').textContent}`;  // and why nothing opened
 }
 let datasetNotice = '';
 
