@@ -81,10 +81,7 @@ class MpiRanks final : public Ranks {
     for (int r = 0; r < size_; ++r) {
       out[r].resize(bytes[r]);
       if (r == rank_) std::copy(mine.begin(), mine.end(), out[r].begin());
-      for (uint64_t at = 0; at < bytes[r]; at += kPieceBytes) {
-        const int piece = static_cast<int>(std::min<uint64_t>(kPieceBytes, bytes[r] - at));
-        MPI_Bcast(out[r].data() + at, piece, MPI_BYTE, r, MPI_COMM_WORLD);
-      }
+      pieces(bytes[r], [&](uint64_t at, int piece) { MPI_Bcast(out[r].data() + at, piece, MPI_BYTE, r, MPI_COMM_WORLD); });
     }
     return out;
   }
@@ -95,9 +92,6 @@ class MpiRanks final : public Ranks {
     std::vector<uint64_t> bytes(size_);
     MPI_Gather(&my_bytes, 1, MPI_UINT64_T, bytes.data(), 1, MPI_UINT64_T, root, MPI_COMM_WORLD);
     std::vector<std::vector<uint8_t>> out(size_);
-    auto pieces = [](uint64_t size, auto&& fn) {  // counts of int: pieces of at most 1 GiB
-      for (uint64_t at = 0; at < size; at += kPieceBytes) fn(at, static_cast<int>(std::min<uint64_t>(kPieceBytes, size - at)));
-    };
     if (rank_ != root) {
       pieces(my_bytes, [&](uint64_t at, int piece) { MPI_Send(mine.data() + at, piece, MPI_BYTE, root, kGatherTag, MPI_COMM_WORLD); });
       return out;
@@ -123,6 +117,12 @@ class MpiRanks final : public Ranks {
   }
 
  private:
+  // fn(offset, count) over `size` bytes in pieces a count of int can hold (a level of a large
+  // mesh passes 2 GiB)
+  template <class Fn>
+  static void pieces(uint64_t size, Fn&& fn) {
+    for (uint64_t at = 0; at < size; at += kPieceBytes) fn(at, static_cast<int>(std::min<uint64_t>(kPieceBytes, size - at)));
+  }
   // Waits for every rank, asleep: Open MPI's blocking collectives poll at full speed, which
   // takes a core from the ranks still simplifying when ranks share a node (or the node is
   // shared with other work).
