@@ -2,7 +2,7 @@
 # Whether two builds make the same cuts: `tetrascope cut --json` of each at the fidelity
 # bench's budgets, views and transfer functions (5/10/25/50% of the input), on the stores the
 # bench left in bench/out/fidelity; prints one JSON line a cut and writes
-# bench/results/cut_compare.json. Used at stop 35 to check that an update from the coarsest
+# bench/results/cut_compare.json. Checks, for instance, that an update from the coarsest
 # cut did not change when Cut::update began to queue segments shown in part.
 #   OLD=/path/to/older/tetrascope bench/cut_compare.sh
 # Env: OLD (required), NEW (default build/release/apps/tetrascope).

@@ -8,7 +8,7 @@
 # about 50 dB the rounding decides the 8-bit figure); isosurface cases use the GL renderer
 # (the same renderer on both sides). Every render also draws the GL renderer's image (the
 # default volume method), so each row carries the GL figures as well (cut_db_gl,
-# decimated_db_gl: GL against GL, 8 bits; issue 14 asks for both once GL agrees with the
+# decimated_db_gl: GL against GL, 8 bits; the goals ask for both once GL agrees with the
 # integrator). Also the coarsest level against a decimation of its size. Where the cut stops
 # short of its budget (its refinement steps too large to fit), the row also holds the
 # decimation to the whole budget (decimated_at_budget), the issue's own comparison.

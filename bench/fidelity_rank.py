@@ -8,7 +8,7 @@ RANK_TAG may list tags, "auto,r0.5": each case takes the first of them it has ro
 RANK_TAG_FOR ("bracket-inside=r0.5,...") names its tag (the defaults, when they differ by
 mesh); RANK_CASES (a comma list) keeps those cases only, RANK_OUT
 names the output (default bench/results/fidelity_rank.json); RANK_FLOAT=1 ranks by the PSNR of the
-integrator's unrounded colours (cut_db_float, rows since stop 32) instead of the 8-bit one."""
+integrator's unrounded colours (cut_db_float, rows from tag float32 on) instead of the 8-bit one."""
 import json, os
 import numpy as np
 from fidelity_rows import choose_tags, volume_cases

@@ -1,17 +1,17 @@
-"""Issue 14's goals over the rows of bench/results/fidelity.json: per case, the cut's PSNR minus
+"""The fidelity goals over the rows of bench/results/fidelity.json: per case, the cut's PSNR minus
 the decimation's at the same tets (dB; > 0: the cut wins) at the coarsest level and 5/10/25/50%,
 then over the volume cells at 5-50%: how many lose, by more than 1 dB, the median and the worst;
 how many 10-25% cells are >= 3 dB better; how many coarsest levels are within 1 dB. With
---float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows since stop 32);
-with --gl, by the GL renderer's images against the GL image of the full mesh (cut_db_gl, since
-stop 33). With --at-budget, against the decimation to the budget asked for rather than to the
-cut's tets, where the cut stops short of its budget (decimated_at_budget, rows since stop 33;
+--float, by the PSNR of the integrator's unrounded colours (cut_db_float, rows from tag float32 on);
+with --gl, by the GL renderer's images against the GL image of the full mesh (cut_db_gl,
+rows from tag float32's re-run on). With --at-budget, against the decimation to the budget asked for rather than to the
+cut's tets, where the cut stops short of its budget (decimated_at_budget, rows from tag float32's re-run on;
 older rows are left out).
 usage: python3 bench/fidelity_summary.py [--float|--gl] [--at-budget] [--median] TAG [TAG...] [--for CASE=TAG ...]
 A case takes the first TAG it has rows of, unless --for names its tag (the defaults differ by
 mesh: e.g. the uniform meshes' rows under one tag, the graded ones' under another). With
 --median every cell is the median over the TAGs that have it (the same build from several
---seed values: one partition's luck moves a cell by a median 2.6 dB, stop 32)."""
+--seed values: one partition's luck moves a cell by a median 2.6 dB, tags float32/seed2/seed3)."""
 import json
 import os
 import statistics

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What the idle server holds in resident memory (issue 17: 1.0 GB with one 45K-tet dataset open
+"""What the idle server holds in resident memory (it once held 1.0 GB with one 45K-tet dataset open
 and no session, while the segment cache held 41 MB).
 
 For --workers in WORKERS: starts `tetrascope serve`, reads /proc/PID/smaps at each step and sums

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""How `tetrascope preprocess --progress json` reports progress (issue 17: a job's bar sat at 10 %
+"""How `tetrascope preprocess --progress json` reports progress (a job's bar once sat at 10 %
 for 12 s, then said "81 s left" for a job that ended at 24 s).
 
 For each mesh: runs preprocess, timestamps every progress line, and reports each stage's share of

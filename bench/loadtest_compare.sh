@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Before/after a refactoring of the server: `tetrascope loadtest`, 1 client for DURATION
+# Two server builds side by side: `tetrascope loadtest`, 1 client for DURATION
 # seconds (default 10), frames of SIZE (default 1024x768), on the sample store
 # (data/samples/disk_out_ref.vtk preprocessed as the server tests do), RUNS runs (default 3) of each binary, alternating so that both see the
 # same background load; a fresh server per run. Writes each run and the medians to OUT
-# (default bench/results/refactor-server.json).
+# (default bench/results/loadtest_compare.json).
 #   [SIZE=WxH] bench/loadtest_compare.sh BEFORE_BIN AFTER_BIN [DURATION] [RUNS] [OUT]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,7 +11,7 @@ before="$1"
 after="$2"
 duration="${3:-10}"
 runs="${4:-3}"
-out="${5:-bench/results/refactor-server.json}"
+out="${5:-bench/results/loadtest_compare.json}"
 size="${SIZE:-1024x768}"
 mkdir -p bench/out/loadtest-compare
 store=bench/out/loadtest-compare/disk

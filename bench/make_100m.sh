@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A 100M+-tet mesh without gmsh (issue 21; gmsh needs ~0.5 GB a million tets): the ~13.6M-tet
+# A 100M+-tet mesh without gmsh (gmsh needs ~0.5 GB a million tets): the ~13.6M-tet
 # turbine blade refined 1:8 by bench/refine_tets, the analytic field evaluated at every vertex.
 # Measures wall time and peak RSS (/usr/bin/time -v), reads the result back with
 # `tetrascope info --json` and writes bench/results/make_100m.json.

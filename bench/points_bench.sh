@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Point-based isosurfaces (§7.2) against marching tetrahedra: 1, 4 and 16 isovalues on the 1M
-# and 5M blades (/work/bigdata, made by the coordinator). Both through `tetrascope render` at
+# and 5M blades (/work/bigdata, made by bench/segment_bench.sh's generator). Both through `tetrascope render` at
 # 512x512, same orbit cameras: the frame time is the median over the orbit's frames (the
 # first frame builds the triangles or points and is one of ORBIT, so the median is a cached
 # frame); PSNR of the points' last frame against marching tets' last frame (lit, opaque). The

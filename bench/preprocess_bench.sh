@@ -7,7 +7,7 @@
 # tets (`tetrascope cut` + `tetrascope error`; on the 1M and 5M meshes - measuring the 20M
 # one takes longer than the preprocessing). Writes bench/results/preprocess.json.
 #   bench/preprocess_bench.sh [MESH...]
-#   bench/preprocess_bench.sh --sample [MESH [REPEATS]]  (METHODS="sample": only that one)   --simplifier sample against qem (issue 20),
+#   bench/preprocess_bench.sh --sample [MESH [REPEATS]]  (METHODS="sample": only that one)   --simplifier sample against qem,
 #                                                      bench/preprocess_sample_compare.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -82,7 +82,7 @@ python3 - "${rows[@]}" <<'PY'
 import json, sys, datetime
 rows = [json.loads(r) for r in sys.argv[1:]]
 json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, 24 GB, Debian 12",
-           "command": "tetrascope preprocess MESH -o STORE (defaults: --segment-tets auto and --level-ratio auto, on these nearly uniform blades 16384 tets a segment and a level ratio of 0.5 (0.25 before stop 31), levels at a common error, at least 2 segments a level, base 10K tets, 256 bins, 2 threads, cut-border compressed segments); cut_bench --budget tets/5 --steps 100",
+           "command": "tetrascope preprocess MESH -o STORE (defaults: --segment-tets auto and --level-ratio auto, on these nearly uniform blades 16384 tets a segment and a level ratio of 0.5 (0.25 before --level-ratio auto), levels at a common error, at least 2 segments a level, base 10K tets, 256 bins, 2 threads, cut-border compressed segments); cut_bench --budget tets/5 --steps 100",
            "runs": rows}, open("bench/results/preprocess.json", "w"), indent=2)
 print(f"{'mesh':10} {'tets':>10} {'s':>7} {'tets/s':>8} {'RSS MB':>7} {'B/tet':>6} {'levels':>6} {'segs':>5} {'patches':>7} {'tets/seg':>8} {'tets/patch':>10} {'cut ms':>7} {'swap Mt/s':>9}")
 for r in rows:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Preprocessing on MPI (issue 21): `tetrascope preprocess` alone against `mpirun -np 2
+# Preprocessing on MPI: `tetrascope preprocess` alone against `mpirun -np 2
 # tetrascope preprocess`, each with --threads 1 and with the default threads (one a core),
 # RUNS runs each (interleaved, so that a busy spell on this shared machine falls on every
 # configuration alike); wall time of the whole command, peak RSS and CPU seconds of each rank

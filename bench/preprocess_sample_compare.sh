@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The body of `bench/preprocess_bench.sh --sample MESH [REPEATS]` (issue 20): preprocess with
+# The body of `bench/preprocess_bench.sh --sample MESH [REPEATS]`: preprocess with
 # --simplifier qem and --simplifier sample (both cores), tets/s (median of REPEATS), verify,
 # and the coarsest level rendered (--budget 1, 512x512, DVR of the first attribute) against the
 # full-resolution mesh's image: PSNR in dB of each store. Writes bench/results/preprocess_sample.json.

@@ -1,4 +1,4 @@
-// Uniform 1:8 refinement of a tet mesh, streamed to disk (issue 21, item 4): makes the
+// Uniform 1:8 refinement of a tet mesh, streamed to disk: makes the
 // 100M+-tet test meshes that gmsh cannot (it needs ~0.5 GB a million tets).
 //
 //   refine_tets IN OUT.vtk [--field analytic|linear]

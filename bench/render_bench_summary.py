@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # Joins several bench/render_bench.sh outputs (repeated runs, or meshes run separately) into one
 # results file: every run's rows as they were, and per mesh the median over the runs of each
-# figure the goals of issue 16 name, with the number of runs.
+# figure the rendering goals name, with the number of runs.
 #   bench/render_bench_summary.py OUT.json RUN.json...
 import json
 import statistics

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# --segment-tets auto (issue 14): for each mesh, the grading preprocess reads off it (the 90th
+# --segment-tets auto: for each mesh, the grading preprocess reads off it (the 90th
 # over the 10th percentile of its tets' size), the segment size auto picks, and the build with
 # auto beside the build with the other size (8192 or 16384): preprocess wall time and peak RSS,
 # store bytes, segments, and the cut update time (bench/cut_bench, 100-step orbit at a budget of

@@ -1,4 +1,4 @@
-// Compressed segments (issue 21), on one core: how fast the cut-border stream decodes
+// Compressed segments, on one core: how fast the cut-border stream decodes
 // (segment_codec.h; the dissertation's decoder managed 500K tets/s, §6.3.5), and what a segment
 // swap costs - Store::map_segment (map, checksum, decode, validate) from a warm page cache and
 // from disk (the store's pages dropped from the page cache first) - for each compression.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Compressed segments (issue 21): store size per input tet, decode speed and swap cost for
+"""Compressed segments: store size per input tet, decode speed and swap cost for
 `preprocess --compress-segments none|index16|cutborder`, into bench/results/segment_compression.json.
 
   bench/segment_compression.py --bin build/release --stores DIR NAME=MESH [NAME=MESH ...]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Serving a store under a memory limit smaller than the store (issue 21): `tetrascope serve
+# Serving a store under a memory limit smaller than the store: `tetrascope serve
 # --workers 2 --cache-mb C --frame-ms F` is started inside a memory cgroup limited to LIMIT_MB
 # (default 300), a fresh server (and group) per run, and driven by one client at 1024x768:
 #  - orbit:       `tetrascope loadtest --path orbit` (a turn in 6 s), DURATION s;

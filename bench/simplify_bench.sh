@@ -5,7 +5,7 @@
 # mean field error (RMS, normalised), max field error, boundary Hausdorff and mean distance.
 # Writes bench/results/simplify.json.   usage: bench/simplify_bench.sh [--quick]
 #
-# bench/simplify_bench.sh --sample [REPEATS] (issue 20): simplify --method sample against
+# bench/simplify_bench.sh --sample [REPEATS]: simplify --method sample against
 # --method qem (one thread and the default) at the same target tets (10%) on
 # onera_m6_potential and the 1M and 5M blades (/work/bigdata, SAMPLE_DATASETS overrides),
 # VTK's decimation alongside; wall and user CPU seconds (median of REPEATS runs), the field

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The streaming build (issue 21): `tetrascope preprocess MESH` with each --memory-mb of
+# The streaming build: `tetrascope preprocess MESH` with each --memory-mb of
 # BUDGETS (0 = nothing spilled, the whole build in memory; the default 2048; small budgets
 # spill every level but the coarsest), RUNS runs each: wall time, peak RSS (/usr/bin/time),
 # CPU seconds, the bytes spilled, the store's bytes; every store compared byte for byte with

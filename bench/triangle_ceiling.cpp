@@ -1,4 +1,4 @@
-// The raw triangle ceiling of this machine's GL for a mesh's volume rendering (issue 16): how
+// The raw triangle ceiling of this machine's GL for a mesh's volume rendering: how
 // fast the triangles that `tetrascope render --mode dvr` emits could be drawn if a fragment
 // did nothing but write a constant colour.
 //

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What segment variants cost (issue 14, `preprocess --variants K`): preprocess time, peak RSS
+# What segment variants cost (`preprocess --variants K`): preprocess time, peak RSS
 # and store bytes without and with them, whole-process, the two builds alternated in each
 # round; medians over RUNS rounds (default 3). Writes bench/results/variants_cost.json.
 #   bench/variants_cost.sh [MESH...]   (default: ONERA M6, the oxygen post, the bracket, the 1M blade)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Segment variants under MPI (stop 36): `mpirun -np 2 tetrascope preprocess --variants K`
+# Segment variants under MPI: `mpirun -np 2 tetrascope preprocess --variants K`
 # with a BEFORE binary (every rank received every variant) against this build (rank 0 alone
 # receives them), RUNS alternated rounds; peak RSS and CPU seconds of each rank (each under
 # its own /usr/bin/time) and the launch's wall time; the two stores compared byte for byte.

@@ -2,8 +2,8 @@
 # The tetrascope half of bench/render_bench.sh (no ParaView and no gmsh here, so no blade
 # meshes): `tetrascope render --orbit` frame times, DVR and isosurface at 1024x768, on shared
 # datasets, RUNS runs each; prints one JSON object with every run and the median of the
-# per-run medians. Used to compare two builds (before/after a refactor) on a shared machine.
-#   bench/render_refactor_bench.sh TETRASCOPE_BINARY [RUNS] [FRAMES]
+# per-run medians. Used to compare two builds on a shared machine.
+#   bench/render_shared_bench.sh TETRASCOPE_BINARY [RUNS] [FRAMES]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 binary=${1:?tetrascope binary}
@@ -21,7 +21,7 @@ for mesh, attribute in cases:
     for mode in ("dvr", "iso"):
         medians = []
         for run in range(runs):
-            r = subprocess.run([binary, "render", f"{data}/{mesh}.vtk", "-o", f"bench/out/refactor-{mesh}-{mode}.jpg", "--mode", mode,
+            r = subprocess.run([binary, "render", f"{data}/{mesh}.vtk", "-o", f"bench/out/shared-{mesh}-{mode}.jpg", "--mode", mode,
                                 "--attribute", attribute, "--size", "1024x768", "--orbit", str(frames), "--quality", "80", "--json"],
                                check=True, capture_output=True, text=True)
             j = json.loads(r.stdout.strip().splitlines()[-1])
