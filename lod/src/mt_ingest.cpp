@@ -1,7 +1,7 @@
 // Stage 1 of `tetrascope preprocess`: the input's vertices in one table that later levels
 // extend, the normalisation of every attribute (histogram channels, simplifier ranges), and
 // the tets as they stream in: in memory, or for a mesh over the memory budget in a spill file,
-// so that level 0 is never whole in memory (issue 21).
+// so that level 0 is never whole in memory.
 #include <algorithm>
 #include <cmath>
 #include <limits>

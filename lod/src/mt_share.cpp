@@ -1,4 +1,4 @@
-// Sharing the segments of a level among the ranks of an MPI launch (issue 21): which rank
+// Sharing the segments of a level among the ranks of an MPI launch: which rank
 // simplifies which ceiling (longest processing time first, Graham 1969), and the bytes its
 // results travel in. Every rank decodes every other rank's results into the same slots, so
 // that every rank goes on with the state a build on one rank would have: new vertex ids and

@@ -527,7 +527,7 @@ class GlRenderer final : public Renderer {
     const double unit = s.unit_distance > 0 ? s.unit_distance : mesh.diagonal / 100;
     // the table's length axis covers the scene's longest edge rounded up to a power of two:
     // the cuts of one store differ in their longest edge, and a new table (tens of ms) for
-    // every cut change was a large share of an interaction frame (issue 15)
+    // every cut change was a large share of an interaction frame
     update_table(s.tf, setup.lo, setup.hi, unit, std::exp2(std::ceil(std::log2(std::max(mesh.max_edge, 1e-30)))));
     const std::vector<float> isos = volume_isovalues(s, setup.lo, setup.hi);
     visibility_.set_isovalues(isos);

@@ -1,4 +1,4 @@
-// bench/refine_tets (issue 21): the 1:8 refinement is conforming, keeps the volume, orients
+// bench/refine_tets: the 1:8 refinement is conforming, keeps the volume, orients
 // every child positively, numbers one midpoint an edge, evaluates the analytic field of
 // ../shared/data/make/analytic_field.py at every vertex, writes the same bytes twice, and
 // refuses bad input without leaving a file behind. The readers (load_mesh, `tetrascope info`)

@@ -1,4 +1,4 @@
-// `tetrascope preprocess` against hostile inputs (issue 13): it never reports a store as written
+// `tetrascope preprocess` against hostile inputs: it never reports a store as written
 // that `verify` would call damaged, fails fast on inputs that are not regular files, and does
 // not let one input cost far more than its size.
 #include <gtest/gtest.h>
@@ -174,7 +174,7 @@ TEST(PreprocessCli, UnknownLevelTargetsIsRefusedNamingTheChoices) {
   }
 }
 
-// --variants K (issue 14): 0 to 8 segment variants; more is refused naming the range and
+// --variants K: 0 to 8 segment variants; more is refused naming the range and
 // leaves no store. With some, the store holds variants.bin, which info lists and verify checks,
 // and `cut` exports a cut that uses the budget its refinements could not.
 TEST(PreprocessCli, VariantsOutOfRangeAreRefusedAndVariantsBuiltAreListedAndVerified) {
@@ -220,7 +220,7 @@ std::string graded_grid_off(int k, double ratio) {
   return out.str();
 }
 
-// Issue 14: --segment-tets auto and --level-ratio auto (the defaults) follow how graded the
+// --segment-tets auto and --level-ratio auto (the defaults) follow how graded the
 // mesh is: 8192 tets a segment and levels 4:1 apart on a graded mesh, 16384 and 2:1 on a nearly
 // uniform one; the store records what it was built with, and a size or ratio given is kept.
 TEST(PreprocessCli, TheDefaultSegmentSizeAndLevelRatioFollowTheMeshGrading) {

@@ -1,4 +1,4 @@
-// The best picture per tet (issue 14): for a view that shows part of a shared dataset, the
+// The best picture per tet: for a view that shows part of a shared dataset, the
 // view- and transfer-function-adaptive cut of the multi-triangulation gives a better image
 // (PSNR against the full mesh, all three by the exact CPU integrator) than the whole mesh
 // decimated uniformly to the same number of tets; and the store built with levels at a common
@@ -97,7 +97,7 @@ TEST(CutFidelity, ALargerBudgetNeverLowersThePsnr) {
   storage::SegmentCache cache(*store, 1ull << 28);
   const storage::TetMesh input = storage::load_mesh(shared_data() / "fea_bracket.vtk");
   for (const char* camera_text : {"azimuth=30,elevation=20", "eye=0,-1.2,1.6,target=0,2,1.6,up=0,0,1,fov=70"}) {
-    // From inside, with levels 2:1 apart (the default on this uniform mesh since stop 31), the
+    // From inside, with levels 2:1 apart (the default on this uniform mesh), the
     // estimate rose once, 9.5e-5 -> 1.2e-4, from 2,426 to 4,455 tets while the PSNR rose 10 dB:
     // the children a refinement brings in lie nearer the eye and weigh more than their parent
     // did. There it must fall overall; from outside, at every step.

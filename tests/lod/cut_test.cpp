@@ -209,7 +209,7 @@ TEST(Cut, ACutRefinedInStepsReachesWhatOneUpdateReaches) {
   EXPECT_EQ(stepped.active_patches(), fresh.active_patches());
 }
 
-// Issue 15: a refinement step's assembly stops between patches when input comes.
+// A refinement step's assembly stops between patches when input comes.
 TEST(Cut, AnAssemblyStoppedBetweenPatchesIsMarkedPartial) {
   const Built& b = built("sample");
   auto store = storage::Store::open(b.store);

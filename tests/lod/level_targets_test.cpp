@@ -1,4 +1,4 @@
-// Levels simplified to a common error (lod/level_targets.h, issue 14): the level's tets go to
+// Levels simplified to a common error (lod/level_targets.h): the level's tets go to
 // the ceilings whose collapses cost most; every target is a count the ceiling's trace reached;
 // every ceiling is simplified at least to max_ratio; the total meets the level's target.
 #include <gtest/gtest.h>

@@ -127,7 +127,7 @@ TEST(MtBuild, EverySharedDatasetPreprocessesAndVerifies) {
   const auto dir = scratch_dir("multires-shared");
   for (const auto& mesh : meshes) {
     lod::PreprocessOptions options;
-    options.segment_tets = 8000;  // the default base: the coarsest level must meet it (issue 15)
+    options.segment_tets = 8000;  // the default base: the coarsest level must meet it
     auto report = lod::preprocess(mesh, dir / mesh.filename(), options);
     if (report.input_tets > 2 * options.base_tets) {
       EXPECT_GE(report.levels.size(), 2u) << mesh;
@@ -220,7 +220,7 @@ TEST(MtBuild, LevelZeroIsPartitionedAsSegmentDoes) {
   for (uint32_t s = 0; s < plain->segment_count(); ++s) EXPECT_EQ(tets_of(*mt, s), tets_of(*plain, s)) << "segment " << s;
 }
 
-// Issue 21: with a tiny --memory-mb the input and every level but the coarsest live in spill
+// With a tiny --memory-mb the input and every level but the coarsest live in spill
 // files, read a chunk or a segment at a time; the store is the same, byte for byte, as the one
 // built wholly in memory, and no spill file is left beside it. Lake Leman (136,838 tets) is
 // read in several chunks.

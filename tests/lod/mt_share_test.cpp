@@ -1,4 +1,4 @@
-// Sharing a preprocess among ranks (issue 21, lod/ranks.h, mt_share.cpp) without MPI: ranks
+// Sharing a preprocess among ranks (lod/ranks.h, mt_share.cpp) without MPI: ranks
 // played by threads of this process, exchanging through memory. Two and three ranks write the
 // bytes one rank writes (segments.bin, dag.bin, manifest.json), the cost traces of the common
 // error targets and the simplified ceilings both crossing between ranks; ceilings go to ranks

@@ -1,4 +1,4 @@
-// Variants of a segment that keep its border (variants.h, issue 14): the store's variants
+// Variants of a segment that keep its border (variants.h): the store's variants
 // verify, a cut spends on them what its budget has left and stays conforming, that never makes
 // the picture worse (exact integrator), and a damaged variants.bin is refused with a message.
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# `mpirun -np 2 tetrascope preprocess` (issue 21) writes the same bytes as one process:
+# `mpirun -np 2 tetrascope preprocess` writes the same bytes as one process:
 # segments.bin, dag.bin and manifest.json equal to the serial store's, which verify accepts;
-# segments small enough that every level has several to share. With --variants (issue 14)
+# segments small enough that every level has several to share. With --variants
 # variants.bin too: the ranks send a ceiling's variants to rank 0 alone. An error (the store exists,
 # no --force) ends both ranks with the message, instead of leaving one waiting for the other.
 #   tests/mpi/preprocess_mpi_test.sh TETRASCOPE_BINARY MPIEXEC SAMPLE_MESH

@@ -42,7 +42,7 @@ std::array<double, 3> inside_point(const renderer::SceneMesh& scene, std::array<
 }
 
 // The projected-tetrahedra volume method against the reference: at least this
-// (the goal for the default quality); the thresholds below are the exact method's.
+// (the goal for the default quality); the thresholds below are the exact method's.
 constexpr double kProjectedMinimumDb = 35.0;
 
 // GL against the reference for one camera, the exact method; prints the PSNR. The projected

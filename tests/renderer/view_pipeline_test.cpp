@@ -1,5 +1,5 @@
 // The view pipeline on a multiresolution store (renderer/view_frame.h): a reassembly stopped
-// for input (issue 15: a refinement step given up when the user moves) leaves the scene it had,
+// for input (a refinement step given up when the user moves) leaves the scene it had,
 // and the next update assembles the cut it asks for, the same scene a fresh pipeline builds.
 #include <gtest/gtest.h>
 

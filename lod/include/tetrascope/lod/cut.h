@@ -179,7 +179,7 @@ struct CutMesh {
 };
 // With `clip`, the patches of segments wholly clipped away (clipped_away) are not read.
 // `should_stop` (may be empty) is asked before each patch; when it says so the assembly ends
-// there, `interrupted` set (a refinement step given up for input, issue 15).
+// there, `interrupted` set (a refinement step given up for input).
 CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true,
                      std::span<const protocol::Plane> clip = {}, const std::function<bool()>& should_stop = {});
 

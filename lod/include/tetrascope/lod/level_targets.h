@@ -1,5 +1,5 @@
 // Per-segment tet targets for one level of the multi-triangulation simplified to a common
-// error (issue 14) rather than to a common ratio: every ceiling of a level is first simplified
+// error rather than to a common ratio: every ceiling of a level is first simplified
 // far (a cost trace), then each keeps the tets it has where the costs of its collapses, in
 // one order across all ceilings (the global queue a whole-mesh decimation would run), pass
 // the level's total target. Smooth ceilings end up coarser, varied ones finer.

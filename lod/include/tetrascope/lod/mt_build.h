@@ -22,7 +22,7 @@ struct PreprocessOptions {
   // auto_segment_tets().
   uint32_t segment_tets = 0;
   // stop when a level has at most this many tets (or simplification stalls): small enough for
-  // an interaction budget on every store (issue 15)
+  // an interaction budget on every store
   uint64_t base_tets = 10000;
   // Each level holds about this share of the tets of the one below; 0 (the default): chosen
   // from the input's grading, auto_level_ratio().
@@ -34,7 +34,7 @@ struct PreprocessOptions {
   // simplified), so that the cut can refine the top of the DAG a little at a time rather than
   // a whole level at once. Every border between them stays at the finer level's resolution, and
   // small segments are mostly border: with 8 the 1M blade's coarsest level lost the blade
-  // (24 dB against a decimation's 43), with 2 it is within 0.6 dB (issue 14).
+  // (24 dB against a decimation's 43), with 2 it is within 0.6 dB.
   uint32_t min_segments = 2;
   uint32_t min_segment_tets = 1024;
   // Finer versions of every segment above level 0 that keep its border (variants.h): the cut
@@ -55,7 +55,7 @@ struct PreprocessOptions {
   storage::ReadLimits read_limits;  // what one input may cost (--max-inflate-ratio)
   // The memory the build aims to stay within (--memory-mb), beyond its per-vertex arrays: a
   // level whose tets would take more than a quarter of it, the input's first of all, is kept in
-  // a spill file beside the store and read a segment at a time (issue 21). 0: nothing spilled.
+  // a spill file beside the store and read a segment at a time. 0: nothing spilled.
   uint64_t memory_mb = 2048;
   // The ranks of an MPI launch that share the build (launched_ranks(), ranks.h); null: this
   // process alone. Every rank calls preprocess with the same options; each simplifies its
@@ -65,7 +65,7 @@ struct PreprocessOptions {
 };
 
 // The segment size --segment-tets auto picks for a mesh of this grading (the 90th over the 10th
-// percentile of its tets' size). Measured on the fidelity cases of issue 14
+// percentile of its tets' size). Measured on the fidelity cases
 // (bench/results/fidelity.json, tag seg8k): on the graded CFD meshes (ONERA's far field, grading
 // 26, the oxygen post 27) segments of 8192 tets gave the cut more and better places to refine,
 // higher PSNR than 16384 in 19 of their 25 cells; on the nearly uniform blades (grading 1.4-2.7)

@@ -1,4 +1,4 @@
-// The processes of one MPI launch (`mpirun -np N tetrascope preprocess …`, issue 21) that
+// The processes of one MPI launch (`mpirun -np N tetrascope preprocess …`) that
 // share the work of a preprocess: every rank reads the mesh and builds the same partitions,
 // each simplifies its share of a level's segments, and the results are exchanged so that every
 // rank goes on with the same state; rank 0 writes the store.

@@ -1,4 +1,4 @@
-// Finer versions of a segment that keep its border (issue 14), in the store's variants.bin.
+// Finer versions of a segment that keep its border, in the store's variants.bin.
 //
 // A segment of level k+1 is its region of level k simplified with the region's border locked
 // (mt_levels.cpp). The same simplification stopped earlier gives versions with more tets and
