@@ -11,7 +11,7 @@
 # decimated_db_gl: GL against GL, 8 bits; the goals ask for both once GL agrees with the
 # integrator). Also the coarsest level against a decimation of its size. Where the cut stops
 # short of its budget (its refinement steps too large to fit), the row also holds the
-# decimation to the whole budget (decimated_at_budget), the issue's own comparison.
+# decimation to the whole budget (decimated_at_budget), the comparison the goals are stated in.
 # Writes bench/results/fidelity.json.
 #   bench/fidelity_bench.sh [CASE...]      (default: every case whose mesh is present)
 # Env: FIDELITY_SIZE (default 256x192), FIDELITY_BUDGETS (default "5 10 25 50": percent of the
@@ -124,7 +124,7 @@ for spec in "${cases[@]}"; do
     cut_gl=$(psnr "$out/$name.full.png" "$out/$name.cut$pct.png")
     decimate "$tets" "$pct"
     dec_tets=$d_tets dec_db=$d_db dec_float=$d_float dec_gl=$d_gl
-    # The issue's own comparison is at the budget asked for: where the cut stops short of it
+    # The goals compare at the budget asked for: where the cut stops short of it
     # (refinement steps too large to fit), also the decimation to the whole budget. null where
     # the cut holds the budget (within 1%: the row's decimation) or cannot go down to it.
     at_budget=null
