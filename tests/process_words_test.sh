@@ -20,7 +20,7 @@ self="tests/process_words_test.sh"
 # Case-insensitive, except the author's "I" and "my", which must be capitalised as written.
 pattern='(?i)'
 pattern+='\bstops? ?#?[0-9]+\b'                                  # stop 32, stops 32 and 35
-pattern+='|\b(this|that|last|previous|next|every) stop\b'         # this stop, the last stop
+pattern+='|\b(this|last|previous|next) stop\b'                   # this stop, the last stop
 pattern+='|\b(last|previous) \w+ stops\b'                         # the last five stops
 pattern+='|\bstops? (later|earlier|ago)\b'                       # two stops ago
 pattern+='|\bissue ?#?[0-9]+\b|\bissues #?[0-9]+ (and|or|to) #?[0-9]+\b'  # issue 14, issues 13 and 17
