@@ -40,7 +40,7 @@
 # What --cache-mb bounds: the segment cache's bytes (each cached segment's mapping of
 # segments.bin plus its decoded arrays, storage::MappedSegment::mapped_bytes), not the
 # process: Mesa/LLVM, render workers' scenes and framebuffers, the DAG and the heap come on
-# top (an idle server that has drawn 1024x768 holds ~120-230 MB, see README "Idle memory").
+# top (an idle server that has drawn 1024x768 holds ~120-230 MB, see bench/README.md "Idle memory").
 # Mapped segment pages are page cache charged to the group: under the limit the kernel reclaims
 # them and they are read again (page-ins); anonymous memory (decoded arrays, heap) cannot go
 # anywhere without swap, so a limit below it ends in an OOM kill.
