@@ -24,7 +24,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 
 int run_serve(const Arguments& raw) {
   Args args(raw, {"--read-only"}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
-                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--hello-timeout", "--worker-idle-release", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
+                      "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--max-connections-per-ip", "--hello-timeout", "--worker-idle-release", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
                       "--interaction-scale", "--frame-ms", "--refine-growth", "--web", "--memory-mb"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
@@ -51,6 +51,7 @@ int run_serve(const Arguments& raw) {
   o.max_running_jobs = std::max(1u, args.number("--max-jobs", o.max_running_jobs));
   o.max_queued_jobs = args.number("--max-queued-jobs", o.max_queued_jobs);
   o.max_connections = std::max(1u, args.number("--max-connections", o.max_connections));
+  o.max_connections_per_ip = std::max(1u, args.number("--max-connections-per-ip", o.max_connections_per_ip));
   o.min_upload_bytes_per_second = args.number("--min-upload-rate", static_cast<uint32_t>(o.min_upload_bytes_per_second));
   o.hello_timeout = std::chrono::seconds(std::max(1u, args.number("--hello-timeout", static_cast<uint32_t>(o.hello_timeout.count() / 1000))));
   // 0: a worker keeps its scene and buffers while idle

@@ -47,7 +47,7 @@ constexpr const char* kUsage =
     "                                [--max-sessions N] [--max-message-bytes B] [--max-messages-per-second N] [--max-image-side S]\n"
     "                                [--max-upload-mb M] [--max-jobs N] [--max-fps F] [--budget TETS] [--interaction-budget TETS]\n"
     "                                [--interaction-scale S] [--frame-ms MS] [--refine-growth G] [--web DIR]\n"
-    "                                [--max-queued-jobs N (16)] [--job-memory-mb M (physical memory)] [--job-cpu-seconds S (none)] [--max-connections N (256)]\n"
+    "                                [--max-queued-jobs N (16)] [--job-memory-mb M (physical memory)] [--job-cpu-seconds S (none)] [--max-connections N (256)] [--max-connections-per-ip N (32)]\n"
     "                                [--hello-timeout S (10)] [--min-upload-rate BYTES_PER_S (4096, over 10 s windows)]\n"
     "                                [--worker-idle-release S (5; 0: never)]  a render worker idle that long gives back its scene and buffers\n"
     "                                [--read-only]  a replica beside a writer: no uploads, jobs or deletes (docs/deploy.md)\n"

@@ -7,7 +7,7 @@ const $ = (id) => document.getElementById(id);
 const kFollowKey = 'tetrascope.job';
 const kPollMs = 500;
 const kIdlePollMs = 10000;  // jobs started elsewhere show up within this
-const kNamePattern = /^[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}$/;
+const kNamePattern = /^[A-Za-z0-9_][A-Za-z0-9._-]{0,127}$/;  // the server's valid_name
 
 export class Jobs {
   // onDatasetsChanged(): reload the dataset list; onDone(name): a followed job made `name`
@@ -42,9 +42,9 @@ export class Jobs {
       status.textContent = 'Choose a mesh file first (.vtk, .vtu, .msh, .node/.ele, .off).';
       return;
     }
-    const name = $('job-name').value.trim() || file.name.replace(/\.[^.]*$/, '').replace(/[^A-Za-z0-9._-]/g, '_');
+    const name = $('job-name').value.trim() || file.name.replace(/\.[^.]*$/, '').replace(/[^A-Za-z0-9._-]/g, '_').replace(/^[.-]+/, '');
     if (!kNamePattern.test(name)) {
-      status.textContent = `'${name}' is not a usable name: letters, digits, '.', '_' and '-', up to 128, not starting with '.'.`;
+      status.textContent = `'${name}' is not a usable name: letters, digits, '.', '_' and '-', up to 128, not starting with '.' or '-'.`;
       return;
     }
     // checked before uploading, so that a taken name leaves no orphaned upload behind
@@ -58,7 +58,7 @@ export class Jobs {
       status.textContent = `Job ${busy.id} is already making '${name}'.`;
       return;
     }
-    const safeFile = file.name.replace(/[^A-Za-z0-9._-]/g, '_').replace(/^\.+/, '') || 'mesh';
+    const safeFile = file.name.replace(/[^A-Za-z0-9._-]/g, '_').replace(/^[.-]+/, '') || 'mesh';
     $('job-progress').value = 0;
     status.textContent = `Uploading ${file.name} (${(file.size / 1048576).toFixed(1)} MB)...`;
     const upload = await this.api(`/api/v1/uploads?name=${encodeURIComponent(safeFile)}`, { method: 'POST', body: file });

@@ -23,6 +23,18 @@ double number(const std::string& key, const std::string& text) {
 
 }  // namespace
 
+double view_scale(const storage::Bounds& bounds) {
+  const V3 lo{bounds.min[0], bounds.min[1], bounds.min[2]}, hi{bounds.max[0], bounds.max[1], bounds.max[2]};
+  const double diagonal = std::sqrt(dot(hi - lo, hi - lo));
+  double far_from_origin = 0;  // a box far from the origin needs a distance its coordinates can resolve
+  for (int k = 0; k < 3; ++k) far_from_origin = std::max({far_from_origin, std::fabs(lo[k]), std::fabs(hi[k])});
+  if (!std::isfinite(far_from_origin)) return 1;
+  if (!std::isfinite(diagonal)) return 1;
+  // a box within a few float32 steps of a point: a size its coordinates resolve, seen around it
+  const double scale = std::max(diagonal, 1e-5 * far_from_origin);
+  return scale > 0 ? scale : 1;
+}
+
 Camera default_camera(const storage::Bounds& bounds) {
   return parse_camera("azimuth=30,elevation=20,fov=30,distance=" + std::to_string(kDefaultViewDistance), bounds);
 }
@@ -49,8 +61,7 @@ Camera parse_camera(const std::string& text, const storage::Bounds& bounds) {
   }
   Camera c;
   const V3 centre{(bounds.min[0] + bounds.max[0]) / 2, (bounds.min[1] + bounds.max[1]) / 2, (bounds.min[2] + bounds.max[2]) / 2};
-  const double diagonal = std::max(1e-30, std::sqrt(dot((V3{bounds.max[0], bounds.max[1], bounds.max[2]} - V3{bounds.min[0], bounds.min[1], bounds.min[2]}),
-                                                        (V3{bounds.max[0], bounds.max[1], bounds.max[2]} - V3{bounds.min[0], bounds.min[1], bounds.min[2]}))));
+  const double diagonal = view_scale(bounds);
   std::optional<double> azimuth, elevation, distance;
   bool eye = false, target = false;
   auto vec = [](const std::string& key, const std::vector<std::string>& v) {

@@ -128,6 +128,7 @@ CeilingError measure_ceiling_error(const storage::TetMesh& m, std::span<const ui
   std::vector<double> original(C), corner(4 * size_t{C});
   std::vector<float> values(table.floats);
   out.located_tet.resize(original_vertices.size());
+  if (m.tet_count() == 0) return out;  // nothing to locate in (the caller keeps a ceiling's tets)
   for (size_t i = 0; i < original_vertices.size(); ++i) {
     const uint32_t v = original_vertices[i];
     double bary[4];

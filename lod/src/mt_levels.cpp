@@ -464,6 +464,13 @@ class LevelBuilder {
     so.max_error = cap;
     const storage::TetMesh before = m;
     SimplifyReport sr = simplify(m, so, locked);
+    if (m.tet_count() == 0 && before.tet_count() > 0) {
+      // copies of one tet (a duplicated cell in the input) go together in one collapse: the
+      // ceiling is kept as it was rather than left with no tets
+      m = before;
+      so = ceiling_options(before.tet_count());
+      sr = simplify(m, so, locked);
+    }
     out.global = kept_global_ids(m, before, sr.source_vertex, global);
     out.tetgen_failure = sr.tetgen_failure;
     out.variants = ceiling_variants(before, locked, global, m.tet_count(), cap);

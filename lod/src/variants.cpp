@@ -28,7 +28,7 @@ namespace tetrascope::lod {
 namespace {
 
 constexpr char kMagic[8] = {'T', 'S', 'V', 'A', 'R', 'N', 'T', 'S'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: a CRC-32 a block
 
 struct FileHeader {
   char magic[8];
@@ -41,8 +41,9 @@ static_assert(sizeof(FileHeader) == 56);  // (FileEntry after it stays 8-aligned
 struct FileEntry {
   uint32_t node, rank;
   uint64_t offset, vertices, tets, stream_bytes;  // offset from data_offset
+  uint32_t crc, reserved;                         // CRC-32 of the block's bytes (padding included); zero
 };
-static_assert(sizeof(FileEntry) == 40);
+static_assert(sizeof(FileEntry) == 48);
 
 uint64_t vertex_bytes(uint64_t vertices, uint32_t floats) { return vertices * (4 + 12 + 4 * uint64_t{floats}); }
 uint64_t block_bytes(uint64_t vertices, uint64_t stream_bytes, uint32_t floats) { return (vertex_bytes(vertices, floats) + stream_bytes + 3) & ~uint64_t{3}; }
@@ -100,7 +101,6 @@ void VariantSpill::add(uint32_t node, const std::vector<VariantMesh>& variants) 
       if (o == kNoOppositeFace) o = storage::store::kMeshBoundary;
     stream_.clear();
     storage::encode_tets(v.tets, opposite_, stream_);
-    entries_.push_back({node, rank++, end_, nv, nt, stream_.size()});
     write_all(fd_, v.global.data(), 4 * nv, end_, directory_);
     write_all(fd_, v.xyz.data(), 12 * nv, end_ + 4 * nv, directory_);
     write_all(fd_, v.values.data(), 4 * nv * floats_, end_ + 16 * nv, directory_);
@@ -108,6 +108,12 @@ void VariantSpill::add(uint32_t node, const std::vector<VariantMesh>& variants) 
     const uint64_t block = block_bytes(nv, stream_.size(), floats_), padding = block - vertex_bytes(nv, floats_) - stream_.size();
     const char zero[4] = {0, 0, 0, 0};
     if (padding) write_all(fd_, zero, padding, end_ + block - padding, directory_);  // the next block starts 4-aligned
+    uint32_t crc = storage::crc32_of(v.global.data(), 4 * nv);  // the block's bytes, in file order
+    crc = storage::crc32_of(v.xyz.data(), 12 * nv, crc);
+    crc = storage::crc32_of(v.values.data(), 4 * nv * floats_, crc);
+    crc = storage::crc32_of(stream_.data(), stream_.size(), crc);
+    crc = storage::crc32_of(zero, padding, crc);
+    entries_.push_back({node, rank++, end_, nv, nt, stream_.size(), crc});
     end_ += block;
     tets_ += nt;
   }
@@ -118,7 +124,7 @@ uint64_t VariantSpill::write(const std::filesystem::path& file, uint32_t node_co
   index.reserve(entries_.size());
   for (const Entry& e : entries_) {
     if (e.node >= node_count) throw std::logic_error("VariantSpill::write: a variant of a node the DAG lacks");
-    index.push_back({e.node, e.rank, e.offset, e.vertices, e.tets, e.stream_bytes});
+    index.push_back({e.node, e.rank, e.offset, e.vertices, e.tets, e.stream_bytes, e.crc, 0});
   }
   std::stable_sort(index.begin(), index.end(), [](const FileEntry& a, const FileEntry& b) { return a.node < b.node || (a.node == b.node && a.rank < b.rank); });
   FileHeader h{};
@@ -212,9 +218,10 @@ std::unique_ptr<Variants> Variants::open(const storage::Store& store, const Dag&
       damaged("the variants of segment " + std::to_string(e.node) + " do not grow from the segment's tets");
     if (e.offset % 4 != 0 || e.offset > data || e.stream_bytes > data || block_bytes(e.vertices, e.stream_bytes, h.floats) > data - e.offset)
       damaged("a variant's block lies outside the file");
-    out->entries_.push_back({h.data_offset + e.offset, e.vertices, e.tets, e.stream_bytes});
+    out->entries_.push_back({h.data_offset + e.offset, e.vertices, e.tets, e.stream_bytes, e.crc});
     ++out->first_[e.node + 1];
   }
+  out->checked_ = std::make_unique<std::atomic<bool>[]>(out->entries_.size());
   for (size_t n = 1; n < out->first_.size(); ++n) {
     if (out->first_[n] > kMaxVariants) damaged("segment " + std::to_string(n - 1) + " has " + std::to_string(out->first_[n]) + " variants, at most " + std::to_string(kMaxVariants));
     out->first_[n] += out->first_[n - 1];
@@ -236,6 +243,12 @@ VariantView Variants::view(uint32_t node, uint32_t index) const {
   if (index >= count(node)) throw std::out_of_range("Variants::view: segment " + std::to_string(node) + " has no variant " + std::to_string(index));
   const Entry& e = entries_[first_[node] + index];
   const char* p = static_cast<const char*>(address_) + e.offset;
+  std::atomic<bool>& checked = checked_[first_[node] + index];
+  if (!checked.load(std::memory_order_acquire)) {  // the block's checksum, the first time it is shown
+    if (storage::crc32_of(p, block_bytes(e.vertices, e.stream_bytes, floats_)) != e.crc)
+      damaged("variant " + std::to_string(index + 1) + " of segment " + std::to_string(node) + ": checksum mismatch");
+    checked.store(true, std::memory_order_release);
+  }
   VariantView v;
   v.vertex_count = e.vertices;
   v.tet_count = e.tets;

@@ -7,12 +7,14 @@
 #include <cstring>
 
 #include "tetrascope/lod/cut.h"
+#include "tetrascope/lod/variants.h"
+#include "tetrascope/protocol/protocol.h"
 
 namespace tetrascope::server {
 namespace fs = std::filesystem;
 
 bool valid_name(const std::string& name) {
-  if (name.empty() || name.size() > 128 || name[0] == '.') return false;
+  if (name.empty() || name.size() > 128 || name[0] == '.' || name[0] == '-') return false;
   for (char c : name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) return false;
   return true;
@@ -57,23 +59,40 @@ size_t sweep_data_leftovers(const fs::path& data_dir) {
   return leftovers.size();
 }
 
-void Dataset::watch(std::weak_ptr<void> owner, std::function<void()> on_deleted) {
-  std::lock_guard lock(watch_mutex_);
-  std::erase_if(watchers_, [](const auto& w) { return w.first.expired(); });
-  if (!deleted_) watchers_.emplace_back(std::move(owner), std::move(on_deleted));
+bool is_store_damage(const std::exception& e) {
+  return dynamic_cast<const storage::StoreError*>(&e) || dynamic_cast<const lod::DagError*>(&e) || dynamic_cast<const lod::VariantsError*>(&e) ||
+         dynamic_cast<const DatasetDamaged*>(&e);
 }
 
-size_t Dataset::notify_deleted() {
+void Dataset::watch(std::weak_ptr<void> owner, OnClosed on_closed) {
+  std::string code, message;
+  {
+    std::lock_guard lock(watch_mutex_);
+    std::erase_if(watchers_, [](const auto& w) { return w.first.expired(); });
+    if (!closed_) {
+      watchers_.emplace_back(std::move(owner), std::move(on_closed));
+      return;
+    }
+    code = closed_code_;
+    message = closed_message_;
+  }
+  on_closed(code, message);  // closed between the session's open and this call: told at once
+}
+
+size_t Dataset::notify_closed(const std::string& code, const std::string& message) {
   decltype(watchers_) watchers;
   {
     std::lock_guard lock(watch_mutex_);
-    deleted_ = true;
+    if (closed_) return 0;  // told once, whoever closes it second
+    closed_ = true;
+    closed_code_ = code;
+    closed_message_ = message;
     watchers.swap(watchers_);
   }
   size_t told = 0;
   for (auto& [owner, callback] : watchers)
     if (!owner.expired()) {
-      callback();
+      callback(code, message);
       ++told;
     }
   return told;
@@ -104,11 +123,19 @@ nlohmann::json DatasetRegistry::list() const {
   std::error_code ec;
   std::vector<fs::path> folders;
   for (const auto& entry : fs::directory_iterator(data_dir_, ec))
-    if (entry.is_directory() && valid_name(entry.path().filename().string()) && entry.path().filename() != "uploads") folders.push_back(entry.path());
+    if (!entry.is_symlink() && entry.is_directory() && valid_name(entry.path().filename().string()) && entry.path().filename() != "uploads")
+      folders.push_back(entry.path());
   std::sort(folders.begin(), folders.end());
   for (const auto& folder : folders) {
     const std::string name = folder.filename().string();
     if (!fs::exists(folder / "manifest.json")) continue;
+    {
+      std::lock_guard lock(mutex_);
+      if (auto why = damage_of(name)) {
+        out.push_back({{"name", name}, {"state", "damaged: " + *why}});
+        continue;
+      }
+    }
     try {
       auto store = storage::Store::open(folder);
       nlohmann::json summary = store_summary(name, *store);
@@ -121,19 +148,35 @@ nlohmann::json DatasetRegistry::list() const {
   return out;
 }
 
+std::optional<std::string> DatasetRegistry::damage_of(const std::string& name) const {
+  auto it = damaged_.find(name);
+  if (it == damaged_.end()) return std::nullopt;
+  std::error_code ec;
+  if (fs::last_write_time(data_dir_ / name / "manifest.json", ec) != it->second.manifest_time || ec) return std::nullopt;  // written anew since
+  return it->second.why;
+}
+
 std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   if (!valid_name(name)) throw NotFound("no dataset named '" + name + "'");
   std::lock_guard lock(mutex_);
   if (auto it = open_.find(name); it != open_.end()) return it->second;
   const fs::path folder = data_dir_ / name;
-  if (name == "uploads" || !fs::exists(folder / "manifest.json")) throw NotFound("no dataset named '" + name + "'");
+  std::error_code ec;
+  // a symlink may lead anywhere on the server: only folders inside the data folder are served
+  if (name == "uploads" || fs::is_symlink(folder, ec) || !fs::exists(folder / "manifest.json", ec)) throw NotFound("no dataset named '" + name + "'");
+  if (auto why = damage_of(name)) throw DatasetDamaged("'" + name + "' is damaged: " + *why);
+  damaged_.erase(name);
   auto d = std::make_shared<Dataset>();
   d->name = name;
   try {
     d->store = storage::Store::open(folder);
     d->dag = lod::open_dag(*d->store);
+    if (d->dag) lod::Variants::open(*d->store, *d->dag);  // its header and index checked now; a variant's block when shown
   } catch (const std::exception& e) {
-    throw std::runtime_error(without_server_paths(e.what(), data_dir_));
+    const std::string why = without_server_paths(e.what(), data_dir_);
+    if (!is_store_damage(e)) throw std::runtime_error(why);
+    damaged_[name] = {why, fs::last_write_time(folder / "manifest.json", ec)};
+    throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   if (!d->dag) throw std::runtime_error(name + " is a single-level store: run tetrascope preprocess to view it");
   d->cache = std::make_unique<storage::SegmentCache>(*d->store, pool_);
@@ -141,7 +184,15 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   d->info["levels"] = d->dag->level_count();
   // value histograms of the coarsest level, for the transfer-function editor
   lod::Cut coarse(*d->dag);
-  const auto mesh = lod::assemble_cut(*d->store, *d->cache, coarse, false).mesh;
+  storage::TetMesh mesh;
+  try {
+    mesh = lod::assemble_cut(*d->store, *d->cache, coarse, false).mesh;
+  } catch (const std::exception& e) {  // a coarsest segment fails its checksum
+    const std::string why = without_server_paths(e.what(), data_dir_);
+    if (!is_store_damage(e)) throw std::runtime_error(why);
+    damaged_[name] = {why, fs::last_write_time(folder / "manifest.json", ec)};
+    throw DatasetDamaged("'" + name + "' is damaged: " + why);
+  }
   d->info["coarsest_tets"] = mesh.tet_count();
   for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
     const auto& attr = mesh.attributes[a];
@@ -166,6 +217,20 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   return d;
 }
 
+size_t DatasetRegistry::close_damaged(const std::shared_ptr<Dataset>& dataset, const std::string& why) {
+  if (!dataset) return 0;
+  const std::string reason = without_server_paths(why, data_dir_);
+  {
+    std::lock_guard lock(mutex_);
+    if (auto it = open_.find(dataset->name); it != open_.end() && it->second == dataset) {
+      open_.erase(it);
+      std::error_code ec;
+      damaged_[dataset->name] = {reason, fs::last_write_time(data_dir_ / dataset->name / "manifest.json", ec)};
+    }
+  }
+  return dataset->notify_closed(protocol::code::kDatasetDamaged, "the dataset '" + dataset->name + "' is damaged and was closed: " + reason);
+}
+
 size_t DatasetRegistry::remove(const std::string& name) {
   if (!valid_name(name) || name == "uploads") throw NotFound("no dataset named '" + name + "'");
   std::shared_ptr<Dataset> open;
@@ -185,8 +250,9 @@ size_t DatasetRegistry::remove(const std::string& name) {
       open = it->second;
       open_.erase(it);
     }
+    damaged_.erase(name);
   }
-  const size_t sessions = open ? open->notify_deleted() : 0;
+  const size_t sessions = open ? open->notify_closed(protocol::code::kDatasetDeleted, "the dataset '" + name + "' was deleted; open another") : 0;
   std::error_code ec;
   fs::remove_all(trash, ec);  // sessions still rendering hold mapped segments: unlinked files stay readable
   return sessions;

@@ -19,8 +19,14 @@
 
 namespace tetrascope::server {
 
-// A file or dataset name: 1-128 characters of [A-Za-z0-9._-], not starting with a dot.
+// A file or dataset name: 1-128 characters of [A-Za-z0-9._-], not starting with a dot or a
+// dash (a name is passed to `tetrascope` as an argument, where "-x" would read as an option).
 bool valid_name(const std::string& name);
+
+// True for the errors that say a store's bytes are damaged or do not fit together (a checksum,
+// a count, a format version): the dataset is closed for every session, not only the one whose
+// frame met it.
+bool is_store_damage(const std::exception& e);
 
 // `relative` resolved inside `root`: refused (nullopt) when absolute, when it holds "..",
 // or when the existing part of the path leads outside `root` through a symlink.
@@ -47,16 +53,26 @@ struct Dataset {
   std::unique_ptr<storage::SegmentCache> cache;
   nlohmann::json info;  // name, counts, levels, bounds, attributes (range, 64-bin histogram of the coarsest level)
 
-  // Sessions viewing the dataset register here; deleting it calls each callback once (from
-  // the deleting thread: a callback posts to its session's executor). `owner` expires with
-  // its session, and its callback is dropped then.
-  void watch(std::weak_ptr<void> owner, std::function<void()> on_deleted);
-  size_t notify_deleted();  // how many live watchers were told
+  // Sessions viewing the dataset register here; closing it (deleted, or found damaged) calls
+  // each callback once with an error code and message (from the closing thread: a callback
+  // posts to its session's executor). `owner` expires with its session, and its callback is
+  // dropped then. A watcher that registers after the close is called at once.
+  using OnClosed = std::function<void(const std::string& code, const std::string& message)>;
+  void watch(std::weak_ptr<void> owner, OnClosed on_closed);
+  size_t notify_closed(const std::string& code, const std::string& message);  // how many live watchers were told
 
  private:
   std::mutex watch_mutex_;
-  bool deleted_ = false;
-  std::vector<std::pair<std::weak_ptr<void>, std::function<void()>>> watchers_;
+  bool closed_ = false;
+  std::string closed_code_, closed_message_;
+  std::vector<std::pair<std::weak_ptr<void>, OnClosed>> watchers_;
+};
+
+// Thrown by DatasetRegistry::open for a store that fails its checks (what is wrong, paths
+// relative to the data folder).
+class DatasetDamaged : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 class DatasetRegistry {
@@ -67,9 +83,15 @@ class DatasetRegistry {
   // Every store folder: name, state ("ready", or why it cannot be viewed) and, when ready,
   // counts, attributes with ranges and bounds.
   nlohmann::json list() const;
-  // Opens (once) and returns a dataset. Throws NotFound, or std::runtime_error saying why the
-  // store cannot be viewed.
+  // Opens (once) and returns a dataset: its manifest, segment directory, DAG and variants index
+  // checked (segments are checked as they are mapped). Throws NotFound (no such store, or a
+  // symlink: only folders inside the data folder are served), DatasetDamaged, or
+  // std::runtime_error saying why the store cannot be viewed.
   std::shared_ptr<Dataset> open(const std::string& name);
+  // `dataset` failed a check while it was viewed: it is closed for all its sessions (each is told
+  // `dataset_damaged` and why), and refused by open() and marked in list() until its store
+  // changes on disk. Returns how many sessions were viewing it.
+  size_t close_damaged(const std::shared_ptr<Dataset>& dataset, const std::string& why);
   storage::SegmentPool::Stats cache_totals() const { return pool_->stats(); }
   uint64_t cache_budget() const { return pool_->budget(); }
   std::map<std::string, storage::SegmentCache::Stats> cache_by_dataset() const;  // the open datasets
@@ -83,6 +105,13 @@ class DatasetRegistry {
   std::shared_ptr<storage::SegmentPool> pool_;
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Dataset>> open_;
+  // Stores found damaged: why, and the manifest's change time then (a rebuilt store is tried again).
+  struct Damage {
+    std::string why;
+    std::filesystem::file_time_type manifest_time;
+  };
+  std::map<std::string, Damage> damaged_;
+  std::optional<std::string> damage_of(const std::string& name) const;  // under mutex_
 };
 
 }  // namespace tetrascope::server

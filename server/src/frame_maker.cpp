@@ -70,11 +70,16 @@ RenderedFrame FrameMaker::render(const ViewState& state, const FramePlan& plan, 
 
 void FrameMaker::open(const std::shared_ptr<Dataset>& dataset) {
   if (!dataset) throw std::logic_error("a frame of no dataset");  // the session checks first; never a null dereference
-  if (dataset_ == dataset) return;
+  if (dataset_ == dataset && pipeline_) return;
+  // the pipeline first: when it cannot be made (a damaged variants.bin) nothing is half set,
+  // and the next frame of this dataset tries again rather than drawing with no pipeline
+  dataset_.reset();
+  pipeline_.reset();
+  auto pipeline = std::make_unique<renderer::ViewPipeline>(*dataset->store, *dataset->dag, *dataset->cache);
+  coarsest_tets_ = lod::Cut(*dataset->dag).tet_count();
+  finest_tets_ = dataset->info.value("tets", uint64_t{0});
+  pipeline_ = std::move(pipeline);
   dataset_ = dataset;
-  pipeline_ = std::make_unique<renderer::ViewPipeline>(*dataset_->store, *dataset_->dag, *dataset_->cache);
-  coarsest_tets_ = lod::Cut(*dataset_->dag).tet_count();
-  finest_tets_ = dataset_->info.value("tets", uint64_t{0});
 }
 
 RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& plan, const FrameCostModel& cost, const ServerOptions& options, Worker& worker,

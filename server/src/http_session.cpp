@@ -26,10 +26,17 @@ std::string bytes_text(uint64_t bytes) { return std::to_string(bytes); }
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(Server::Impl& server, tcp::socket socket) : server_(server), stream_(std::move(socket)), upload_timer_(stream_.get_executor()) {
+  // `address`: the client's, already counted in connections_by_ip by accept()
+  HttpSession(Server::Impl& server, tcp::socket socket, net::ip::address address)
+      : server_(server), stream_(std::move(socket)), upload_timer_(stream_.get_executor()), address_(std::move(address)) {
     ++server_.http_connections;
   }
   ~HttpSession() {
+    {
+      std::lock_guard lock(server_.connections_mutex);
+      if (auto it = server_.connections_by_ip.find(address_); it != server_.connections_by_ip.end() && --it->second == 0) server_.connections_by_ip.erase(it);
+      if (waiting_) server_.waiting_headers.erase(*waiting_);
+    }
     --server_.http_connections;
     if (upload_.temp_fd >= 0) ::close(upload_.temp_fd);
     if (!upload_.temp_path.empty()) {
@@ -44,11 +51,35 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     parser_.emplace();
     parser_->header_limit(kMaxHeaderBytes);
     parser_->body_limit(boost::none);  // bodies are limited by the parser that reads them (upload or REST)
-    stream_.expires_after(kHeaderTimeout);
+    // near the connection cap a header has little time: slow clients cannot hold the slots
+    stream_.expires_after(server_.near_connection_cap() ? std::chrono::duration_cast<std::chrono::seconds>(Server::Impl::kBusyHeaderTimeout) : kHeaderTimeout);
+    {
+      std::lock_guard lock(server_.connections_mutex);
+      waiting_ = server_.next_waiting++;
+      server_.waiting_headers[*waiting_] = {std::chrono::steady_clock::now(), [weak = weak_from_this()] {
+                                              if (auto self = weak.lock()) net::post(self->stream_.get_executor(), [self] { self->evict(); });
+                                            }};
+    }
     http::async_read_header(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_header, shared_from_this()));
   }
 
+  void stop_waiting() {
+    std::lock_guard lock(server_.connections_mutex);
+    if (waiting_) server_.waiting_headers.erase(*waiting_);
+    waiting_.reset();
+  }
+
+  // Strand. Closed at the connection cap while waiting on its header (evict_one_waiting).
+  void evict() {
+    if (parser_ && parser_->is_header_done()) return;  // its header came meanwhile
+    ++server_.metrics.connections_evicted;
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_both, ec);
+    stream_.cancel();
+  }
+
   void on_header(beast::error_code ec, size_t) {
+    stop_waiting();
     if (ec) return refuse_malformed(ec);
     ++server_.metrics.http_requests;
     const auto& request = parser_->get();
@@ -205,7 +236,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
         return reply_then_close(error_response(request, http::status::payload_too_large, "too_large", "upload over the limit of " + bytes_text(server_.options.max_upload_bytes) + " bytes"));
       return shutdown();
     }
-    Response response = finish_upload(reply_to(request), upload_);
+    Response response = finish_upload(server_, reply_to(request), upload_);
     upload_ = {};
     reply(std::move(response));
   }
@@ -251,6 +282,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   net::steady_timer upload_timer_;
   uint64_t upload_checked_bytes_ = 0;
   bool upload_too_slow_ = false;
+  net::ip::address address_;
+  std::optional<uint64_t> waiting_;  // its entry in waiting_headers while it waits on a header
 };
 
 }  // namespace
@@ -259,8 +292,19 @@ void Server::Impl::accept() {
   acceptor->async_accept(net::make_strand(io), [this](beast::error_code ec, tcp::socket socket) {
     if (stopped) return;
     if (ec) return on_accept_failed(ec);
-    if (http_connections >= static_cast<int64_t>(options.max_connections)) {
-      // over the cap: a short answer instead of a connection that holds a descriptor
+    beast::error_code address_ec;
+    const net::ip::address address = socket.remote_endpoint(address_ec).address();
+    // at the cap, a connection that has waited on its header longest makes room
+    bool refused = http_connections >= static_cast<int64_t>(options.max_connections) && !evict_one_waiting();
+    if (!refused) {
+      std::lock_guard lock(connections_mutex);
+      unsigned& from_address = connections_by_ip[address];
+      refused = from_address >= options.max_connections_per_ip;
+      if (!refused) ++from_address;
+      else if (from_address == 0) connections_by_ip.erase(address);
+    }
+    if (refused) {
+      // over a cap: a short answer instead of a connection that holds a descriptor
       static constexpr std::string_view kBusy =
           "HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: 40\r\nConnection: close\r\n\r\n"
           "too many connections; try again shortly\n";
@@ -271,10 +315,27 @@ void Server::Impl::accept() {
       ++metrics.http_requests;
       metrics.count_http_error("connection", 503);
     } else {
-      std::make_shared<HttpSession>(*this, std::move(socket))->start();
+      std::make_shared<HttpSession>(*this, std::move(socket), address)->start();
     }
     accept();
   });
+}
+
+bool Server::Impl::evict_one_waiting() {
+  std::function<void()> close;
+  {
+    std::lock_guard lock(connections_mutex);
+    const auto now = std::chrono::steady_clock::now();
+    for (auto it = waiting_headers.begin(); it != waiting_headers.end(); ++it)  // oldest first
+      if (now - it->second.since >= kEvictAfter) {
+        close = std::move(it->second.close);
+        waiting_headers.erase(it);
+        break;
+      }
+  }
+  if (!close) return false;
+  close();  // outside the lock: the connection's last reference may go here
+  return true;
 }
 
 void Server::Impl::on_accept_failed(const boost::system::error_code& ec) {

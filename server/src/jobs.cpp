@@ -138,7 +138,7 @@ nlohmann::json JobRunner::submit(const nlohmann::json& body) {
   std::error_code ec;
   if (!fs::is_regular_file(*path, ec)) throw BadRequest(404, "not_found", "source: no file '" + source + "' in the data folder");
   if (!valid_name(name) || name == "uploads" || name.ends_with(".tmp"))  // DATA/*.tmp are swept at start
-    throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.' nor ending with '.tmp'");
+    throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.' or '-' nor ending with '.tmp'");
   if (fs::exists(data_dir_ / name, ec)) throw BadRequest(409, "exists", "a dataset named '" + name + "' exists");
   nlohmann::json options = nlohmann::json::object();
   if (body.contains("options")) {

@@ -63,6 +63,8 @@ std::string prometheus_text(const Metrics& m, const MetricsSnapshotExtras& extra
   single("tetrascope_sessions_total", "counter", "WebSocket sessions accepted", double(m.sessions_total.load()));
   single("tetrascope_sessions_refused_total", "counter", "sessions refused at the session limit", double(m.sessions_refused.load()));
   labelled("tetrascope_frames_total", "counter", "frames rendered", "kind", {{"interaction", m.frames_interaction.load()}, {"refining", m.frames_refining.load()}, {"still", m.frames_still.load()}});
+  single("tetrascope_handler_exceptions_total", "counter", "exceptions no request or session handler caught (logged; the server went on)", double(m.handler_exceptions.load()));
+  single("tetrascope_connections_evicted_total", "counter", "connections waiting on their request header, closed at the connection cap to let a new one in", double(m.connections_evicted.load()));
   single("tetrascope_frames_interrupted_total", "counter", "refinement steps stopped by input before they were done (not sent)", double(m.frames_interrupted.load()));
   single("tetrascope_frame_cost_error_p50_percent", "gauge", "frame-time model: median of |measured - predicted| / measured over recent interaction frames", m.cost_error_p50_pct.load());
   single("tetrascope_frame_cost_error_p90_percent", "gauge", "frame-time model: 90th percentile of |measured - predicted| / measured", m.cost_error_p90_pct.load());

@@ -32,6 +32,8 @@ struct Metrics {
   std::atomic<uint64_t> frames_interaction{0}, frames_still{0}, frames_dropped{0}, frame_bytes{0};
   std::atomic<uint64_t> frames_refining{0};     // refinement steps sent before the still
   std::atomic<uint64_t> frames_interrupted{0};  // refinement steps stopped by input (not sent)
+  std::atomic<uint64_t> handler_exceptions{0};  // exceptions no handler caught (logged; the server goes on)
+  std::atomic<uint64_t> connections_evicted{0}; // connections idle or slow in their header, closed at the cap to let another in
   // the frame-time model's error on interaction frames, |measured - predicted| / measured (frame_cost.h)
   std::atomic<double> cost_error_p50_pct{0}, cost_error_p90_pct{0};
   std::atomic<uint64_t> messages{0}, http_requests{0};

@@ -63,8 +63,9 @@ void sweep_stale_uploads(const std::filesystem::path& data_dir);
 // The route class of a path, for counting error answers in /metrics: health, metrics,
 // openapi, datasets, uploads, jobs, session, static.
 std::string route_class(const std::string& path);
-// Moves a complete upload into place: 201 {path, bytes}, or 500 when it cannot.
-Response finish_upload(ReplyTo to, const UploadPaths& paths);
+// Moves a complete upload into place: 201 {path, bytes}; 409 when a job submitted meanwhile
+// reads the name (the new bytes are dropped); 500 when it cannot.
+Response finish_upload(Server::Impl& server, ReplyTo to, const UploadPaths& paths);
 
 // static_files.cpp: the web client at /, the protocol codec and schemas at /protocol/.
 Response get_openapi(const RestRequest& r);

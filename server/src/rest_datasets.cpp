@@ -10,6 +10,8 @@ Response get_dataset(const RestRequest& r) {
     return json_response(r.request, http::status::ok, r.server.datasets->open(r.tail)->info);
   } catch (const NotFound& e) {
     return error_response(r.request, http::status::not_found, "not_found", e.what());
+  } catch (const DatasetDamaged& e) {
+    return error_response(r.request, http::status::conflict, "dataset_damaged", e.what());
   } catch (const std::exception& e) {
     return error_response(r.request, http::status::conflict, "not_viewable", e.what());
   }

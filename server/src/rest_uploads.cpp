@@ -42,7 +42,7 @@ Response delete_upload(const RestRequest& r) {
 UploadPaths upload_paths(Server::Impl& server, const Target& target) {
   auto it = target.query.find("name");
   const std::string name = it == target.query.end() ? "" : it->second;
-  if (!valid_name(name)) throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.'");
+  if (!valid_name(name)) throw BadRequest(400, "bad_request", "name: 1-128 letters, digits, '.', '_' or '-', not starting with '.' or '-'");
   const fs::path folder = server.options.data_dir / "uploads";
   std::error_code ec;
   fs::create_directories(folder, ec);
@@ -50,6 +50,9 @@ UploadPaths upload_paths(Server::Impl& server, const Target& target) {
   paths.final_path = folder / name;
   {
     std::lock_guard lock(server.uploads_mutex);
+    // a queued or running job's input stays what it was submitted with (refused before the body comes)
+    if (auto job = server.jobs ? server.jobs->job_reading("uploads/" + name) : std::nullopt)
+      throw BadRequest(409, "in_use", "job " + *job + " reads uploads/" + name + "; cancel it or wait until it ends before replacing it");
     if (!server.uploads_in_progress.insert(name).second)
       throw BadRequest(409, "upload_in_progress", "an upload of '" + name + "' is streaming in already; try again when it has finished");
   }
@@ -74,9 +77,16 @@ void sweep_stale_uploads(const fs::path& data_dir) {
   }
 }
 
-Response finish_upload(ReplyTo to, const UploadPaths& paths) {
+Response finish_upload(Server::Impl& server, ReplyTo to, const UploadPaths& paths) {
   std::error_code ec;
   const uint64_t bytes = fs::file_size(paths.temp_path, ec);
+  std::lock_guard lock(server.uploads_mutex);
+  const std::string name = paths.final_path.filename().string();
+  // a job submitted while the body streamed in reads the file as it was
+  if (auto job = server.jobs ? server.jobs->job_reading("uploads/" + name) : std::nullopt) {
+    fs::remove(paths.temp_path, ec);
+    return error_response(to, http::status::conflict, "in_use", "job " + *job + " reads uploads/" + name + "; cancel it or wait until it ends before replacing it");
+  }
   fs::rename(paths.temp_path, paths.final_path, ec);
   if (ec) return error_response(to, http::status::internal_server_error, "internal", "cannot store the upload: " + ec.message());
   return json_response(to, http::status::created, {{"path", "uploads/" + paths.final_path.filename().string()}, {"bytes", bytes}});

@@ -3,6 +3,7 @@
 #include <malloc.h>
 
 #include <csignal>
+#include <cstdio>
 
 #include "rest.h"
 #include "server_impl.h"
@@ -48,7 +49,24 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   s.accept();
   s.idle_trim = std::make_unique<net::steady_timer>(s.io);
   s.trim_when_idle();
-  for (unsigned i = 0; i < std::max(1u, s.options.io_threads); ++i) s.threads.emplace_back([&s] { s.io.run(); });
+  for (unsigned i = 0; i < std::max(1u, s.options.io_threads); ++i) s.threads.emplace_back([&s] { s.run_io(); });
+}
+
+void Server::Impl::run_io() {
+  // Handlers catch what they expect; an exception one did not is logged and counted, and the
+  // thread goes on serving: one request or session never ends the process for every user.
+  for (;;) {
+    try {
+      io.run();
+      return;
+    } catch (const std::exception& e) {
+      ++metrics.handler_exceptions;
+      std::fprintf(stderr, "tetrascope serve: a request failed unexpectedly: %s\n", without_server_paths(e.what(), options.data_dir).c_str());
+    } catch (...) {
+      ++metrics.handler_exceptions;
+      std::fprintf(stderr, "tetrascope serve: a request failed unexpectedly\n");
+    }
+  }
 }
 
 Server::~Server() {

@@ -3,6 +3,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -54,6 +56,25 @@ struct Server::Impl {
 
   void accept();
   void on_accept_failed(const boost::system::error_code& ec);
+  void run_io();  // one io thread: io.run(), going on past any exception a handler let through
+
+  // Connections per client address, and those waiting on a request header (a slow or idle
+  // client), by arrival: at the connection cap the oldest of these that has waited at least
+  // kEvictAfter is closed to let a new connection in, so clients that trickle headers cannot
+  // hold every slot; near the cap a header must arrive within kBusyHeaderTimeout.
+  static constexpr std::chrono::seconds kEvictAfter{1};
+  static constexpr std::chrono::seconds kBusyHeaderTimeout{5};
+  struct Waiting {
+    std::chrono::steady_clock::time_point since;
+    std::function<void()> close;  // posts the close to the connection's strand
+  };
+  std::mutex connections_mutex;
+  std::map<net::ip::address, unsigned> connections_by_ip;
+  std::map<uint64_t, Waiting> waiting_headers;
+  uint64_t next_waiting = 0;
+  bool near_connection_cap() const { return http_connections * 4 >= int64_t{options.max_connections} * 3; }
+  // Closes the oldest connection waiting on a header for kEvictAfter or longer; false if none.
+  bool evict_one_waiting();
   // constant time in the token's length
   bool token_matches(std::string_view offered) const;
 };

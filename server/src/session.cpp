@@ -109,14 +109,21 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       apply(envelope);
       bad_in_row_ = 0;
     } catch (const protocol::ProtocolError& e) {
-      refuse(e.code(), e.what(), e.id());
+      refuse(e.code(), client_text(e.what()), e.id());
+    } catch (const std::exception& e) {
+      // whatever a message makes fail stays in this session's reply, never the process's end
+      refuse(protocol::code::kInternal, client_text(e.what()), std::nullopt);
     }
   }
+
+  // An error's text as a client may see it: no path on the server, paths inside the data
+  // folder relative to it.
+  std::string client_text(const std::string& message) const { return without_server_paths(message, server_.options.data_dir); }
 
   void refuse(const std::string& code, const std::string& message, std::optional<uint32_t> id) {
     server_.metrics.count_error(code);
     send_text(protocol::error_reply(code, message, id));
-    if (++bad_in_row_ > server_.options.limits.max_bad_messages || code == protocol::code::kUnauthorized) {
+    if (++bad_in_row_ >= server_.options.limits.max_bad_messages || code == protocol::code::kUnauthorized) {
       closing_ = true;
       close_down();
       ws_.async_close(websocket::close_reason(websocket::close_code::policy_error, "too many bad messages"),
@@ -171,6 +178,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       dataset = server_.datasets->open(m.name);
     } catch (const NotFound& e) {
       throw protocol::ProtocolError(protocol::code::kNotFound, e.what(), id);
+    } catch (const DatasetDamaged& e) {
+      throw protocol::ProtocolError(protocol::code::kDatasetDamaged, e.what(), id);
     } catch (const std::exception& e) {
       throw protocol::ProtocolError(protocol::code::kNotFound, std::string("cannot open '") + m.name + "': " + e.what(), id);
     }
@@ -184,25 +193,28 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       s.view.clip = {};
       s.view.slices = {};
     });
-    // DELETE /api/v1/datasets/NAME closes the dataset for its sessions: this one is told
-    dataset->watch(weak_from_this(), [weak = weak_from_this(), raw = dataset.get(), name = dataset->name] {
-      if (auto self = weak.lock()) net::post(self->ws_.get_executor(), [self, raw, name] { self->on_dataset_deleted(raw, name); });
+    // DELETE /api/v1/datasets/NAME, or a check its store fails, closes the dataset for its
+    // sessions: this one is told
+    dataset->watch(weak_from_this(), [weak = weak_from_this(), raw = dataset.get()](const std::string& code, const std::string& message) {
+      if (auto self = weak.lock()) net::post(self->ws_.get_executor(), [self, raw, code, message] { self->on_dataset_closed(raw, code, message); });
     });
     send_text(dataset_info_reply(*dataset, lod::default_camera(dataset->store->manifest().bounds), id));
     schedule(Pending::kRefine);
     return Then::kReplied;
   }
 
-  // Strand. The dataset shown was deleted: no more frames of it, and the client hears why.
-  void on_dataset_deleted(const Dataset* deleted, const std::string& name) {
+  // Strand. The dataset shown was deleted or found damaged: no more frames of it, and the
+  // client hears why.
+  void on_dataset_closed(const Dataset* closed, const std::string& code, const std::string& message) {
     {
       std::lock_guard lock(mutex_);
-      if (state_.dataset.get() != deleted) return;  // another dataset is open by now
+      if (state_.dataset.get() != closed) return;  // another dataset is open by now
       state_.dataset.reset();
       pending_ = Pending::kNone;
       ++input_epoch_;  // a step under way stops at its next chunk and asks for no next one
     }
-    send_text(protocol::error_reply(protocol::code::kDatasetDeleted, "the dataset '" + name + "' was deleted; open another", std::nullopt));
+    server_.metrics.count_error(code);
+    send_text(protocol::error_reply(code, message, std::nullopt));
   }
 
   Then on_message(const protocol::CameraSet& m, uint32_t id) {
@@ -316,7 +328,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         std::lock_guard frames(self->frames_mutex_);
         reply = self->frames_.probe(snapshot, m.x, m.y, id);
       } catch (const std::exception& e) {
-        reply = protocol::error_reply(protocol::code::kInternal, std::string("probe failed: ") + e.what(), id);
+        if (is_store_damage(e)) self->server_.datasets->close_damaged(snapshot.dataset, e.what());
+        reply = protocol::error_reply(is_store_damage(e) ? protocol::code::kDatasetDamaged : protocol::code::kInternal,
+                                      "probe failed: " + self->client_text(e.what()), id);
       }
       net::post(self->ws_.get_executor(), [self, reply] { self->send_text(reply); });
     });
@@ -460,13 +474,19 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         });
       }
     } catch (const std::invalid_argument& e) {
-      const std::string reply = protocol::error_reply(protocol::code::kBadField, e.what(), snapshot.message_id);
+      const std::string reply = protocol::error_reply(protocol::code::kBadField, client_text(e.what()), snapshot.message_id);
       server_.metrics.count_error(protocol::code::kBadField);
       net::post(ws_.get_executor(), [self = shared_from_this(), reply] { self->send_text(reply); });
     } catch (const std::exception& e) {
-      const std::string reply = protocol::error_reply(protocol::code::kInternal, std::string("rendering failed: ") + e.what(), snapshot.message_id);
-      server_.metrics.count_error(protocol::code::kInternal);
-      net::post(ws_.get_executor(), [self = shared_from_this(), reply] { self->send_text(reply); });
+      if (is_store_damage(e)) {
+        // a segment or variant failed its check: the dataset closes for every session viewing it
+        // (each is told dataset_damaged), this one included
+        server_.datasets->close_damaged(snapshot.dataset, e.what());
+      } else {
+        const std::string reply = protocol::error_reply(protocol::code::kInternal, "rendering failed: " + client_text(e.what()), snapshot.message_id);
+        server_.metrics.count_error(protocol::code::kInternal);
+        net::post(ws_.get_executor(), [self = shared_from_this(), reply] { self->send_text(reply); });
+      }
     }
     Pending next;
     uint64_t next_ticket;

@@ -174,8 +174,11 @@ class ValueStream {
 
 class AsciiValues final : public ValueStream {
  public:
-  AsciiValues(std::shared_ptr<const InputFile> file, uint64_t offset, uint64_t line)
-      : cursor_(std::move(file), offset, line) {}
+  // `token_end`: a character that ends a value besides white space ('<' inside XML)
+  AsciiValues(std::shared_ptr<const InputFile> file, uint64_t offset, uint64_t line, char token_end = ' ')
+      : cursor_(std::move(file), offset, line) {
+    cursor_.end_tokens_at(token_end);
+  }
   uint64_t read_float(float* out, size_t n, bool finite_only, std::string_view what) override;
   void read_int(int64_t* out, size_t n, std::string_view what) override;
   [[noreturn]] void fail(std::string_view what) const override { cursor_.fail(what); }

@@ -151,7 +151,7 @@ std::string_view Cursor::token() {
   for (;;) {
     while (pos_ < end_) {
       char c = buffer_[pos_];
-      if (c == ' ' || c == '\n' || c == '\t' || c == '\r' || c == '\f' || c == '\v') {
+      if (c == ' ' || c == '\n' || c == '\t' || c == '\r' || c == '\f' || c == '\v' || (c == token_end_ && pos_ > start)) {
         return {buffer_.data() + start, pos_ - start};
       }
       ++pos_;

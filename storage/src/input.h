@@ -61,8 +61,10 @@ class Cursor {
   uint64_t remaining() const { return file_->size() - offset(); }
   const InputFile& file() const { return *file_; }
 
-  // Whitespace-separated token; empty view at end of file. Valid until the next call.
+  // Whitespace-separated token; empty view at end of file. Valid until the next call. A token
+  // also ends before the character given to end_tokens_at (XML: '<', so "1.5</DataArray>" reads 1.5).
   std::string_view token();
+  void end_tokens_at(char c) { token_end_ = c; }
   // Like token() but fails with `what` at end of file.
   std::string_view expect_token(std::string_view what);
   // Rest of the current line (without the newline), consuming the newline.
@@ -102,6 +104,7 @@ class Cursor {
   uint64_t buffer_start_ = 0;
   size_t pos_ = 0;
   size_t end_ = 0;
+  char token_end_ = ' ';  // a character that ends a token besides white space
   uint64_t line_ = 1;
 };
 

@@ -356,7 +356,7 @@ uint64_t VtuReader::appended_start(const DataArray& a) const {
 std::unique_ptr<ValueStream> VtuReader::open_values(const DataArray& a, uint64_t values) const {
   if (a.format == DataArray::Format::kAscii) {
     if (a.ascii_tokens < values) fail_line(a.line, "DataArray '" + a.name + "' holds " + std::to_string(a.ascii_tokens) + " values, expected " + std::to_string(values));
-    return std::make_unique<AsciiValues>(file_, a.content_offset, a.content_line);
+    return std::make_unique<AsciiValues>(file_, a.content_offset, a.content_line, '<');  // "1.5</DataArray>"
   }
   const uint64_t size = scalar_size(a.type);
   if (values > file_->size() * kMaxCompressionRatio / size) fail_line(a.line, "DataArray '" + a.name + "' is larger than the file can hold");

@@ -206,7 +206,7 @@ TEST(Variants, AVariantsFileClaimingHugeCountsIsRefusedBeforeAllocating) {
                    std::memcpy(&entries, &b[20], 4);
                    const uint64_t tets = uint64_t{1} << 31;
                    std::memcpy(&b[56 + 24], &tets, 8);  // entry 0's tets
-                   const uint32_t index_crc = storage::crc32_of(&b[56], size_t{entries} * 40);
+                   const uint32_t index_crc = storage::crc32_of(&b[56], size_t{entries} * 48);
                    std::memcpy(&b[48], &index_crc, 4);
                    const uint32_t header_crc = storage::crc32_of(b.data(), 52);
                    std::memcpy(&b[52], &header_crc, 4);

@@ -343,6 +343,23 @@ TEST(HostileVtu, CoordinateThatOverflowsFloatIsRefused) {
                "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray></Cells></Piece></UnstructuredGrid></VTKFile>\n",
                "point coordinate is not a finite number");
 }
+// ASCII values written right against the closing tag ("1.5</DataArray>", as some writers do)
+// are values, not a malformed number.
+TEST(HostileVtu, AsciiValuesRightBeforeTheClosingTagRead) {
+  auto stream = storage::MeshStream::open_memory(
+      MeshFormat::kVtu, "a.vtu",
+      std::string("<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"4\" NumberOfCells=\"1\">"
+                  "<PointData><DataArray type=\"Float32\" Name=\"f\" format=\"ascii\">0 1 2 1.5</DataArray></PointData>"
+                  "<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0 0 0 1</DataArray></Points>"
+                  "<Cells><DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>"
+                  "<DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">4</DataArray>"
+                  "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray></Cells></Piece></UnstructuredGrid></VTKFile>\n"));
+  const storage::TetMesh mesh = storage::load_stream(*stream);
+  ASSERT_EQ(mesh.tet_count(), 1u);
+  ASSERT_EQ(mesh.attributes.size(), 1u);
+  EXPECT_FLOAT_EQ(mesh.attributes[0].values[3], 1.5f);
+  EXPECT_FLOAT_EQ(mesh.y[2], 1.0f);
+}
 // Attributes are kept, and a value a float cannot hold counts as non-finite (as `info` reports
 // it), so ranges and the manifest skip it instead of holding infinity or null.
 TEST(HostileOff, AttributeThatOverflowsFloatCountsAsNonFinite) {

@@ -7,13 +7,14 @@
 // the cut can still afford. `tetrascope preprocess --variants K` builds K of them a segment,
 // at tets spaced evenly in log between the segment's and its region's at level k.
 //
-// variants.bin, little-endian: a header, an index of entries sorted by node then tets, and one
-// block a variant: global ids (u32 a vertex, kNoGlobal for a vertex the simplification moved
+// variants.bin, little-endian: a header, an index of entries sorted by node then tets (each with
+// its block's CRC-32), and one block a variant: global ids (u32 a vertex, kNoGlobal for a vertex the simplification moved
 // or changed), positions (3 f32), values (`floats` f32 in manifest order), then its tets in
 // the connectivity coding of segments.bin (storage/segment_codec.h), ordered depth first as
 // the build orders a segment's. A store without the file has no variants.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -76,6 +77,7 @@ class VariantSpill {
   struct Entry {
     uint32_t node, rank;
     uint64_t offset, vertices, tets, stream_bytes;
+    uint32_t crc;  // of the block
   };
   std::filesystem::path directory_;
   uint32_t floats_;
@@ -97,7 +99,8 @@ class Variants {
   Variants& operator=(const Variants&) = delete;
   uint32_t count(uint32_t node) const { return node + 1 < first_.size() ? first_[node + 1] - first_[node] : 0; }
   uint64_t tets(uint32_t node, uint32_t index) const { return entries_[first_[node] + index].tets; }
-  // Variant `index` (0: fewest tets) of `node`; throws when its tets do not decode.
+  // Variant `index` (0: fewest tets) of `node`; throws VariantsError when its block fails its
+  // checksum (checked the first time it is viewed) or its tets do not decode.
   VariantView view(uint32_t node, uint32_t index) const;
   uint32_t floats() const { return floats_; }
   uint64_t bytes() const { return length_; }
@@ -106,6 +109,7 @@ class Variants {
  private:
   struct Entry {
     uint64_t offset, vertices, tets, stream_bytes;
+    uint32_t crc;
   };
   Variants() = default;
   void* address_ = nullptr;
@@ -113,6 +117,7 @@ class Variants {
   uint32_t floats_ = 0;
   std::vector<uint32_t> first_;  // per node + 1: its first entry
   std::vector<Entry> entries_;
+  std::unique_ptr<std::atomic<bool>[]> checked_;  // per entry: its block's CRC has matched
 };
 
 // verify's checks of variants.bin: every variant keeps its segment's border faces (those it

@@ -32,6 +32,11 @@ constexpr double kAzimuthCameraDistance = 1.6;
 // camera.set): azimuth 30°, elevation 20°, fov 30°, kDefaultViewDistance box diagonals away,
 // far enough for the whole bounding sphere to fit the field of view.
 constexpr double kDefaultViewDistance = 1.95;
+
+// The size a view of `bounds` is scaled by: the box's diagonal, or, for a box collapsed to a
+// point (one tet, coincident vertices, a tiny mesh far from the origin that float32 flattened),
+// a size the coordinates can resolve, so a default camera never has its eye on its target.
+double view_scale(const storage::Bounds& bounds);
 Camera default_camera(const storage::Bounds& bounds);
 
 // Six planes (a, b, c, d); a point is inside when a x + b y + c z + d >= 0 for all.

@@ -68,6 +68,7 @@ constexpr const char* kUnauthorized = "unauthorized";
 constexpr const char* kNoDataset = "no_dataset";          // needs dataset.open first
 constexpr const char* kNotFound = "not_found";            // no such dataset or attribute
 constexpr const char* kDatasetDeleted = "dataset_deleted";  // (no id) the open dataset was deleted; open another
+constexpr const char* kDatasetDamaged = "dataset_damaged";  // the store failed a check (checksum, count): closed for every session
 constexpr const char* kRateLimited = "rate_limited";
 constexpr const char* kBinaryMessage = "binary_message";  // clients send text frames only
 constexpr const char* kInternal = "internal";
