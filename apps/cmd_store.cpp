@@ -192,7 +192,7 @@ int run_preprocess(const Arguments& raw) {
   options.simplifier = simplify_method(args.has("--simplifier") ? args.get("--simplifier") : "qem", "--simplifier");
   if (args.has("--max-inflate-ratio")) options.read_limits.max_inflate_ratio = args.real("--max-inflate-ratio");
   if (!(options.read_limits.max_inflate_ratio >= 1)) throw std::invalid_argument("--max-inflate-ratio must be at least 1");
-  // started by mpirun (issue 21): the ranks share the levels' segments, rank 0 reports and
+  // started by mpirun: the ranks share the levels' segments, rank 0 reports and
   // writes; not started by one, MPI is never touched
   lod::Ranks* ranks = lod::launched_ranks();
   options.ranks = ranks;

@@ -151,13 +151,15 @@ function onText(text) {
       state.errors.push(message);
       console.warn(`server: ${message.code}: ${message.message}`);
       $('dataset-summary').textContent = `${message.code}: ${message.message}`;
-      if (message.code === 'not_found' && message.id === openId) {  // a link to a dataset gone, or a list out of date
+      // a link to a dataset gone, a list out of date, or a store that fails its checks
+      if ((message.code === 'not_found' || message.code === 'dataset_damaged') && message.id === openId) {
         const missing = openName;
         forget(missing);
         const first = firstReady(lastDatasets);
         if (first) openDataset(first);  // each try forgets one name: this ends
       }
-      if (message.code === 'dataset_deleted') datasetDeleted(message.message);
+      // the dataset shown was deleted, or closed for every session when its store failed a check
+      if (message.code === 'dataset_deleted' || (message.code === 'dataset_damaged' && message.id == null)) datasetDeleted(message.message);
       break;
     default:
       break;

@@ -33,7 +33,7 @@ bool is_store_damage(const std::exception& e);
 std::optional<std::filesystem::path> resolve_inside(const std::filesystem::path& root, const std::string& relative);
 
 // `message` with every mention of the data folder's absolute path made relative to it: no
-// reply a client sees names a path on the server (issue 17).
+// reply a client sees names a path on the server.
 std::string without_server_paths(std::string message, const std::filesystem::path& data_dir);
 
 // What a killed server, a killed CLI writing into --data or an interrupted delete left, swept

@@ -6,7 +6,7 @@
 // or cancelled job's out/ is removed. After a restart, jobs that were running are reported
 // failed and queued ones run.
 //
-// What a job may cost (issue 13): each child runs under RLIMIT_AS (JobLimits::memory_bytes), so
+// What a job may cost: each child runs under RLIMIT_AS (JobLimits::memory_bytes), so
 // a hostile mesh fails its own job with "out of memory" instead of pushing the machine into
 // swap; at most JobLimits::max_queued jobs wait (submit answers 429 past it). Whatever ends a
 // job (done, failed, cancelled, killed, out of memory) its out/ and out.tmp/ are removed, and

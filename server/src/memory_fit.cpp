@@ -13,8 +13,8 @@ namespace tetrascope::server {
 namespace {
 
 constexpr uint64_t kMiB = uint64_t{1} << 20;
-// measured on the 20M blade at 1024x768 (bench/results/serve_memory_limit-*.json and the
-// README): the process's own memory, its code's working set, and a still's bytes a tet
+// measured on the 20M blade at 1024x768 (bench/results/serve_memory_limit-*.json and
+// bench/README.md): the process's own memory, its code's working set, and a still's bytes a tet
 // (400 let the 20M blade's server be killed under 300 MB once in 4 pause runs: 512)
 constexpr uint64_t kBaseBytes = 32 * kMiB, kWorkerBytes = 32 * kMiB, kCodeBytes = 80 * kMiB;
 constexpr uint64_t kStillBytesPerTet = 512;

@@ -426,7 +426,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     if (!plan.refinement) {
       // more interaction frames waiting than workers: each aims at a share of the frame time
       // (down to a quarter), so many sessions keep moving with coarser frames rather than
-      // every session's frames coming slowly (issue 15: 16 clients)
+      // every session's frames coming slowly (16 clients and more)
       const RenderPool& pool = *server_.pool;
       plan.frame_ms = shared_frame_ms(server_.options.frame_ms, pool.interaction_queued(), pool.workers());
     }
@@ -556,7 +556,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   Server::Impl& server_;
   websocket::stream<beast::tcp_stream> ws_;
   net::steady_timer still_timer_, pace_timer_, hello_timer_;
-  static constexpr size_t kHardCapFactor = 4;  // README: "closed past 4x the message limit"
+  static constexpr size_t kHardCapFactor = 4;  // docs/security.md: "closed past 4x the message limit"
   beast::flat_buffer buffer_;
   // strand only
   bool hello_ = false, closing_ = false, writing_ = false;

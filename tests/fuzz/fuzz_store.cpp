@@ -4,61 +4,19 @@
 // scratch directory and opened as `tetrascope verify` and the server open them, every variant
 // viewed as a cut would. Any outcome but success or a StoreError/DagError/VariantsError is a
 // bug (ASan/UBSan report the rest).
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
-#include <string>
-#include <string_view>
 
+#include "store_input.h"
 #include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/variants.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 
-namespace {
-
-void write(const std::filesystem::path& path, std::string_view bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-const std::filesystem::path& scratch() {
-  static const std::filesystem::path dir = [] {
-    std::filesystem::path base = std::filesystem::exists("/dev/shm") ? "/dev/shm" : std::filesystem::temp_directory_path();
-    auto d = base / ("tetrascope_fuzz_store_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-  }();
-  return dir;
-}
-
-}  // namespace
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  std::string_view bytes(reinterpret_cast<const char*>(data), size);
-  std::string_view manifest = bytes, segments, dag, variants;
-  if (size_t at = manifest.find("\n#segments.bin\n"); at != std::string_view::npos) {
-    segments = manifest.substr(at + 15);
-    manifest = manifest.substr(0, at + 1);
-  }
-  if (size_t at = segments.find("\n#dag.bin\n"); at != std::string_view::npos) {
-    dag = segments.substr(at + 10);
-    segments = segments.substr(0, at);
-  }
-  if (size_t at = dag.find("\n#variants.bin\n"); at != std::string_view::npos) {
-    variants = dag.substr(at + 15);
-    dag = dag.substr(0, at);
-  }
-  const auto& dir = scratch();
-  write(dir / "manifest.json", manifest);
-  write(dir / "segments.bin", segments);
-  std::filesystem::remove(dir / "dag.bin");
-  if (!dag.empty()) write(dir / "dag.bin", dag);
-  std::filesystem::remove(dir / "variants.bin");
-  if (!variants.empty()) write(dir / "variants.bin", variants);
+  static const std::filesystem::path dir = tetrascope::fuzz::scratch_folder("tetrascope_fuzz_store");
+  tetrascope::fuzz::write_store_input(dir, data, size);
 
   (void)tetrascope::storage::verify_store(dir);  // never throws for a damaged store
   try {

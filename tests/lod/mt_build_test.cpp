@@ -151,6 +151,7 @@ TEST(MtBuild, EverySharedDatasetPreprocessesAndVerifies) {
 // stop crashing here, this test needs another reproducer, not a weaker check.)
 TEST(MtBuild, ATetgenCrashOnASampledSegmentFallsBackToQuadricCollapses) {
   if (kSanitized) GTEST_SKIP() << "ONERA's sampled build takes minutes under ASan; the release run covers it";
+  if (shared_data().empty()) GTEST_SKIP() << "needs ../shared/data/onera_m6_potential.vtk (../shared/data is not beside this checkout)";
   const auto mesh = shared_data() / "onera_m6_potential.vtk";
   const auto dir = scratch_dir("tetgen-crash");
   lod::PreprocessOptions options;
@@ -225,6 +226,7 @@ TEST(MtBuild, LevelZeroIsPartitionedAsSegmentDoes) {
 // built wholly in memory, and no spill file is left beside it. Lake Leman (136,838 tets) is
 // read in several chunks.
 TEST(MtBuild, ATinyMemoryBudgetBuildsTheSameStoreAsTheInMemoryBuild) {
+  if (shared_data().empty()) GTEST_SKIP() << "needs ../shared/data/freefem_leman.vtk (../shared/data is not beside this checkout)";
   const auto dir = scratch_dir("mt-build-spill");
   lod::PreprocessOptions options;
   options.segment_tets = 4000;

@@ -1,4 +1,4 @@
-// The server against the threats of issue 13, each test named after one: jobs that would eat
+// The server against hostile clients and heavy jobs, each test named after its threat: jobs that would eat
 // the machine, a job queue flooded in a burst, leftovers of killed jobs and servers. The real
 // server on an ephemeral loopback port, real HTTP clients (and raw sockets for malformed HTTP).
 #include <arpa/inet.h>
@@ -516,7 +516,7 @@ struct StillSession {
   void resize(uint32_t width, uint32_t height) { client.send("view.resize", {{"width", width}, {"height", height}}); }
 };
 
-// Issue 13: after a PNG still over 2048^2 pixels resident memory stayed ~150 MB higher for
+// After a PNG still over 2048^2 pixels resident memory stayed ~150 MB higher for
 // good (2600^2, the worker drawing nothing more): Mesa (llvmpipe) kept the deleted float
 // colour, depth and distance targets' storage (mmapped chunks of 103 and ~26 MB) while the
 // context lived, even after the renderer bound, cleared and read back a 1x1 set in their place.
@@ -544,7 +544,7 @@ TEST_F(HardeningTest, RepeatedLargePngStillsDoNotAccumulateMemory) {
   }
 }
 
-// Issue 17: an idle server that has served views held each render worker's scene,
+// An idle server that has served views held each render worker's scene,
 // framebuffers and caches for good. A worker idle for worker_idle_release now gives them back;
 // a view drawn afterwards uploads again and is the same image a fresh server drew.
 TEST_F(HardeningTest, AnIdleServerGivesBackItsRenderWorkersMemory) {

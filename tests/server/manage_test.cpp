@@ -1,4 +1,4 @@
-// Managing what the server holds (issue 17): deleting datasets and uploads (never half
+// Managing what the server holds: deleting datasets and uploads (never half
 // deleted; a dataset in use is closed for its sessions with a message), cancel answering the
 // final state, REST error answers counted in /metrics, no server path in any reply a client
 // sees. The real server on an ephemeral loopback port, real HTTP and WebSocket clients.

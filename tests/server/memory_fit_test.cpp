@@ -1,4 +1,4 @@
-// Serving inside a memory limit (server/memory_fit.h, issue 21): the cgroup limit read from v1
+// Serving inside a memory limit (server/memory_fit.h): the cgroup limit read from v1
 // and v2 hierarchies (the smallest of the group and its ancestors), the still budget and
 // segment cache shrunk to fit a tight limit, and a limit too small to draw refused with a
 // message naming it, by the function and by `tetrascope serve`.
@@ -50,7 +50,7 @@ TEST(MemoryFit, ATightLimitShrinksTheStillBudgetAndTheCache) {
   o.render_workers = 2;
   const auto fit = server::fit_to_memory(o, {300 * kMiB, "test"});
   EXPECT_TRUE(fit.changed);
-  // measured: 200K survived 300 MB, 500K was killed (README, bench/results/serve_memory_limit-*)
+  // measured: 200K survived 300 MB, 500K was killed (bench/README.md, bench/results/serve_memory_limit-*)
   EXPECT_LT(fit.still_budget, 300000u);
   EXPECT_GE(fit.still_budget, 150000u);
   EXPECT_LE(fit.cache_bytes, 300 * kMiB / 8 + 1);

@@ -290,7 +290,7 @@ TEST_F(RefinementTest, StepsArriveInIncreasingDetailAndEndInAStill) {
 
 // The still is the cut at the still budget, whatever steps led to it: small steps and one
 // large step give the same still. The steps follow the cost model, and so the machine's
-// load; before stop 35 a close-up's still held 18,389 tets after small steps and 28,237
+// load; when the still depended on them, a close-up's still held 18,389 tets after small steps and 28,237
 // after a large one (Cut.ACutRefinedInStepsReachesWhatOneUpdateReaches), and the browser
 // test's images before and after a reconnect differed now and then.
 TEST_F(RefinementTest, TheStillIsTheSameWhateverTheStepsBefore) {

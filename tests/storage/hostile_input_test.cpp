@@ -312,7 +312,7 @@ TEST(HostileFiles, MissingFileAndUnknownExtension) {
   EXPECT_THROW(storage::MeshStream::open("mesh.stl"), MeshError);
 }
 
-// ---- values that are finite as doubles but not as the stored float (issue 13) ----------
+// ---- values that are finite as doubles but not as the stored float ----------
 
 const std::string kTetLines = "0 1 2 3\n";
 TEST(HostileOff, CoordinateThatOverflowsFloatIsRefused) {

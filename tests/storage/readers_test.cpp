@@ -142,7 +142,7 @@ TEST_F(SharedData, EveryVtkDatasetReadsToDocumentedCounts) {
     EXPECT_EQ(s.header.vertex_count, row.vertices) << row.file;
     EXPECT_EQ(s.stats.tetrahedra, row.tets) << row.file;
     EXPECT_EQ(s.stats.degenerate, row.degenerate) << row.file;
-    EXPECT_EQ(s.stats.inverted, 0u) << row.file << " (the README says every tet is positively oriented)";
+    EXPECT_EQ(s.stats.inverted, 0u) << row.file << " (docs/formats.md says every tet is positively oriented)";
   }
   auto temp = attribute(storage::summarize_mesh(data_ / "disk_out_ref.vtk"), "Temp");
   EXPECT_NEAR(temp.min, 293.2, 0.1);

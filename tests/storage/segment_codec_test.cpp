@@ -1,4 +1,4 @@
-// Compressed segments (issue 21): the cut-border stream decodes to exactly the tets and
+// Compressed segments: the cut-border stream decodes to exactly the tets and
 // opposites it was made from; a store built with 16-bit indices or the stream holds the same
 // tets per segment as an uncompressed one, passes verify and gives the same cut; a damaged
 // stream is refused with a message, never read past its end.

@@ -29,7 +29,7 @@ constexpr unsigned kMaxLoadtestClients = 64;
 constexpr double kMaxLoadtestSeconds = 600;
 
 // Runs the test; throws std::invalid_argument for bad options, std::runtime_error when the
-// server cannot be reached. Returns per-client and total figures (see the README).
+// server cannot be reached. Returns per-client and total figures (docs/commands/loadtest.md).
 nlohmann::json run_loadtest(const LoadtestOptions& options);
 
 }  // namespace tetrascope::server

@@ -1,7 +1,7 @@
-// Serving inside a memory limit (issue 21): the limit a process runs under (its memory cgroup,
+// Serving inside a memory limit: the limit a process runs under (its memory cgroup,
 // v1 or v2, or `serve --memory-mb`), and the server's options fitted to it. What a server
 // needs was measured on the 20M blade (bench/results/serve_memory_limit-*.json,
-// README "Serving under a memory limit"): about 32 MB plus 32 MB a render worker of its own
+// docs/commands/serve.md, "Under a memory limit"): about 32 MB plus 32 MB a render worker of its own
 // memory, about 80 MB of Mesa's and LLVM's code kept in the page cache, the segment cache,
 // and about 512 bytes a tet of the still it draws (the cut, its GL buffers, the sort). Under
 // a limit that the defaults would overrun, the still budget and the segment cache shrink to

@@ -33,7 +33,7 @@ struct MeshSummary {
 MeshSummary summarize_mesh(const std::filesystem::path& path);
 MeshSummary summarize_stream(MeshStream& stream);
 
-// Stable JSON: top-level keys vertices, tetrahedra, attributes, bounds (see docs/cli.md).
+// Stable JSON: top-level keys vertices, tetrahedra, attributes, bounds (see docs/commands/info.md).
 nlohmann::json summary_json(const MeshSummary& summary);
 std::string summary_text(const MeshSummary& summary);
 
