@@ -149,28 +149,16 @@ void sample_surface_distance(const storage::TetMesh& from_mesh, const Surface& f
     for (uint32_t corner : t) measure(vertex(from_mesh, corner));
 }
 
-}  // namespace
+// An attribute of the original mesh that the simplified mesh has too, with the per-channel
+// normalisation of its differences.
+struct Pair {
+  const storage::Attribute *a, *b;
+  std::vector<double> offset, scale;
+  bool vector;
+};
 
-nlohmann::json MeshErrorReport::to_json() const {
-  nlohmann::json f = nlohmann::json::array();
-  for (const auto& e : fields) f.push_back({{"name", e.name}, {"components", e.components}, {"mean_field_error", e.mean}, {"max_field_error", e.max}});
-  return {{"fields", f}, {"mean_field_error", mean_all}, {"vertices", vertices}, {"outside_vertices", outside},
-          {"domain_error", {{"hausdorff", hausdorff}, {"mean", mean_distance}, {"hausdorff_relative", diagonal > 0 ? hausdorff / diagonal : 0},
-                            {"mean_relative", diagonal > 0 ? mean_distance / diagonal : 0}, {"samples", samples}}},
-          {"bounding_box_diagonal", diagonal}};
-}
-
-MeshErrorReport measure_error(const storage::TetMesh& original, const storage::TetMesh& simplified, uint32_t samples_per_surface) {
-  MeshErrorReport r;
-  r.vertices = original.vertex_count();
-  storage::Bounds box = storage::compute_bounds(original);
-  r.diagonal = std::sqrt(std::pow(box.max[0] - box.min[0], 2) + std::pow(box.max[1] - box.min[1], 2) + std::pow(box.max[2] - box.min[2], 2));
-  // attributes in both
-  struct Pair {
-    const storage::Attribute *a, *b;
-    std::vector<double> offset, scale;
-    bool vector;
-  };
+// The attributes in both meshes, each with its normalisation; adds a field to r for each.
+std::vector<Pair> pair_attributes(const storage::TetMesh& original, const storage::TetMesh& simplified, MeshErrorReport& r) {
   std::vector<Pair> pairs;
   for (const auto& a : original.attributes) {
     const storage::Attribute* b = simplified.find_attribute(a.info.name);
@@ -196,12 +184,16 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
     pairs.push_back(p);
     r.fields.push_back({a.info.name, a.info.components, 0, 0});
   }
-  // locate the original vertices in the simplified tets
+  return pairs;
+}
+
+// Puts the bounding box of every tet of mesh into grid.
+void build_tet_grid(const storage::TetMesh& mesh, BoxGrid& grid) {
   std::vector<std::array<Vec3, 2>> boxes;
-  for (size_t t = 0; t < simplified.tet_count(); ++t) {
-    Vec3 lo = vertex(simplified, simplified.tets[4 * t]), hi = lo;
+  for (size_t t = 0; t < mesh.tet_count(); ++t) {
+    Vec3 lo = vertex(mesh, mesh.tets[4 * t]), hi = lo;
     for (int k = 1; k < 4; ++k) {
-      Vec3 p = vertex(simplified, simplified.tets[4 * t + k]);
+      Vec3 p = vertex(mesh, mesh.tets[4 * t + k]);
       for (int i = 0; i < 3; ++i) {
         lo[i] = std::min(lo[i], p[i]);
         hi[i] = std::max(hi[i], p[i]);
@@ -209,34 +201,45 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
     }
     boxes.push_back({lo, hi});
   }
-  BoxGrid tets;
-  if (!boxes.empty()) tets.build(boxes);
-  Surface simplified_surface(simplified), original_surface(original);
+  if (!boxes.empty()) grid.build(boxes);
+}
+
+// The first tet of mesh (from grid, its tets' boxes) that holds p, with p's barycentric
+// weights in bary; 0xFFFFFFFF when none does.
+uint32_t locate_in_tets(const BoxGrid& grid, const storage::TetMesh& mesh, const Vec3& p, double bary[4]) {
+  uint32_t found = 0xFFFFFFFFu;
+  grid.ring(p, 0, [&](uint32_t t) {
+    if (found != 0xFFFFFFFFu) return;
+    const uint32_t* tet = &mesh.tets[4 * size_t{t}];
+    Vec3 a = vertex(mesh, tet[0]), b = vertex(mesh, tet[1]), c = vertex(mesh, tet[2]), d = vertex(mesh, tet[3]);
+    double total = dot(b - a, cross(c - a, d - a));
+    if (total == 0) return;
+    double w[4];
+    w[1] = dot(p - a, cross(c - a, d - a)) / total;
+    w[2] = dot(b - a, cross(p - a, d - a)) / total;
+    w[3] = dot(b - a, cross(c - a, p - a)) / total;
+    w[0] = 1 - w[1] - w[2] - w[3];
+    const double eps = -1e-9;
+    if (w[0] >= eps && w[1] >= eps && w[2] >= eps && w[3] >= eps) {
+      found = t;
+      std::copy(w, w + 4, bary);
+    }
+  });
+  return found;
+}
+
+// Field error: each paired attribute at every original vertex against the simplified mesh's
+// interpolation there (in its tet, or outside at the nearest boundary point); fills r's
+// per-field mean and max, mean_all and outside.
+void measure_field_error(const storage::TetMesh& original, const storage::TetMesh& simplified, const std::vector<Pair>& pairs, const BoxGrid& tets,
+                         const Surface& simplified_surface, MeshErrorReport& r) {
   std::vector<double> sum2(pairs.size(), 0.0);
   double total2 = 0;
-  std::vector<double> estimate;
   for (uint32_t v = 0; v < original.vertex_count(); ++v) {
     const Vec3 p = vertex(original, v);
     // barycentric location
-    uint32_t found = 0xFFFFFFFFu;
     double bary[4] = {0, 0, 0, 0};
-    tets.ring(p, 0, [&](uint32_t t) {
-      if (found != 0xFFFFFFFFu) return;
-      const uint32_t* tet = &simplified.tets[4 * size_t{t}];
-      Vec3 a = vertex(simplified, tet[0]), b = vertex(simplified, tet[1]), c = vertex(simplified, tet[2]), d = vertex(simplified, tet[3]);
-      double total = dot(b - a, cross(c - a, d - a));
-      if (total == 0) return;
-      double w[4];
-      w[1] = dot(p - a, cross(c - a, d - a)) / total;
-      w[2] = dot(b - a, cross(p - a, d - a)) / total;
-      w[3] = dot(b - a, cross(c - a, p - a)) / total;
-      w[0] = 1 - w[1] - w[2] - w[3];
-      const double eps = -1e-9;
-      if (w[0] >= eps && w[1] >= eps && w[2] >= eps && w[3] >= eps) {
-        found = t;
-        std::copy(w, w + 4, bary);
-      }
-    });
+    const uint32_t found = locate_in_tets(tets, simplified, p, bary);
     const uint32_t* corners;
     int count;
     uint32_t triangle_corners[3];
@@ -272,6 +275,31 @@ MeshErrorReport measure_error(const storage::TetMesh& original, const storage::T
   }
   for (size_t i = 0; i < pairs.size(); ++i) r.fields[i].mean = std::sqrt(sum2[i] / std::max<uint64_t>(1, r.vertices));
   r.mean_all = std::sqrt(total2 / std::max<uint64_t>(1, r.vertices));
+}
+
+}  // namespace
+
+nlohmann::json MeshErrorReport::to_json() const {
+  nlohmann::json f = nlohmann::json::array();
+  for (const auto& e : fields) f.push_back({{"name", e.name}, {"components", e.components}, {"mean_field_error", e.mean}, {"max_field_error", e.max}});
+  return {{"fields", f}, {"mean_field_error", mean_all}, {"vertices", vertices}, {"outside_vertices", outside},
+          {"domain_error", {{"hausdorff", hausdorff}, {"mean", mean_distance}, {"hausdorff_relative", diagonal > 0 ? hausdorff / diagonal : 0},
+                            {"mean_relative", diagonal > 0 ? mean_distance / diagonal : 0}, {"samples", samples}}},
+          {"bounding_box_diagonal", diagonal}};
+}
+
+MeshErrorReport measure_error(const storage::TetMesh& original, const storage::TetMesh& simplified, uint32_t samples_per_surface) {
+  MeshErrorReport r;
+  r.vertices = original.vertex_count();
+  storage::Bounds box = storage::compute_bounds(original);
+  r.diagonal = std::sqrt(std::pow(box.max[0] - box.min[0], 2) + std::pow(box.max[1] - box.min[1], 2) + std::pow(box.max[2] - box.min[2], 2));
+  // attributes in both
+  const std::vector<Pair> pairs = pair_attributes(original, simplified, r);
+  // locate the original vertices in the simplified tets
+  BoxGrid tets;
+  build_tet_grid(simplified, tets);
+  Surface simplified_surface(simplified), original_surface(original);
+  measure_field_error(original, simplified, pairs, tets, simplified_surface, r);
   // domain error: sample each boundary surface and measure the distance to the other
   std::mt19937 rng(1);
   SurfaceDistance distance;
