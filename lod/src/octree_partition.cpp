@@ -72,12 +72,8 @@ bool leaf_graph_connected(const VertexPartition& result) {
   return queue.size() == leaves;
 }
 
-}  // namespace
-
-VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options, std::span<const float> tets_per_vertex) {
-  const size_t n = xyz.size() / 3;
-  if (n == 0) throw std::runtime_error("partition: no vertices");
-  VertexPartition result;
+// Every vertex's integer position at the finest level, in a cube around the bounds.
+std::vector<std::array<uint32_t, 3>> finest_cells(std::span<const float> xyz, size_t n) {
   // root box: a cube around the bounds
   double lo[3], hi[3];
   for (int k = 0; k < 3; ++k) {
@@ -99,10 +95,17 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
       cell[i][k] = static_cast<uint32_t>(std::clamp(t, 0.0, double(cells - 1)));
     }
   }
+  return cell;
+}
+
+// Splits the root box into octants until a box holds at most k_leaf vertices (or reaches
+// kMaxDepth); fills result's leaves, in octant order, and leaf_of_vertex.
+void build_octree(const std::vector<std::array<uint32_t, 3>>& cell, uint32_t k_leaf, VertexPartition& result) {
+  const size_t n = cell.size();
+  const uint32_t cells = 1u << kMaxDepth;
   std::vector<uint32_t> order(n), scratch(n);
   for (size_t i = 0; i < n; ++i) order[i] = static_cast<uint32_t>(i);
   result.leaf_of_vertex.assign(n, 0);
-  const uint32_t k_leaf = std::max<uint32_t>(1, options.leaf_vertices);
 
   std::vector<Node> stack{{0, static_cast<uint32_t>(n), {0, 0, 0}, 0}};
   while (!stack.empty()) {
@@ -149,6 +152,74 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
       stack.push_back(child);
     }
   }
+}
+
+// Cuts the leaf graph into `parts` (> 1) parts with METIS; fills result's part_of_leaf and
+// contiguous. n is the vertex count.
+void cut_leaf_graph(VertexPartition& result, uint32_t parts, const PartitionOptions& options, std::span<const float> tets_per_vertex, size_t n) {
+  const size_t leaves = result.leaves.size();
+  std::vector<idx_t> xadj(result.adjacency_begin.begin(), result.adjacency_begin.end());
+  std::vector<idx_t> adjncy(result.adjacency.begin(), result.adjacency.end());
+  // Node weight: the leaf's vertices (§6.1.1), or its share of the tets when given, which
+  // balances tets where the tets-per-vertex ratio varies (vertices on the mesh boundary
+  // have fewer tets).
+  idx_t ncon = 1;
+  std::vector<idx_t> vwgt(leaves), adjwgt(adjncy.size());
+  if (tets_per_vertex.empty()) {
+    for (size_t l = 0; l < leaves; ++l) vwgt[l] = static_cast<idx_t>(result.leaves[l].vertex_count);
+  } else {
+    std::vector<double> leaf_tets(leaves, 0.0);
+    for (size_t v = 0; v < n; ++v) leaf_tets[result.leaf_of_vertex[v]] += tets_per_vertex[v];
+    for (size_t l = 0; l < leaves; ++l) vwgt[l] = std::max<idx_t>(1, static_cast<idx_t>(std::lround(leaf_tets[l])));
+  }
+  auto centre = [&](uint32_t l, int k) { return 0.5 * (double(result.leaves[l].lo[k]) + result.leaves[l].hi[k]); };
+  double longest = 1;
+  std::vector<double> distance(adjncy.size());
+  for (uint32_t a = 0; a < leaves; ++a) {
+    for (uint32_t e = result.adjacency_begin[a]; e < result.adjacency_begin[a + 1]; ++e) {
+      uint32_t b = result.adjacency[e];
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += (centre(a, k) - centre(b, k)) * (centre(a, k) - centre(b, k));
+      distance[e] = std::sqrt(d2);
+      longest = std::max(longest, distance[e]);
+    }
+  }
+  for (size_t e = 0; e < adjncy.size(); ++e) adjwgt[e] = 1 + static_cast<idx_t>(std::lround(1000.0 * distance[e] / longest));
+  idx_t nvtxs = static_cast<idx_t>(leaves), nparts = static_cast<idx_t>(parts), objval = 0;
+  std::vector<idx_t> part(leaves);
+  // METIS draws from GKlib's random generator, one for the whole process and seeded by each
+  // call: two partitions at once (ranks played by threads in mt_share_test) would draw from
+  // one stream and cut differently from the same seed
+  static std::mutex metis_mutex;
+  const std::lock_guard metis_lock(metis_mutex);
+  idx_t metis_options[METIS_NOPTIONS];
+  METIS_SetDefaultOptions(metis_options);
+  metis_options[METIS_OPTION_SEED] = options.seed;
+  // contiguous parts only where the leaf graph is connected: METIS refuses them otherwise,
+  // and says "METIS Error" on the console, which a user reads as a failure
+  const bool connected = leaf_graph_connected(result);
+  metis_options[METIS_OPTION_CONTIG] = connected ? 1 : 0;
+  metis_options[METIS_OPTION_NUMBERING] = 0;
+  int rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
+                               nullptr, metis_options, &objval, part.data());
+  result.contiguous = connected && rc == METIS_OK;
+  if (connected && rc != METIS_OK) {  // contiguity failed all the same: cut without it
+    metis_options[METIS_OPTION_CONTIG] = 0;
+    rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
+                             nullptr, metis_options, &objval, part.data());
+  }
+  if (rc != METIS_OK) throw std::runtime_error("METIS failed to partition " + std::to_string(leaves) + " octree leaves (code " + std::to_string(rc) + ")");
+  for (size_t l = 0; l < leaves; ++l) result.part_of_leaf[l] = static_cast<uint32_t>(part[l]);
+}
+
+}  // namespace
+
+VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOptions& options, std::span<const float> tets_per_vertex) {
+  const size_t n = xyz.size() / 3;
+  if (n == 0) throw std::runtime_error("partition: no vertices");
+  VertexPartition result;
+  const uint32_t k_leaf = std::max<uint32_t>(1, options.leaf_vertices);
+  build_octree(finest_cells(xyz, n), k_leaf, result);
 
   leaf_adjacency(result);
   const size_t leaves = result.leaves.size();
@@ -157,58 +228,7 @@ VertexPartition partition_vertices(std::span<const float> xyz, const PartitionOp
   result.parts = parts;
   result.part_of_leaf.assign(leaves, 0);
   if (parts > 1) {
-    std::vector<idx_t> xadj(result.adjacency_begin.begin(), result.adjacency_begin.end());
-    std::vector<idx_t> adjncy(result.adjacency.begin(), result.adjacency.end());
-    // Node weight: the leaf's vertices (§6.1.1), or its share of the tets when given, which
-    // balances tets where the tets-per-vertex ratio varies (vertices on the mesh boundary
-    // have fewer tets).
-    idx_t ncon = 1;
-    std::vector<idx_t> vwgt(leaves), adjwgt(adjncy.size());
-    if (tets_per_vertex.empty()) {
-      for (size_t l = 0; l < leaves; ++l) vwgt[l] = static_cast<idx_t>(result.leaves[l].vertex_count);
-    } else {
-      std::vector<double> leaf_tets(leaves, 0.0);
-      for (size_t v = 0; v < n; ++v) leaf_tets[result.leaf_of_vertex[v]] += tets_per_vertex[v];
-      for (size_t l = 0; l < leaves; ++l) vwgt[l] = std::max<idx_t>(1, static_cast<idx_t>(std::lround(leaf_tets[l])));
-    }
-    auto centre = [&](uint32_t l, int k) { return 0.5 * (double(result.leaves[l].lo[k]) + result.leaves[l].hi[k]); };
-    double longest = 1;
-    std::vector<double> distance(adjncy.size());
-    for (uint32_t a = 0; a < leaves; ++a) {
-      for (uint32_t e = result.adjacency_begin[a]; e < result.adjacency_begin[a + 1]; ++e) {
-        uint32_t b = result.adjacency[e];
-        double d2 = 0;
-        for (int k = 0; k < 3; ++k) d2 += (centre(a, k) - centre(b, k)) * (centre(a, k) - centre(b, k));
-        distance[e] = std::sqrt(d2);
-        longest = std::max(longest, distance[e]);
-      }
-    }
-    for (size_t e = 0; e < adjncy.size(); ++e) adjwgt[e] = 1 + static_cast<idx_t>(std::lround(1000.0 * distance[e] / longest));
-    idx_t nvtxs = static_cast<idx_t>(leaves), nparts = static_cast<idx_t>(parts), objval = 0;
-    std::vector<idx_t> part(leaves);
-    // METIS draws from GKlib's random generator, one for the whole process and seeded by each
-    // call: two partitions at once (ranks played by threads in mt_share_test) would draw from
-    // one stream and cut differently from the same seed
-    static std::mutex metis_mutex;
-    const std::lock_guard metis_lock(metis_mutex);
-    idx_t metis_options[METIS_NOPTIONS];
-    METIS_SetDefaultOptions(metis_options);
-    metis_options[METIS_OPTION_SEED] = options.seed;
-    // contiguous parts only where the leaf graph is connected: METIS refuses them otherwise,
-    // and says "METIS Error" on the console, which a user reads as a failure
-    const bool connected = leaf_graph_connected(result);
-    metis_options[METIS_OPTION_CONTIG] = connected ? 1 : 0;
-    metis_options[METIS_OPTION_NUMBERING] = 0;
-    int rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
-                                 nullptr, metis_options, &objval, part.data());
-    result.contiguous = connected && rc == METIS_OK;
-    if (connected && rc != METIS_OK) {  // contiguity failed all the same: cut without it
-      metis_options[METIS_OPTION_CONTIG] = 0;
-      rc = METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, adjwgt.data(), &nparts, nullptr,
-                               nullptr, metis_options, &objval, part.data());
-    }
-    if (rc != METIS_OK) throw std::runtime_error("METIS failed to partition " + std::to_string(leaves) + " octree leaves (code " + std::to_string(rc) + ")");
-    for (size_t l = 0; l < leaves; ++l) result.part_of_leaf[l] = static_cast<uint32_t>(part[l]);
+    cut_leaf_graph(result, parts, options, tets_per_vertex, n);
   } else {
     result.contiguous = true;
   }
