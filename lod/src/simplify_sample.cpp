@@ -443,55 +443,48 @@ Tetrahedralization tetrahedralize_apart(const std::vector<Point3>& points, const
   return r;
 }
 
-}  // namespace
-
-SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
-  const auto started = std::chrono::steady_clock::now();
-  const size_t nv = mesh.vertex_count();
+// Throws std::invalid_argument for locked flags or options the sampling simplifier cannot use.
+void check_sample_options(const SimplifyOptions& options, const std::vector<uint8_t>& locked, size_t nv) {
   if (!locked.empty() && locked.size() != nv) throw std::invalid_argument("locked flags must cover every vertex");
   if (!(options.field_error >= 0 && std::isfinite(options.field_error))) throw std::invalid_argument("the field error threshold must be a finite number >= 0");
   if (!(options.space_error >= 0 && std::isfinite(options.space_error))) throw std::invalid_argument("the space error threshold must be a finite number >= 0");
   if (!(options.border_error >= 0 && options.border_error <= 1)) throw std::invalid_argument("the border error must be in [0, 1] (a share of the diagonal)");
   if (options.target_tets == 0 && options.field_error == 0 && options.space_error == 0)
     throw std::invalid_argument("the sampling simplifier needs a target tet count, a field error or a space error threshold");
-  SimplifyReport report;
-  report.tets_before = mesh.tet_count();
-  report.vertices_before = nv;
-  size_t channels = 0;
-  const std::vector<float> values = normalised_channels(mesh, options, &channels);
+}
 
-  std::vector<Point3> positions(nv);
-  for (size_t v = 0; v < nv; ++v) positions[v] = {mesh.x[v], mesh.y[v], mesh.z[v]};
-  const storage::Bounds bounds = options.frame ? *options.frame : storage::compute_bounds(mesh);
-  double diagonal = 0, extent = 0;
-  for (int k = 0; k < 3; ++k) {
-    const double side = bounds.max[k] - bounds.min[k];
-    diagonal += side * side;
-    extent = std::max(extent, side);
+// Adds the seconds since the previous lap (the first: since it was made) to a phase's total.
+class Lap {
+ public:
+  void operator()(double& into) {
+    const auto now = std::chrono::steady_clock::now();
+    into += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
   }
-  diagonal = std::sqrt(diagonal);
 
-  using clock = std::chrono::steady_clock;
-  auto lap = [last = clock::now()](double& into) mutable {
-    const auto now = clock::now();
-    into += std::chrono::duration<double>(now - last).count();
-    last = now;
-  };
-  // 1. the border, simplified without self-intersections (§4.2.1)
-  const std::vector<std::array<uint32_t, 3>> border = border_triangles(mesh);
-  report.border_before = border.size();
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// 1. the border, simplified without self-intersections (§4.2.1), towards the target's share
+// of its triangles; the counts go into report.
+detail::BorderSimplifyResult simplify_mesh_border(const storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked,
+                                                  const std::vector<Point3>& positions, const std::vector<std::array<uint32_t, 3>>& border,
+                                                  const detail::BorderField& field, double diagonal, SimplifyReport& report) {
   const double ratio = options.target_tets ? std::min(1.0, double(options.target_tets) / std::max<double>(1, double(mesh.tet_count()))) : 0.0;
   const uint64_t border_target = static_cast<uint64_t>(double(border.size()) * std::pow(ratio, 2.0 / 3.0));
-  const detail::BorderField field{values.data(), channels, kBorderFieldWeight * diagonal};
   detail::BorderSimplifyResult simplified = detail::simplify_border(positions, border, locked, border_target, options.border_error * diagonal, field);
   report.border_after = simplified.triangles.size();
   report.refused_intersection = simplified.refused_intersection;
   report.refused_topology = simplified.refused_topology;
   report.refused_geometry = simplified.refused_geometry;
   report.collapses = simplified.collapses;
-  lap(report.border_seconds);
+  return simplified;
+}
 
-  // 2. the interior points: used, not on the original border, not locked
+// 2. the interior points: used, not on the original border, not locked
+std::vector<uint32_t> interior_points(const storage::TetMesh& mesh, const std::vector<std::array<uint32_t, 3>>& border, const std::vector<uint8_t>& locked) {
+  const size_t nv = mesh.vertex_count();
   std::vector<uint8_t> kind(nv, 0);  // 1 used, 2 on the original border or locked
   for (uint32_t v : mesh.tets) kind[v] = std::max<uint8_t>(kind[v], 1);
   for (const auto& f : border)
@@ -501,41 +494,61 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
   std::vector<uint32_t> interior;
   for (uint32_t v = 0; v < nv; ++v)
     if (kind[v] == 1) interior.push_back(v);
-  // the tetrahedralization's points: the simplified border's vertices, then the samples
+  return interior;
+}
+
+// The tetrahedralization's points as input vertex ids (the simplified border's vertices, then
+// the samples) and the border's facets in their indices.
+struct TetPoints {
   std::vector<uint32_t> input_vertex;
+  size_t border_points = 0;
+  std::vector<std::array<uint32_t, 3>> facets;
+};
+
+// The simplified border's vertices (ascending) as the first points, and its triangles as
+// facets over them; nv is the input's vertex count.
+TetPoints border_points_and_facets(const std::vector<std::array<uint32_t, 3>>& triangles, size_t nv) {
+  TetPoints tet_points;
+  std::vector<uint32_t>& input_vertex = tet_points.input_vertex;
   {
     std::vector<uint8_t> on_border(nv, 0);
-    for (const auto& f : simplified.triangles)
+    for (const auto& f : triangles)
       for (uint32_t v : f) on_border[v] = 1;
     for (uint32_t v = 0; v < nv; ++v)
       if (on_border[v]) input_vertex.push_back(v);
   }
-  const size_t border_points = input_vertex.size();
+  tet_points.border_points = input_vertex.size();
+  const size_t border_points = tet_points.border_points;
   std::vector<uint32_t> border_index(nv, kSteiner);
   for (uint32_t i = 0; i < border_points; ++i) border_index[input_vertex[i]] = i;
-  std::vector<std::array<uint32_t, 3>> facets(simplified.triangles.size());
+  std::vector<std::array<uint32_t, 3>>& facets = tet_points.facets;
+  facets.resize(triangles.size());
   for (size_t i = 0; i < facets.size(); ++i)
-    for (int k = 0; k < 3; ++k) facets[i][k] = border_index[simplified.triangles[i][k]];
+    for (int k = 0; k < 3; ++k) facets[i][k] = border_index[triangles[i][k]];
+  return tet_points;
+}
 
-  // A border that crosses itself (two faces the simplifier never touched, e.g. locked ones
-  // from neighbouring segments) makes TetGen fail, and TetGen 1.5 then crashes while freeing
-  // its memory (found on the 5M blade): such a mesh goes to the quadric simplifier instead.
-  {
-    std::vector<Point3> border_positions(border_points);
-    for (size_t i = 0; i < border_points; ++i) border_positions[i] = positions[input_vertex[i]];
-    if (!detail::self_intersections(border_positions, facets, 1).empty()) return fall_back_to_qem(mesh, options, locked, report);
-  }
+// Whether the simplified border's facets cross each other.
+bool border_crosses_itself(const std::vector<Point3>& positions, const TetPoints& tet_points) {
+  std::vector<Point3> border_positions(tet_points.border_points);
+  for (size_t i = 0; i < tet_points.border_points; ++i) border_positions[i] = positions[tet_points.input_vertex[i]];
+  return !detail::self_intersections(border_positions, tet_points.facets, 1).empty();
+}
 
-  PointSampler sampler(positions, values, channels, extent);
+// 3. sample and tetrahedralize (§4.2.2-4.2.3); once more when the target was missed by far.
+// Fills samples and tetrahedra; returns false when TetGen failed (report.tetgen_failure says
+// how).
+bool sample_and_tetrahedralize(PointSampler& sampler, const std::vector<uint32_t>& interior, const std::vector<Point3>& positions, const TetPoints& tet_points,
+                               const SimplifyOptions& options, const std::vector<uint8_t>& locked, Lap& lap, SimplifyReport& report,
+                               std::vector<uint32_t>& samples, Tetrahedralization& tetrahedra) {
+  const std::vector<uint32_t>& input_vertex = tet_points.input_vertex;
+  const size_t border_points = tet_points.border_points;
   auto wanted_samples = [&](double tets_per_interior, double tets_per_border) -> uint64_t {
     if (!options.target_tets) return 0;
     const double rest = double(options.target_tets) - tets_per_border * double(border_points);
     return static_cast<uint64_t>(std::max(1.0, rest / tets_per_interior));
   };
-  // 3. sample and tetrahedralize (§4.2.2-4.2.3); once more when the target was missed by far
   uint64_t wanted = wanted_samples(kTetsPerInteriorPoint, kTetsPerBorderPoint);
-  std::vector<uint32_t> samples;
-  Tetrahedralization tetrahedra;
   for (int attempt = 0; attempt < 2; ++attempt) {
     samples = sampler.sample(interior, options, wanted);
     lap(report.sample_seconds);
@@ -543,10 +556,10 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
     for (size_t i = 0; i < border_points; ++i) points[i] = positions[input_vertex[i]];
     for (size_t i = 0; i < samples.size(); ++i) points[border_points + i] = positions[samples[i]];
     try {
-      tetrahedra = tetrahedralize_apart(points, facets);
+      tetrahedra = tetrahedralize_apart(points, tet_points.facets);
     } catch (const std::runtime_error& e) {
       report.tetgen_failure = e.what();
-      return fall_back_to_qem(mesh, options, locked, report);
+      return false;
     }
     lap(report.tetrahedralize_seconds);
     ++report.tetrahedralizations;
@@ -561,13 +574,13 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
     if (next == wanted) break;
     wanted = next;
   }
-  report.samples = samples.size();
+  return true;
+}
 
-  // 4. the output mesh: the points the tets use (input order), then the Steiner points
-  const size_t inputs = border_points + samples.size();
-  for (uint32_t s : samples) input_vertex.push_back(s);
-  std::vector<uint32_t> new_index(inputs + tetrahedra.steiner.size(), kSteiner);
-  std::vector<uint32_t> steiner_near(tetrahedra.steiner.size(), kSteiner);  // an input vertex sharing a tet
+// Marks in new_index (0) every point the tets use, and gives each Steiner point an input
+// vertex sharing a tet with it in steiner_near (kSteiner where none does).
+void mark_used_points(const Tetrahedralization& tetrahedra, const std::vector<uint32_t>& input_vertex, size_t inputs, std::vector<uint32_t>& new_index,
+                      std::vector<uint32_t>& steiner_near) {
   for (size_t t = 0; t < tetrahedra.tets.size() / 4; ++t) {
     uint32_t known = kSteiner;
     for (int k = 0; k < 4; ++k) {
@@ -580,6 +593,16 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
       if (i >= inputs && steiner_near[i - inputs] == kSteiner) steiner_near[i - inputs] = known;
     }
   }
+}
+
+// 4. the output mesh: the points the tets use (input order, with their values), then the
+// Steiner points (values by barycentric location in mesh), tets positively oriented; each
+// output vertex's source goes into report. input_vertex: the first `inputs` points' vertices.
+storage::TetMesh assemble_output(const storage::TetMesh& mesh, const std::vector<uint32_t>& input_vertex, size_t inputs, const Tetrahedralization& tetrahedra,
+                                 SimplifyReport& report) {
+  std::vector<uint32_t> new_index(inputs + tetrahedra.steiner.size(), kSteiner);
+  std::vector<uint32_t> steiner_near(tetrahedra.steiner.size(), kSteiner);  // an input vertex sharing a tet
+  mark_used_points(tetrahedra, input_vertex, inputs, new_index, steiner_near);
   storage::TetMesh out;
   for (const auto& a : mesh.attributes) out.attributes.push_back({a.info, {}});
   std::unique_ptr<PointLocator> locator;
@@ -624,9 +647,65 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
     uint32_t* v = &out.tets[4 * t];
     if (storage::signed_volume(out, v[0], v[1], v[2], v[3]) < 0) std::swap(v[2], v[3]);
   }
+  return out;
+}
+
+}  // namespace
+
+SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
+  const auto started = std::chrono::steady_clock::now();
+  const size_t nv = mesh.vertex_count();
+  check_sample_options(options, locked, nv);
+  SimplifyReport report;
+  report.tets_before = mesh.tet_count();
+  report.vertices_before = nv;
+  size_t channels = 0;
+  const std::vector<float> values = normalised_channels(mesh, options, &channels);
+
+  std::vector<Point3> positions(nv);
+  for (size_t v = 0; v < nv; ++v) positions[v] = {mesh.x[v], mesh.y[v], mesh.z[v]};
+  const storage::Bounds bounds = options.frame ? *options.frame : storage::compute_bounds(mesh);
+  double diagonal = 0, extent = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double side = bounds.max[k] - bounds.min[k];
+    diagonal += side * side;
+    extent = std::max(extent, side);
+  }
+  diagonal = std::sqrt(diagonal);
+
+  Lap lap;
+  // 1. the border, simplified without self-intersections (§4.2.1)
+  const std::vector<std::array<uint32_t, 3>> border = border_triangles(mesh);
+  report.border_before = border.size();
+  const detail::BorderField field{values.data(), channels, kBorderFieldWeight * diagonal};
+  const detail::BorderSimplifyResult simplified = simplify_mesh_border(mesh, options, locked, positions, border, field, diagonal, report);
+  lap(report.border_seconds);
+
+  // 2. the interior points: used, not on the original border, not locked
+  const std::vector<uint32_t> interior = interior_points(mesh, border, locked);
+  // the tetrahedralization's points: the simplified border's vertices, then the samples
+  TetPoints tet_points = border_points_and_facets(simplified.triangles, nv);
+
+  // A border that crosses itself (two faces the simplifier never touched, e.g. locked ones
+  // from neighbouring segments) makes TetGen fail, and TetGen 1.5 then crashes while freeing
+  // its memory (found on the 5M blade): such a mesh goes to the quadric simplifier instead.
+  if (border_crosses_itself(positions, tet_points)) return fall_back_to_qem(mesh, options, locked, report);
+
+  PointSampler sampler(positions, values, channels, extent);
+  // 3. sample and tetrahedralize (§4.2.2-4.2.3); once more when the target was missed by far
+  std::vector<uint32_t> samples;
+  Tetrahedralization tetrahedra;
+  if (!sample_and_tetrahedralize(sampler, interior, positions, tet_points, options, locked, lap, report, samples, tetrahedra))
+    return fall_back_to_qem(mesh, options, locked, report);
+  report.samples = samples.size();
+
+  // 4. the output mesh: the points the tets use (input order), then the Steiner points
+  const size_t inputs = tet_points.border_points + samples.size();
+  for (uint32_t s : samples) tet_points.input_vertex.push_back(s);
+  storage::TetMesh out = assemble_output(mesh, tet_points.input_vertex, inputs, tetrahedra, report);
   // TetGen fills a cavity that the border encloses (no hole point marks it): the output's
   // border then lacks those facets. The mesh is left to the quadric simplifier instead.
-  if (border_triangles(out).size() != facets.size()) return fall_back_to_qem(mesh, options, locked, report);
+  if (border_triangles(out).size() != tet_points.facets.size()) return fall_back_to_qem(mesh, options, locked, report);
   mesh = std::move(out);
   lap(report.output_seconds);
   report.tets_after = mesh.tet_count();
