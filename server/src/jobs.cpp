@@ -57,6 +57,84 @@ void remove_job_output(const fs::path& folder) {
   for (const char* name : {"out", "out.tmp", "out.old"}) fs::remove_all(folder / name, ec);
 }
 
+// The command line of a job: preprocess `source` (inside data_dir) into `out` with the
+// client's options, progress as JSON lines.
+std::vector<std::string> preprocess_command(const fs::path& binary, const fs::path& data_dir, const std::string& source, const fs::path& out,
+                                            const nlohmann::json& options) {
+  std::vector<std::string> args = {binary.string(), "preprocess", (data_dir / source).string(), "-o", out.string(), "--progress", "json"};
+  for (const auto& [key, value] : options.items()) {
+    args.push_back(kOptionFlags.at(key));
+    args.push_back(value.is_number_unsigned() ? std::to_string(value.get<uint64_t>()) : value.dump());
+  }
+  return args;
+}
+
+// Starts `args` as a child in its own process group under the job limits, its stdout and
+// stderr into a pipe whose read end is left in pipe_fds[0]. Returns the child's pid, or -1
+// with the reason in failure.
+pid_t start_preprocess(std::vector<std::string>& args, const JobLimits& limits, int pipe_fds[2], std::string& failure) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const rlimit memory_limit{limits.memory_bytes, limits.memory_bytes};  // prepared before fork: the child only calls setrlimit
+  const rlimit cpu_limit{limits.cpu_seconds, limits.cpu_seconds + 1};   // SIGXCPU at the soft limit, SIGKILL a second later
+  if (::pipe2(pipe_fds, O_CLOEXEC) != 0) {
+    failure = std::string("cannot start the job: ") + std::strerror(errno);
+  } else {
+    pid = ::fork();
+    if (pid == 0) {  // child: only async-signal-safe calls until exec
+      ::setpgid(0, 0);
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      int adj = ::open("/proc/self/oom_score_adj", O_WRONLY);  // the OOM killer picks the job, not the server
+      if (adj >= 0) {
+        (void)!::write(adj, "1000", 4);
+        ::close(adj);
+      }
+      if (memory_limit.rlim_cur > 0) ::setrlimit(RLIMIT_AS, &memory_limit);
+      if (cpu_limit.rlim_cur > 0) ::setrlimit(RLIMIT_CPU, &cpu_limit);
+      ::dup2(pipe_fds[1], STDOUT_FILENO);
+      ::dup2(pipe_fds[1], STDERR_FILENO);
+      ::execv(argv[0], argv.data());
+      const char message[] = "cannot run the tetrascope binary\n";
+      (void)!::write(STDERR_FILENO, message, sizeof message - 1);
+      ::_exit(127);
+    }
+    if (pid < 0) failure = std::string("cannot start the job: ") + std::strerror(errno);
+    else ::setpgid(pid, pid);  // as the child does: no race with an early kill(-pid)
+  }
+  if (pipe_fds[1] >= 0) ::close(pipe_fds[1]);
+  return pid;
+}
+
+// Waits for the child; returns why it failed (out of CPU time, killed, a non-zero exit with
+// the last line it printed, out of memory), or "" when it succeeded. log_tail is read under
+// mutex.
+std::string wait_for_child(pid_t pid, const JobLimits& limits, std::mutex& mutex, const std::deque<std::string>& log_tail) {
+  std::string failure;
+  int status = 0;
+  rusage usage{};
+  while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
+  }
+  const auto child_cpu_seconds = [&usage] { return uint64_t(usage.ru_utime.tv_sec) + uint64_t(usage.ru_stime.tv_sec) + 1; };
+  if (WIFSIGNALED(status) && limits.cpu_seconds > 0 && (WTERMSIG(status) == SIGXCPU || WTERMSIG(status) == SIGKILL) && child_cpu_seconds() >= limits.cpu_seconds) {
+    failure = "out of CPU time: the job needed more than its limit of " + std::to_string(limits.cpu_seconds) + " s (serve --job-cpu-seconds)";
+  } else if (WIFSIGNALED(status)) {
+    failure = "preprocess was killed by signal " + std::to_string(WTERMSIG(status)) + (WTERMSIG(status) == SIGKILL ? " (out of memory, or killed)" : "");
+  } else if (WEXITSTATUS(status) != 0) {
+    std::lock_guard lock(mutex);
+    failure = "preprocess exited with status " + std::to_string(WEXITSTATUS(status));
+    if (!log_tail.empty()) failure += ": " + log_tail.back();
+    const bool out_of_memory = !log_tail.empty() && (log_tail.back().find("bad_alloc") != std::string::npos ||
+                                                     log_tail.back().find("cannot allocate memory") != std::string::npos);
+    if (out_of_memory && limits.memory_bytes > 0) {
+      failure = "out of memory: the job needed more than its limit of " + std::to_string(limits.memory_bytes >> 20) +
+                " MiB (serve --job-memory-mb)";
+    }
+  }
+  return failure;
+}
+
 }  // namespace
 
 uint64_t physical_memory_bytes() {
@@ -238,46 +316,12 @@ void JobRunner::run(std::shared_ptr<Job> job) {
   const fs::path folder = jobs_dir_ / job->id, out = folder / "out";
   std::error_code ec;
   remove_job_output(folder);
-  std::vector<std::string> args = {binary_.string(), "preprocess", (data_dir_ / job->source).string(), "-o", out.string(), "--progress", "json"};
-  for (const auto& [key, value] : job->options.items()) {
-    args.push_back(kOptionFlags.at(key));
-    args.push_back(value.is_number_unsigned() ? std::to_string(value.get<uint64_t>()) : value.dump());
-  }
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
+  std::vector<std::string> args = preprocess_command(binary_, data_dir_, job->source, out, job->options);
   const std::string log_path = (folder / "log").string();
   int log_fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   int pipe_fds[2] = {-1, -1};
   std::string failure;
-  pid_t pid = -1;
-  const rlimit memory_limit{limits_.memory_bytes, limits_.memory_bytes};  // prepared before fork: the child only calls setrlimit
-  const rlimit cpu_limit{limits_.cpu_seconds, limits_.cpu_seconds + 1};   // SIGXCPU at the soft limit, SIGKILL a second later
-  if (::pipe2(pipe_fds, O_CLOEXEC) != 0) {
-    failure = std::string("cannot start the job: ") + std::strerror(errno);
-  } else {
-    pid = ::fork();
-    if (pid == 0) {  // child: only async-signal-safe calls until exec
-      ::setpgid(0, 0);
-      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-      int adj = ::open("/proc/self/oom_score_adj", O_WRONLY);  // the OOM killer picks the job, not the server
-      if (adj >= 0) {
-        (void)!::write(adj, "1000", 4);
-        ::close(adj);
-      }
-      if (memory_limit.rlim_cur > 0) ::setrlimit(RLIMIT_AS, &memory_limit);
-      if (cpu_limit.rlim_cur > 0) ::setrlimit(RLIMIT_CPU, &cpu_limit);
-      ::dup2(pipe_fds[1], STDOUT_FILENO);
-      ::dup2(pipe_fds[1], STDERR_FILENO);
-      ::execv(argv[0], argv.data());
-      const char message[] = "cannot run the tetrascope binary\n";
-      (void)!::write(STDERR_FILENO, message, sizeof message - 1);
-      ::_exit(127);
-    }
-    if (pid < 0) failure = std::string("cannot start the job: ") + std::strerror(errno);
-    else ::setpgid(pid, pid);  // as the child does: no race with an early kill(-pid)
-  }
-  if (pipe_fds[1] >= 0) ::close(pipe_fds[1]);
+  const pid_t pid = start_preprocess(args, limits_, pipe_fds, failure);
   if (pid > 0) {
     {
       std::lock_guard lock(mutex_);
@@ -314,26 +358,7 @@ void JobRunner::run(std::shared_ptr<Job> job) {
         last_save = std::chrono::steady_clock::now();
       }
     }
-    int status = 0;
-    rusage usage{};
-    while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
-    }
-    const auto child_cpu_seconds = [&usage] { return uint64_t(usage.ru_utime.tv_sec) + uint64_t(usage.ru_stime.tv_sec) + 1; };
-    if (WIFSIGNALED(status) && limits_.cpu_seconds > 0 && (WTERMSIG(status) == SIGXCPU || WTERMSIG(status) == SIGKILL) && child_cpu_seconds() >= limits_.cpu_seconds) {
-      failure = "out of CPU time: the job needed more than its limit of " + std::to_string(limits_.cpu_seconds) + " s (serve --job-cpu-seconds)";
-    } else if (WIFSIGNALED(status)) {
-      failure = "preprocess was killed by signal " + std::to_string(WTERMSIG(status)) + (WTERMSIG(status) == SIGKILL ? " (out of memory, or killed)" : "");
-    } else if (WEXITSTATUS(status) != 0) {
-      std::lock_guard lock(mutex_);
-      failure = "preprocess exited with status " + std::to_string(WEXITSTATUS(status));
-      if (!job->log_tail.empty()) failure += ": " + job->log_tail.back();
-      const bool out_of_memory = !job->log_tail.empty() && (job->log_tail.back().find("bad_alloc") != std::string::npos ||
-                                                            job->log_tail.back().find("cannot allocate memory") != std::string::npos);
-      if (out_of_memory && limits_.memory_bytes > 0) {
-        failure = "out of memory: the job needed more than its limit of " + std::to_string(limits_.memory_bytes >> 20) +
-                  " MiB (serve --job-memory-mb)";
-      }
-    }
+    failure = wait_for_child(pid, limits_, mutex_, job->log_tail);
   }
   if (pipe_fds[0] >= 0) ::close(pipe_fds[0]);
   if (log_fd >= 0) ::close(log_fd);
