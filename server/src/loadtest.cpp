@@ -75,126 +75,181 @@ bool reopen_session(const LoadtestOptions& o, std::unique_ptr<SessionClient>& cl
   return false;
 }
 
+// One client's run over an open session: camera moves along the path at the rate (on
+// orbit-pause, orbits and pauses in turn), and what the frames that answer them measure.
+struct ClientRun {
+  ClientRun(const LoadtestOptions& options, unsigned index, std::unique_ptr<SessionClient>& session, const nlohmann::json& info, ClientResult& result)
+      : o(options),
+        r(result),
+        client(session),
+        eye(info["camera"]["eye"].get<Vec3>()),
+        target(info["camera"]["target"].get<Vec3>()),
+        up(info["camera"]["up"].get<Vec3>()),
+        offset(eye - target),
+        fov(info["camera"]["fov"].get<double>()),
+        random(1234 + index),
+        start(Clock::now()),
+        end(start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s))),
+        period(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.rate_hz))),
+        pausing(o.path == "orbit-pause"),
+        orbit_for(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.orbit_s))),
+        pause_for(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.pause_s))),
+        next_send(start),
+        phase_end(start + orbit_for),
+        saving(!o.save_refinement.empty() && index == 0),
+        azimuth(0.3 * index) {}
+
+  // Moves and reads until the run's end; a lost session is opened again where o.reconnect.
+  void run() {
+    while (Clock::now() < end) {
+      try {
+        if (pausing && Clock::now() >= phase_end) switch_phase();
+        if (!paused && Clock::now() >= next_send) send_move();
+        receive();
+      } catch (const std::runtime_error& e) {
+        // the connection went away (read says closed; send fails): open the session again
+        if (!(client->closed() || std::string_view(e.what()).starts_with("send:")) || !o.reconnect) throw;
+        ++r.reconnects;
+        sent.clear();
+        resume_id.reset();
+        std::string why;
+        if (!reopen_session(o, client, end, why))
+          throw std::runtime_error(std::string("lost the session (") + e.what() + ") and could not open it again (" + why + ")");
+      }
+    }
+  }
+
+  // orbit-pause: the current orbit (or pause) ended; the other begins.
+  void switch_phase() {
+    paused = !paused;
+    phase_end += paused ? pause_for : orbit_for;
+    if (paused) {
+      ++r.pauses;
+      released = Clock::now();
+      release_saw_step = release_saw_still = false;
+    } else {
+      next_send = Clock::now();
+      resuming = true;
+      if (release_saw_still) saving = false;  // one pause's steps are enough
+    }
+  }
+
+  // The next camera move along the path.
+  void send_move() {
+    if (o.path == "random") {
+      azimuth += step(random);
+      elevation = std::clamp(elevation + step(random), -1.2, 1.2);
+    } else {
+      azimuth += 2 * M_PI / 6 / o.rate_hz;  // a turn in six seconds
+    }
+    const Vec3 side = cross(offset, up);
+    const Vec3 rotated = rotate(rotate(offset, side, elevation), up, azimuth);
+    const uint32_t id = client->send("camera.set", {{"eye", target + rotated},
+                                                   {"target", target}, {"up", up}, {"fov", fov}, {"interacting", true}});
+    sent[id] = Clock::now();
+    if (resuming) resume_id = id;
+    resuming = false;
+    next_send += period;
+  }
+
+  // Waits for messages until the next thing to do (a move, the phase's or the run's end) and
+  // takes every one that arrived.
+  void receive() {
+    const auto wake = paused ? std::min(phase_end, end) : std::min({next_send, end, pausing ? phase_end : end});
+    const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
+    auto message = client->read(std::max(std::chrono::milliseconds(1), wait));
+    while (message) {
+      if (message->binary) {
+        on_frame(*message);
+      } else {
+        const nlohmann::json j = nlohmann::json::parse(message->data, nullptr, false);
+        if (j.is_object() && j.value("type", "") == "error") ++r.errors;
+      }
+      message = client->read(std::chrono::milliseconds(0));
+    }
+  }
+
+  // A frame: its bytes, the latency of the move it answers, the first frame after a resume.
+  void on_frame(const SessionClient::Message& message) {
+    const auto* bytes = reinterpret_cast<const uint8_t*>(message.data.data());
+    const auto header = protocol::decode_frame_header(std::span<const uint8_t>(bytes, message.data.size()), limits);
+    ++r.frames;
+    r.bytes += message.data.size();
+    if (header.still || header.refining) {
+      header.still ? ++r.still_frames : ++r.refining_frames;
+      r.still_bytes += message.data.size();
+    } else {
+      r.interaction_bytes += message.data.size();
+    }
+    if (pausing && paused && (header.still || header.refining)) on_refinement(header, message);
+    if (resume_id && header.message_id >= *resume_id && !header.still && !header.refining) {
+      r.resume_ms.push_back(std::chrono::duration<double, std::milli>(message.received - sent[*resume_id]).count());
+      resume_id.reset();
+    }
+    auto it = sent.find(header.message_id);
+    if (it != sent.end()) {
+      r.latency_ms.push_back(std::chrono::duration<double, std::milli>(message.received - it->second).count());
+      sent.erase(sent.begin(), std::next(it));  // older moves were superseded
+    }
+  }
+
+  // A refinement step or the still during a pause: the times since the release, and the
+  // frame saved where o.save_refinement asks for it.
+  void on_refinement(const protocol::FrameHeader& header, const SessionClient::Message& message) {
+    const double since_release = std::chrono::duration<double, std::milli>(message.received - released).count();
+    if (!release_saw_step) r.release_to_first_step_ms.push_back(since_release);
+    release_saw_step = true;
+    if (header.still && !release_saw_still) {
+      r.release_to_still_ms.push_back(since_release);
+      ++r.pauses_with_still;
+      release_saw_still = true;
+    }
+    if (saving) {
+      const std::string name = (header.still ? std::string("still") : "step-" + std::to_string(saved_steps.size())) + (header.codec == protocol::Codec::kPng ? ".png" : ".jpg");
+      std::ofstream(std::filesystem::path(o.save_refinement) / name, std::ios::binary)
+          .write(message.data.data() + protocol::kFrameHeaderBytes, static_cast<std::streamsize>(header.payload_bytes));
+      saved_steps.push_back({{"file", name}, {"ms_since_release", since_release}, {"tets", header.tets}, {"estimated_error", header.estimated_error},
+                             {"still", header.still}, {"render_ms", header.render_ms}});
+      if (header.still) {
+        std::ofstream(std::filesystem::path(o.save_refinement) / "steps.json") << saved_steps.dump(1) << "\n";
+        saving = false;
+      }
+    }
+  }
+
+  const LoadtestOptions& o;
+  ClientResult& r;
+  std::unique_ptr<SessionClient>& client;
+  const Vec3 eye, target, up;
+  const Vec3 offset;
+  const double fov;
+  std::mt19937 random;
+  std::normal_distribution<double> step{0, 0.05};
+  std::map<uint32_t, Clock::time_point> sent;
+  const Clock::time_point start, end;
+  const Clock::duration period;
+  const bool pausing;
+  const Clock::duration orbit_for, pause_for;
+  Clock::time_point next_send;
+  Clock::time_point phase_end;         // orbit-pause: when the current orbit (or pause) ends
+  bool paused = false;
+  std::optional<uint32_t> resume_id;   // the first move after a pause, until a frame answers it
+  bool resuming = false;               // the next move is the first after a pause
+  Clock::time_point released{};        // the last move before the pause
+  bool release_saw_step = false, release_saw_still = false;
+  bool saving;
+  nlohmann::json saved_steps = nlohmann::json::array();
+  double azimuth, elevation = 0;
+  const protocol::Limits limits{};
+};
+
 void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
   try {
     std::unique_ptr<SessionClient> client;
     const nlohmann::json info = open_session(o, client);
-    const Vec3 eye = info["camera"]["eye"], target = info["camera"]["target"], up = info["camera"]["up"];
-    const Vec3 offset = eye - target;
-    const double fov = info["camera"]["fov"];
-    std::mt19937 random(1234 + index);
-    std::normal_distribution<double> step(0, 0.05);
-    std::map<uint32_t, Clock::time_point> sent;
-    const auto start = Clock::now(), end = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));
-    const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.rate_hz));
-    const bool pausing = o.path == "orbit-pause";
-    const auto orbit_for = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.orbit_s));
-    const auto pause_for = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.pause_s));
-    auto next_send = start;
-    auto phase_end = start + orbit_for;  // orbit-pause: when the current orbit (or pause) ends
-    bool paused = false;
-    std::optional<uint32_t> resume_id;   // the first move after a pause, until a frame answers it
-    bool resuming = false;               // the next move is the first after a pause
-    Clock::time_point released{};        // the last move before the pause
-    bool release_saw_step = false, release_saw_still = false;
-    bool saving = !o.save_refinement.empty() && index == 0;
-    nlohmann::json saved_steps = nlohmann::json::array();
-    double azimuth = 0.3 * index, elevation = 0;
-    const protocol::Limits limits;
-    while (Clock::now() < end) {
-     try {
-      if (pausing && Clock::now() >= phase_end) {
-        paused = !paused;
-        phase_end += paused ? pause_for : orbit_for;
-        if (paused) {
-          ++r.pauses;
-          released = Clock::now();
-          release_saw_step = release_saw_still = false;
-        } else {
-          next_send = Clock::now();
-          resuming = true;
-          if (release_saw_still) saving = false;  // one pause's steps are enough
-        }
-      }
-      if (!paused && Clock::now() >= next_send) {
-        if (o.path == "random") {
-          azimuth += step(random);
-          elevation = std::clamp(elevation + step(random), -1.2, 1.2);
-        } else {
-          azimuth += 2 * M_PI / 6 / o.rate_hz;  // a turn in six seconds
-        }
-        const Vec3 side = cross(offset, up);
-        const Vec3 rotated = rotate(rotate(offset, side, elevation), up, azimuth);
-        const uint32_t id = client->send("camera.set", {{"eye", target + rotated},
-                                                       {"target", target}, {"up", up}, {"fov", fov}, {"interacting", true}});
-        sent[id] = Clock::now();
-        if (resuming) resume_id = id;
-        resuming = false;
-        next_send += period;
-      }
-      const auto wake = paused ? std::min(phase_end, end) : std::min({next_send, end, pausing ? phase_end : end});
-      const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
-      auto message = client->read(std::max(std::chrono::milliseconds(1), wait));
-      while (message) {
-        if (message->binary) {
-          const auto* bytes = reinterpret_cast<const uint8_t*>(message->data.data());
-          const auto header = protocol::decode_frame_header(std::span<const uint8_t>(bytes, message->data.size()), limits);
-          ++r.frames;
-          r.bytes += message->data.size();
-          if (header.still || header.refining) {
-            header.still ? ++r.still_frames : ++r.refining_frames;
-            r.still_bytes += message->data.size();
-          } else {
-            r.interaction_bytes += message->data.size();
-          }
-          if (pausing && paused && (header.still || header.refining)) {
-            const double since_release = std::chrono::duration<double, std::milli>(message->received - released).count();
-            if (!release_saw_step) r.release_to_first_step_ms.push_back(since_release);
-            release_saw_step = true;
-            if (header.still && !release_saw_still) {
-              r.release_to_still_ms.push_back(since_release);
-              ++r.pauses_with_still;
-              release_saw_still = true;
-            }
-            if (saving) {
-              const std::string name = (header.still ? std::string("still") : "step-" + std::to_string(saved_steps.size())) + (header.codec == protocol::Codec::kPng ? ".png" : ".jpg");
-              std::ofstream(std::filesystem::path(o.save_refinement) / name, std::ios::binary)
-                  .write(message->data.data() + protocol::kFrameHeaderBytes, static_cast<std::streamsize>(header.payload_bytes));
-              saved_steps.push_back({{"file", name}, {"ms_since_release", since_release}, {"tets", header.tets}, {"estimated_error", header.estimated_error},
-                                     {"still", header.still}, {"render_ms", header.render_ms}});
-              if (header.still) {
-                std::ofstream(std::filesystem::path(o.save_refinement) / "steps.json") << saved_steps.dump(1) << "\n";
-                saving = false;
-              }
-            }
-          }
-          if (resume_id && header.message_id >= *resume_id && !header.still && !header.refining) {
-            r.resume_ms.push_back(std::chrono::duration<double, std::milli>(message->received - sent[*resume_id]).count());
-            resume_id.reset();
-          }
-          auto it = sent.find(header.message_id);
-          if (it != sent.end()) {
-            r.latency_ms.push_back(std::chrono::duration<double, std::milli>(message->received - it->second).count());
-            sent.erase(sent.begin(), std::next(it));  // older moves were superseded
-          }
-        } else {
-          const nlohmann::json j = nlohmann::json::parse(message->data, nullptr, false);
-          if (j.is_object() && j.value("type", "") == "error") ++r.errors;
-        }
-        message = client->read(std::chrono::milliseconds(0));
-      }
-     } catch (const std::runtime_error& e) {
-      // the connection went away (read says closed; send fails): open the session again
-      if (!(client->closed() || std::string_view(e.what()).starts_with("send:")) || !o.reconnect) throw;
-      ++r.reconnects;
-      sent.clear();
-      resume_id.reset();
-      std::string why;
-      if (!reopen_session(o, client, end, why))
-        throw std::runtime_error(std::string("lost the session (") + e.what() + ") and could not open it again (" + why + ")");
-     }
-    }
-    r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    ClientRun client_run(o, index, client, info, r);
+    client_run.run();
+    r.seconds = std::chrono::duration<double>(Clock::now() - client_run.start).count();
     client->close();
   } catch (const std::exception& e) {
     r.failure = e.what();
