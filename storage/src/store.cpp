@@ -63,14 +63,11 @@ Store::~Store() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
-  std::unique_ptr<Store> s(new Store());
-  s->path_ = directory;
-  const auto manifest_path = directory / "manifest.json";
-  const auto segments_path = directory / "segments.bin";
-  if (!std::filesystem::is_directory(directory)) fail(directory, "not a store directory");
+namespace {
 
-  // ---- manifest ----
+// Reads manifest.json and checks its checksum; returns the text with the checksum's digits
+// written as zeros (the bytes the checksum covers).
+std::string read_manifest_text(const std::filesystem::path& manifest_path) {
   std::string text = read_text(manifest_path, kMaxManifestBytes);
   const std::string key = "\"checksum\": \"";
   size_t at = text.find(key);
@@ -82,7 +79,11 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   char hex[9];
   std::snprintf(hex, sizeof hex, "%08x", crc32_of(text.data(), text.size()));
   if (stored != hex) fail(manifest_path, "checksum mismatch (the file was changed or damaged)");
-  StoreManifest& m = s->manifest_;
+  return text;
+}
+
+// Parses the manifest's fields into m; returns the compression it names for segments.bin.
+std::string parse_manifest(const std::string& text, const std::filesystem::path& manifest_path, StoreManifest& m) {
   std::string manifest_compression = "none";
   try {
     m.json = nlohmann::json::parse(text);
@@ -113,15 +114,16 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   } catch (const nlohmann::json::exception& e) {
     fail(manifest_path, std::string("malformed: ") + e.what());
   }
+  return manifest_compression;
+}
 
-  // ---- segments.bin header ----
-  s->fd_ = ::open(segments_path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (s->fd_ < 0) fail(segments_path, std::string("cannot open: ") + std::strerror(errno));
+// Reads segments.bin's header into h and checks it against the file and the manifest;
+// returns the file's size in bytes.
+uint64_t read_header(int fd, const std::filesystem::path& segments_path, const StoreManifest& m, const std::string& manifest_compression, FileHeader& h) {
   struct stat st {};
-  ::fstat(s->fd_, &st);
+  ::fstat(fd, &st);
   const uint64_t file_bytes = static_cast<uint64_t>(st.st_size);
-  FileHeader& h = s->header_;
-  pread_exact(s->fd_, segments_path, 0, &h, sizeof h, "header");
+  pread_exact(fd, segments_path, 0, &h, sizeof h, "header");
   if (std::memcmp(h.magic, kFileMagic, sizeof kFileMagic) != 0) fail(segments_path, "header: wrong magic (not a tetrascope segments file)");
   if (h.version != kFormatVersion && h.version != kCompressedFormatVersion) {
     fail(segments_path, "header: format version " + std::to_string(h.version) + ", this build reads " + std::to_string(kFormatVersion) + " and " + std::to_string(kCompressedFormatVersion));
@@ -133,7 +135,6 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   if (h.version != m.version || manifest_compression != compression_name(static_cast<Compression>(h.compression))) {
     fail(segments_path, "header: version or compression disagrees with manifest.json");
   }
-  const auto compression = static_cast<Compression>(h.compression);
   if (h.header_bytes != sizeof(FileHeader)) fail(segments_path, "header: unexpected header size");
   if (h.file_bytes != file_bytes) fail(segments_path, "header: file is " + std::to_string(file_bytes) + " bytes, expected " + std::to_string(h.file_bytes) + " (truncated?)");
   if (h.segment_count != m.segment_count || h.vertex_count != m.vertex_count || h.tet_count != m.tet_count) {
@@ -144,22 +145,35 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   if (h.floats_per_vertex != floats) fail(segments_path, "header: attribute sizes disagree with manifest.json");
   if (h.segment_count == 0 || h.segment_count > kMaxSegments) fail(segments_path, "header: invalid segment count");
   if (h.vertex_count >= 0xFFFFFFFFull) fail(segments_path, "header: too many vertices");
+  return file_bytes;
+}
 
-  // ---- directory and neighbour lists ----
+// Reads the directory and the neighbour lists into records and neighbours, checking that
+// both lie inside the file and match their checksums.
+void read_directory(int fd, const std::filesystem::path& segments_path, const FileHeader& h, uint64_t file_bytes, std::vector<SegmentRecord>& records,
+                    std::vector<uint32_t>& neighbours) {
   const uint64_t directory_bytes = uint64_t{h.segment_count} * sizeof(SegmentRecord);
   if (h.directory_offset > file_bytes || directory_bytes > file_bytes - h.directory_offset) fail(segments_path, "directory: out of the file");
   if (h.neighbour_total > file_bytes / 4 || h.neighbours_offset > file_bytes || h.neighbour_total * 4 > file_bytes - h.neighbours_offset) {
     fail(segments_path, "neighbour lists: out of the file");
   }
-  s->records_.resize(h.segment_count);
-  pread_exact(s->fd_, segments_path, h.directory_offset, s->records_.data(), directory_bytes, "directory");
-  if (crc32_of(s->records_.data(), directory_bytes) != h.directory_crc) fail(segments_path, "directory: checksum mismatch");
-  s->neighbours_.resize(h.neighbour_total);
-  pread_exact(s->fd_, segments_path, h.neighbours_offset, s->neighbours_.data(), h.neighbour_total * 4, "neighbour lists");
-  if (crc32_of(s->neighbours_.data(), h.neighbour_total * 4) != h.neighbours_crc) fail(segments_path, "neighbour lists: checksum mismatch");
+  records.resize(h.segment_count);
+  pread_exact(fd, segments_path, h.directory_offset, records.data(), directory_bytes, "directory");
+  if (crc32_of(records.data(), directory_bytes) != h.directory_crc) fail(segments_path, "directory: checksum mismatch");
+  neighbours.resize(h.neighbour_total);
+  pread_exact(fd, segments_path, h.neighbours_offset, neighbours.data(), h.neighbour_total * 4, "neighbour lists");
+  if (crc32_of(neighbours.data(), h.neighbour_total * 4) != h.neighbours_crc) fail(segments_path, "neighbour lists: checksum mismatch");
+}
+
+// Checks every directory record (place in the file, counts, size, neighbours) and that the
+// records' owned vertices and tets add up to the header's counts.
+void check_records(const std::filesystem::path& segments_path, const FileHeader& h, uint64_t file_bytes, const std::vector<SegmentRecord>& records,
+                   const std::vector<uint32_t>& neighbours) {
+  const uint32_t floats = h.floats_per_vertex;  // read_header checked it against manifest.json
+  const auto compression = static_cast<Compression>(h.compression);
   uint64_t vertex_sum = 0, tet_sum = 0;
   for (uint32_t i = 0; i < h.segment_count; ++i) {
-    const SegmentRecord& r = s->records_[i];
+    const SegmentRecord& r = records[i];
     const std::string where = "segment " + std::to_string(i) + ": ";
     if (r.offset % kPageBytes != 0 || r.offset > file_bytes || r.bytes > file_bytes - r.offset) fail(segments_path, where + "offset/size out of the file");
     if (r.tet_count > kMaxSegmentTets || r.boundary_tet_count > r.tet_count || r.owned_vertex_count > r.vertex_count) fail(segments_path, where + "invalid counts");
@@ -172,7 +186,7 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
     }
     if (uint64_t{r.neighbour_begin} + r.neighbour_count > h.neighbour_total) fail(segments_path, where + "neighbour list out of range");
     for (uint32_t k = 0; k < r.neighbour_count; ++k) {
-      uint32_t n = s->neighbours_[r.neighbour_begin + k];
+      uint32_t n = neighbours[r.neighbour_begin + k];
       if (n >= h.segment_count || n == i) fail(segments_path, where + "invalid neighbour " + std::to_string(n));
     }
     vertex_sum += r.owned_vertex_count;
@@ -180,11 +194,37 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
   }
   if (vertex_sum != h.vertex_count) fail(segments_path, "directory: owned vertices add up to " + std::to_string(vertex_sum) + ", expected " + std::to_string(h.vertex_count));
   if (tet_sum != h.tet_count) fail(segments_path, "directory: tets add up to " + std::to_string(tet_sum) + ", expected " + std::to_string(h.tet_count));
-  // stream tags name valid segments
+}
+
+// Checks that the manifest's stream tags name valid segments.
+void check_stream_tags(const std::filesystem::path& manifest_path, const StoreManifest& m, const FileHeader& h) {
   for (int64_t tag : m.stream_tags) {
     int64_t segment = tag > 0 ? tag - 1 : -tag - 1;
     if (tag == 0 || segment >= h.segment_count) fail(manifest_path, "stream tag " + std::to_string(tag) + " names no segment");
   }
+}
+
+}  // namespace
+
+std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
+  std::unique_ptr<Store> s(new Store());
+  s->path_ = directory;
+  const auto manifest_path = directory / "manifest.json";
+  const auto segments_path = directory / "segments.bin";
+  if (!std::filesystem::is_directory(directory)) fail(directory, "not a store directory");
+
+  // ---- manifest ----
+  const std::string manifest_compression = parse_manifest(read_manifest_text(manifest_path), manifest_path, s->manifest_);
+
+  // ---- segments.bin header ----
+  s->fd_ = ::open(segments_path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (s->fd_ < 0) fail(segments_path, std::string("cannot open: ") + std::strerror(errno));
+  const uint64_t file_bytes = read_header(s->fd_, segments_path, s->manifest_, manifest_compression, s->header_);
+
+  // ---- directory and neighbour lists ----
+  read_directory(s->fd_, segments_path, s->header_, file_bytes, s->records_, s->neighbours_);
+  check_records(segments_path, s->header_, file_bytes, s->records_, s->neighbours_);
+  check_stream_tags(manifest_path, s->manifest_, s->header_);
   return s;
 }
 
