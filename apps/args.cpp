@@ -8,6 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "tetrascope/protocol/transfer_function.h"
 #include "tetrascope/storage/parse_number.h"
 
 namespace tetrascope::apps {
@@ -78,12 +79,12 @@ std::vector<double> number_list(const std::string& option, const std::string& li
   return out;
 }
 
-lod::TransferFunction read_tf(const std::string& path) {
+view::TransferFunction read_tf(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::invalid_argument("--tf: cannot read " + path);
   nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
   if (j.is_discarded()) throw std::invalid_argument("--tf: " + path + " is not JSON");
-  return lod::TransferFunction::from_json(j);
+  return protocol::transfer_function_from_json(j);
 }
 
 ImageSize parse_size(const std::string& option, const std::string& text, uint32_t min_side, uint32_t max_side) {

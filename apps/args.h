@@ -8,7 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "tetrascope/lod/view.h"
+#include "tetrascope/view/camera.h"
+#include "tetrascope/view/transfer_function.h"
 #include "tetrascope/storage/progress.h"
 
 namespace tetrascope::apps {
@@ -36,8 +37,8 @@ class Args {
 storage::Progress::Mode progress_mode(const Args& args);
 // "v1,v2,...": finite numbers.
 std::vector<double> number_list(const std::string& option, const std::string& list);
-// A transfer-function file (`--tf FILE`), checked by protocol::TransferFunction::from_json.
-lod::TransferFunction read_tf(const std::string& path);
+// A transfer-function file (`--tf FILE`), checked by protocol::transfer_function_from_json.
+view::TransferFunction read_tf(const std::string& path);
 struct ImageSize {
   uint32_t width = 0, height = 0;
 };

@@ -218,8 +218,8 @@ RenderOptions render_options(const Args& args) {
 }
 
 // The camera of orbit frame f of n: around the box centre at elevation 20°.
-lod::Camera orbit_camera(uint32_t f, uint32_t n, const storage::Bounds& bounds, double aspect) {
-  lod::Camera camera = lod::parse_camera("azimuth=" + std::to_string(30 + 360.0 * f / n) + ",elevation=20", bounds);
+view::Camera orbit_camera(uint32_t f, uint32_t n, const storage::Bounds& bounds, double aspect) {
+  view::Camera camera = view::parse_camera("azimuth=" + std::to_string(30 + 360.0 * f / n) + ",elevation=20", bounds);
   camera.aspect = aspect;
   return camera;
 }
@@ -278,13 +278,13 @@ int run_cut(const Arguments& all) {
   const storage::Store& store = *opened.store;
   const uint64_t budget = args.number("--budget", 0);
   if (budget == 0) throw std::invalid_argument("--budget must be at least 1");
-  lod::TransferFunction tf;
+  view::TransferFunction tf;
   if (args.has("--tf")) tf = read_tf(args.get("--tf"));
   if (args.has("--attribute")) tf.attribute = args.get("--attribute");
   const std::vector<double> isovalues = args.has("--iso") ? number_list("--iso", args.get("--iso")) : std::vector<double>{};
   lod::CutCriteria criteria = lod::criteria_for(store, *opened.dag, tf, isovalues);
   if (args.has("--camera")) {
-    lod::Camera camera = lod::parse_camera(args.get("--camera"), store.manifest().bounds);
+    view::Camera camera = view::parse_camera(args.get("--camera"), store.manifest().bounds);
     if (args.has("--size")) {
       const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxImageSide);
       camera.aspect = double(size.width) / size.height;
@@ -345,7 +345,7 @@ int run_render(const Arguments& all) {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
     pipeline = std::make_unique<r::ViewPipeline>(storage::load_mesh(input));
   }
-  if (!o.camera_text.empty()) o.view.camera = lod::parse_camera(o.camera_text, pipeline->bounds());
+  if (!o.camera_text.empty()) o.view.camera = view::parse_camera(o.camera_text, pipeline->bounds());
   r::ViewTimings update_timings;  // the one-off cost of this view: cut, assembly, clip
   const r::RenderSettings settings = pipeline->update(o.view, &update_timings);
   // The context stays up to exit, on every path: Mesa's driver, unloaded by eglTerminate,

@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
     if (!dag) throw std::runtime_error("not a multiresolution store");
     const uint64_t input_tets = store->manifest().json["multiresolution"]["input"]["tetrahedra"].get<uint64_t>();
     if (budget == 0) budget = input_tets / 5;
-    lod::TransferFunction tf;
+    view::TransferFunction tf;
     tf.attribute = attribute;
     lod::CutCriteria criteria = lod::criteria_for(*store, *dag, tf);
     lod::Cut cut(*dag);
@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
     std::vector<size_t> changed;
     uint64_t limited = 0;
     for (int s = 0; s <= steps; ++s) {
-      lod::Camera camera = lod::parse_camera("azimuth=" + std::to_string(360.0 * s / steps) + ",elevation=20,distance=0.5,fov=30", store->manifest().bounds);
+      view::Camera camera = view::parse_camera("azimuth=" + std::to_string(360.0 * s / steps) + ",elevation=20,distance=0.5,fov=30", store->manifest().bounds);
       lod::set_view(criteria, camera);
       const auto t0 = clock_type::now();
       auto changes = cut.update(criteria, budget);

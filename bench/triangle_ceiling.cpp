@@ -33,7 +33,8 @@
 #include "camera_math.h"
 #include "egl_context.h"
 #include "gl_shaders.h"
-#include "tetrascope/lod/view.h"
+#include "tetrascope/view/camera.h"
+#include "tetrascope/view/transfer_function.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/mesh_stream.h"
 
@@ -197,13 +198,13 @@ int main(int argc, char** argv) {
   const double tets = double(mesh.tet_count());
   for (uint32_t k = 0; k < frames; ++k) {
     if (k == 0) {  // warm-up, untimed: the shaders' first use compiles them
-      tetrascope::lod::Camera camera = tetrascope::lod::parse_camera("azimuth=30,elevation=20", bounds);
+      tetrascope::view::Camera camera = tetrascope::view::parse_camera("azimuth=30,elevation=20", bounds);
       camera.aspect = double(w) / h;
       const Counts c = count(mesh, r::camera_frame(camera, w, h));
       draw(c.front, c.back, c.area / c.front, c, w, h, true, 65536 * 4, rng);
       draw(4 * tets, 0, c.area / (4 * tets), c, w, h, false, 65536 * 4, rng);
     }
-    tetrascope::lod::Camera camera = tetrascope::lod::parse_camera("azimuth=" + std::to_string(30 + 360.0 * k / frames) + ",elevation=20", bounds);
+    tetrascope::view::Camera camera = tetrascope::view::parse_camera("azimuth=" + std::to_string(30 + 360.0 * k / frames) + ",elevation=20", bounds);
     camera.aspect = double(w) / h;
     const r::Frame f = r::camera_frame(camera, w, h);
     const Counts c = count(mesh, f);

@@ -109,7 +109,7 @@ void Cut::apply_coarsen(uint32_t node, CutChanges* changes) {
 // The unrefined ancestors a refinement of `node` needs, coarsest first, node last.
 namespace {
 // the smallest and largest n.x - d over a box's corners
-std::pair<double, double> side_range(const protocol::Plane& plane, const float box[6]) {
+std::pair<double, double> side_range(const view::Plane& plane, const float box[6]) {
   double lo = -plane.offset, hi = -plane.offset;
   for (int k = 0; k < 3; ++k) {
     const double a = plane.normal[k] * box[k], b = plane.normal[k] * box[k + 3];
@@ -120,13 +120,13 @@ std::pair<double, double> side_range(const protocol::Plane& plane, const float b
 }
 }  // namespace
 
-bool clipped_away(std::span<const protocol::Plane> clip, const float box[6]) {
-  for (const protocol::Plane& plane : clip)
+bool clipped_away(std::span<const view::Plane> clip, const float box[6]) {
+  for (const view::Plane& plane : clip)
     if (side_range(plane, box).first > 0) return true;
   return false;
 }
 
-bool crosses(const protocol::Plane& plane, const float box[6]) {
+bool crosses(const view::Plane& plane, const float box[6]) {
   const auto [lo, hi] = side_range(plane, box);
   return lo <= 0 && hi >= 0;
 }
@@ -146,57 +146,7 @@ double Cut::slice_weight(uint32_t node, uint32_t channel) {
 }
 
 namespace {
-// A perspective or orthographic camera's frame: where a point lies in its view.
-struct ViewFrame {
-  Vec3 eye{}, forward{}, right{}, up{};
-  double half_w = 1, half_h = 1;  // the view's half-extent at unit depth (orthographic: in units)
-  double distance = 1;            // eye to target
-  bool orthographic = false;
-  // false for a degenerate camera (eye on the target, up along the view)
-  bool set(const Camera& camera) {
-    const Vec3 view = camera.target - camera.eye;
-    distance = length(view);
-    if (!(distance > 0)) return false;
-    forward = normalise(view);
-    const Vec3 side = cross(forward, camera.up);
-    if (!(length(side) > 0)) return false;
-    eye = camera.eye;
-    right = normalise(side);
-    up = cross(right, forward);
-    orthographic = camera.orthographic;
-    half_h = orthographic ? camera.ortho_height / 2 : std::tan(camera.fov_degrees * M_PI / 360);
-    half_w = half_h * std::max(camera.aspect, 1e-6);
-    return true;
-  }
-  double depth(const Vec3& p) const { return dot(p - eye, forward); }
-  // The point in the view's normalised coordinates ([-1, 1] across the view), for depth z > 0.
-  std::array<double, 2> ndc(const Vec3& p, double z) const {
-    const Vec3 d = p - eye;
-    const double scale = orthographic ? 1.0 : 1.0 / z;
-    return {dot(d, right) * scale / half_w, dot(d, up) * scale / half_h};
-  }
-};
-
-// The share of the view a box covers: the screen rectangle around its projected corners,
-// clipped to the view, over the view's area; 1 with a corner at or behind the eye. A
-// segment's error counts for the pixels it covers. (A bounding sphere, clamped to 1, gave
-// every large segment reaching past the view the share of the whole view.)
-double view_share(const ViewFrame& frame, const float box[6]) {
-  double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
-  for (int corner = 0; corner < 8; ++corner) {
-    const Vec3 p{box[((corner >> 0) & 1) * 3], box[1 + ((corner >> 1) & 1) * 3], box[2 + ((corner >> 2) & 1) * 3]};
-    const double z = frame.depth(p);
-    if (!frame.orthographic && z <= 1e-9 * frame.distance) return 1.0;  // reaches the eye's plane: fills the view
-    const auto xy = frame.ndc(p, z);
-    for (int k = 0; k < 2; ++k) {
-      lo[k] = std::min(lo[k], xy[k]);
-      hi[k] = std::max(hi[k], xy[k]);
-    }
-  }
-  const double w = std::clamp(hi[0], -1.0, 1.0) - std::clamp(lo[0], -1.0, 1.0);
-  const double h = std::clamp(hi[1], -1.0, 1.0) - std::clamp(lo[1], -1.0, 1.0);
-  return std::max(0.0, w) * std::max(0.0, h) / 4;
-}
+using view::ViewFrame;
 
 // The share of the view that a unit of error mass (error × volume, in units of the scene's
 // size) at p covers once integrated along the rays through it: a cross-section at depth z
@@ -206,13 +156,13 @@ double view_share(const ViewFrame& frame, const float box[6]) {
 // fill more than the view).
 double mass_share(const ViewFrame& frame, const Vec3& p, double near) {
   double z = frame.depth(p);
-  if (!frame.orthographic && z <= 0) return 0.0;
+  if (!frame.ortho && z <= 0) return 0.0;
   z = std::max(z, near);
   const auto xy = frame.ndc(p, z);
   const double outside = std::max(std::fabs(xy[0]), std::fabs(xy[1]));
   const double fade = std::clamp(2.0 - outside, 0.0, 1.0);
-  const double area = 4 * frame.half_w * frame.half_h;
-  return fade / (area * (frame.orthographic ? 1.0 : z * z));
+  const double area = 4 * frame.half_w() * frame.half_h();
+  return fade / (area * (frame.ortho ? 1.0 : z * z));
 }
 
 template <class Refined>
@@ -325,8 +275,8 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     weight_opacity_ = criteria.opacity;
     weight_isovalues_ = criteria.isovalues;
   }
-  ViewFrame frame;
-  const bool framed = criteria.camera && frame.set(*criteria.camera);
+  const ViewFrame frame = criteria.camera ? ViewFrame::of(*criteria.camera) : ViewFrame{};
+  const bool framed = criteria.camera && frame.valid;
   // Volume rendering on a store with error masses: the error each segment leaves on screen,
   // Σ_n O(n)·M(n)·S(c_n): the opacity of value slot n, the error mass of the slot and the
   // share of the view its centroid's depth gives a unit of it. Otherwise (isosurfaces, stores
@@ -352,9 +302,9 @@ CutChanges Cut::update(const CutCriteria& criteria, uint64_t budget) {
     const float* box = dag_.node(v).bounds;
     if (criteria.frustum && !criteria.frustum->intersects(box)) return 0.0;
     if (clipped_away(criteria.clip, box)) return 0.0;
-    auto share = [&] { return framed ? view_share(frame, box) : 1.0; };  // 1 without a camera
+    auto share = [&] { return framed ? frame.box_share(box) : 1.0; };  // 1 without a camera
     double out = by_mass ? mass_error(v) : weight_[v] * share();
-    for (const protocol::Plane& slice : criteria.slices)
+    for (const view::Plane& slice : criteria.slices)
       if (crosses(slice, box)) out = std::max(out, kSliceWeight * slice_weight(v, criteria.channel) * share());
     return out;
   };
@@ -570,7 +520,7 @@ CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const Tran
   return c;
 }
 
-CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency, std::span<const protocol::Plane> clip,
+CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency, std::span<const view::Plane> clip,
                      const std::function<bool()>& should_stop) {
   using storage::store::kMeshBoundary;
   using storage::store::kSegmentBorder;

@@ -53,35 +53,16 @@ auto each_plane(const json& plane, size_t i, std::optional<uint32_t> id, Read re
 
 }  // namespace
 
-std::vector<Plane> ClipSpec::half_spaces() const {
-  std::vector<Plane> out;
-  for (const ClipPlane& p : planes) out.push_back(p.kept());
-  if (box) {
-    for (int k = 0; k < 3; ++k) {
-      Plane upper, lower;
-      upper.normal = {0, 0, 0};
-      upper.normal[k] = 1;
-      upper.offset = box->max[k];
-      lower.normal = {0, 0, 0};
-      lower.normal[k] = -1;
-      lower.offset = -box->min[k];
-      out.push_back(upper);
-      out.push_back(lower);
-    }
-  }
-  return out;
-}
-
-json ClipSpec::to_json() const {
-  json j = {{"planes", json::array()}, {"crinkle", crinkle}};
-  for (const ClipPlane& p : planes) j["planes"].push_back({{"normal", p.plane.normal}, {"offset", p.plane.offset}, {"invert", p.invert}});
-  if (box) j["box"] = {{"min", box->min}, {"max", box->max}};
+json clip_json(const ClipSpec& clip) {
+  json j = {{"planes", json::array()}, {"crinkle", clip.crinkle}};
+  for (const ClipPlane& p : clip.planes) j["planes"].push_back({{"normal", p.plane.normal}, {"offset", p.plane.offset}, {"invert", p.invert}});
+  if (clip.box) j["box"] = {{"min", clip.box->min}, {"max", clip.box->max}};
   return j;
 }
 
-json SliceSpec::to_json() const {
-  json j = {{"planes", json::array()}, {"edges", edges}, {"lit", lit}};
-  for (const Plane& p : planes) j["planes"].push_back({{"normal", p.normal}, {"offset", p.offset}});
+json slice_json(const SliceSpec& slices) {
+  json j = {{"planes", json::array()}, {"edges", slices.edges}, {"lit", slices.lit}};
+  for (const Plane& p : slices.planes) j["planes"].push_back({{"normal", p.normal}, {"offset", p.offset}});
   return j;
 }
 

@@ -68,7 +68,7 @@ TransferFunction parse_transfer_function(const json& object, uint32_t max_points
   return tf;
 }
 
-TransferFunction TransferFunction::from_json(const json& j) {
+TransferFunction transfer_function_from_json(const json& j) {
   if (!j.is_object()) throw std::invalid_argument("transfer function: expected a JSON object");
   for (const auto& [key, value] : j.items())
     if (key != "attribute" && key != "range" && key != "colormap" && key != "opacity" && key != "colors" && key != "name")
@@ -80,48 +80,18 @@ TransferFunction TransferFunction::from_json(const json& j) {
   }
 }
 
-json TransferFunction::to_json() const {
-  json j = {{"attribute", attribute}, {"colormap", colormap}};
-  if (range) j["range"] = {(*range)[0], (*range)[1]};
+json transfer_function_json(const TransferFunction& tf) {
+  json j = {{"attribute", tf.attribute}, {"colormap", tf.colormap}};
+  if (tf.range) j["range"] = {(*tf.range)[0], (*tf.range)[1]};
   json points = json::array();
-  for (const auto& p : opacity) points.push_back({p[0], p[1]});
+  for (const auto& p : tf.opacity) points.push_back({p[0], p[1]});
   j["opacity"] = points;
-  if (!colors.empty()) {
+  if (!tf.colors.empty()) {
     json c = json::array();
-    for (const auto& p : colors) c.push_back({p[0], p[1], p[2], p[3]});
+    for (const auto& p : tf.colors) c.push_back({p[0], p[1], p[2], p[3]});
     j["colors"] = c;
   }
   return j;
-}
-
-std::array<float, 3> TransferFunction::user_color(double value) const {
-  auto rgb = [](const std::array<double, 4>& c) { return std::array<float, 3>{float(c[1]), float(c[2]), float(c[3])}; };
-  if (value <= colors.front()[0]) return rgb(colors.front());
-  if (value >= colors.back()[0]) return rgb(colors.back());
-  size_t i = 1;
-  while (value > colors[i][0]) ++i;
-  const double span = colors[i][0] - colors[i - 1][0], t = span > 0 ? (value - colors[i - 1][0]) / span : 1;
-  std::array<float, 3> out{};
-  for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(colors[i - 1][k + 1] + t * (colors[i][k + 1] - colors[i - 1][k + 1]));
-  return out;
-}
-
-double TransferFunction::alpha(double value) const {
-  if (opacity.empty()) {
-    if (!range) return 1;
-    const double span = (*range)[1] - (*range)[0];
-    return span > 0 ? std::clamp((value - (*range)[0]) / span, 0.0, 1.0) : 1.0;
-  }
-  if (value <= opacity.front()[0]) return opacity.front()[1];
-  if (value >= opacity.back()[0]) return opacity.back()[1];
-  for (size_t i = 1; i < opacity.size(); ++i) {
-    if (value <= opacity[i][0]) {
-      const double span = opacity[i][0] - opacity[i - 1][0];
-      const double t = span > 0 ? (value - opacity[i - 1][0]) / span : 1;
-      return opacity[i - 1][1] + t * (opacity[i][1] - opacity[i - 1][1]);
-    }
-  }
-  return opacity.back()[1];
 }
 
 }  // namespace tetrascope::protocol

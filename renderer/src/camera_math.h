@@ -7,68 +7,17 @@
 #include <cmath>
 #include <span>
 
-#include "tetrascope/lod/view.h"
+#include "tetrascope/view/camera.h"
+#include "tetrascope/view/transfer_function.h"
 #include "tetrascope/storage/vec3.h"
 
 namespace tetrascope::renderer {
 
-struct Frame {
-  Vec3 eye, forward, right, up;
-  double tan_half = 0.27, aspect = 1, half_height = 1;  // half_height: orthographic
-  bool ortho = false;
-  uint32_t width = 1, height = 1;
-};
-
-inline Frame camera_frame(const lod::Camera& c, uint32_t width, uint32_t height) {
-  Frame f;
-  f.eye = c.eye;
-  f.forward = normalise(c.target - c.eye);
-  f.right = normalise(cross(f.forward, c.up));
-  f.up = cross(f.right, f.forward);
-  f.tan_half = std::tan(c.fov_degrees * M_PI / 360);
-  f.aspect = double(width) / std::max(1u, height);
-  f.ortho = c.orthographic;
-  f.half_height = c.ortho_height / 2;
-  f.width = width;
-  f.height = height;
-  return f;
-}
-
-// The ray through the centre of pixel (x, y), row 0 at the top.
-inline void ray(const Frame& f, int x, int y, Vec3* origin, Vec3* direction) {
-  const double u = 2 * (x + 0.5) / f.width - 1, v = 1 - 2 * (y + 0.5) / f.height;
-  if (f.ortho) {
-    for (int k = 0; k < 3; ++k) (*origin)[k] = f.eye[k] + u * f.half_height * f.aspect * f.right[k] + v * f.half_height * f.up[k];
-    *direction = f.forward;
-    return;
-  }
-  *origin = f.eye;
-  Vec3 d;
-  for (int k = 0; k < 3; ++k) d[k] = f.forward[k] + u * f.tan_half * f.aspect * f.right[k] + v * f.tan_half * f.up[k];
-  *direction = normalise(d);
-}
-
-// Pixel coordinates (x right, y down, pixel centres at integers) of a point; false when it
-// is behind the eye.
-inline bool project(const Frame& f, const Vec3& p, double* px, double* py) {
-  const Vec3 q = p - f.eye;
-  const double x = dot(q, f.right), y = dot(q, f.up), z = dot(q, f.forward);
-  double u, v;
-  if (f.ortho) {
-    u = x / (f.half_height * f.aspect);
-    v = y / f.half_height;
-  } else {
-    if (z <= 1e-12) {
-      *px = *py = 0;
-      return false;
-    }
-    u = x / (z * f.tan_half * f.aspect);
-    v = y / (z * f.tan_half);
-  }
-  *px = (u + 1) * f.width / 2 - 0.5;
-  *py = (1 - v) * f.height / 2 - 0.5;
-  return true;
-}
+// The camera's frame (view/camera.h): basis, projection, rays through pixel centres.
+using Frame = view::ViewFrame;
+inline Frame camera_frame(const view::Camera& c, uint32_t width, uint32_t height) { return view::ViewFrame::of(c, width, height); }
+inline void ray(const Frame& f, int x, int y, Vec3* origin, Vec3* direction) { f.ray(x, y, origin, direction); }
+inline bool project(const Frame& f, const Vec3& p, double* px, double* py) { return f.project(p, px, py); }
 
 // The pixels the projection of `corners` may cover: their pixel box grown by one pixel and
 // kept inside the image; the whole image when a corner is behind the eye.

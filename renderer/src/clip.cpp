@@ -24,7 +24,7 @@ constexpr int kPrismPermutation[6][6] = {{0, 1, 2, 3, 4, 5}, {1, 2, 0, 4, 5, 3},
 
 class PlaneClipper {
  public:
-  PlaneClipper(ClipMesh& mesh, const protocol::Plane& plane, bool crinkle) : mesh_(mesh), plane_(plane), crinkle_(crinkle) {}
+  PlaneClipper(ClipMesh& mesh, const view::Plane& plane, bool crinkle) : mesh_(mesh), plane_(plane), crinkle_(crinkle) {}
 
   void run() {
     const size_t vertex_count = mesh_.xyz.size() / 3;
@@ -116,7 +116,7 @@ class PlaneClipper {
   }
 
   ClipMesh& mesh_;
-  const protocol::Plane plane_;
+  const view::Plane plane_;
   const bool crinkle_;
   std::vector<double> side_;
   std::unordered_map<uint64_t, uint32_t> cut_vertices_;
@@ -145,13 +145,13 @@ void drop_unused(ClipMesh& mesh) {
 
 }  // namespace
 
-ClipMesh clip_tets(ClipMesh mesh, const protocol::ClipSpec& spec) {
-  for (const protocol::Plane& plane : spec.half_spaces()) PlaneClipper(mesh, plane, spec.crinkle).run();
+ClipMesh clip_tets(ClipMesh mesh, const view::ClipSpec& spec) {
+  for (const view::Plane& plane : spec.half_spaces()) PlaneClipper(mesh, plane, spec.crinkle).run();
   drop_unused(mesh);
   return mesh;
 }
 
-SceneMesh clip_scene(const SceneMesh& scene, const protocol::ClipSpec& spec) {
+SceneMesh clip_scene(const SceneMesh& scene, const view::ClipSpec& spec) {
   const bool iso_color = scene.iso_color_value.size() == scene.value.size() && !scene.iso_color_attribute.empty();
   ClipMesh m;
   m.xyz = scene.xyz;
@@ -186,7 +186,7 @@ SceneMesh clip_scene(const SceneMesh& scene, const protocol::ClipSpec& spec) {
   return out;
 }
 
-storage::TetMesh clip_mesh(const storage::TetMesh& mesh, const protocol::ClipSpec& spec) {
+storage::TetMesh clip_mesh(const storage::TetMesh& mesh, const view::ClipSpec& spec) {
   ClipMesh m;
   const size_t n = mesh.vertex_count();
   m.xyz.resize(3 * n);

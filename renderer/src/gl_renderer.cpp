@@ -347,9 +347,9 @@ class GlRenderer final : public Renderer {
   }
 
   // the colour texture over [lo, hi]: the named colormap, or the user's colour points
-  void update_colormap(const lod::TransferFunction& tf, double lo, double hi) {
+  void update_colormap(const view::TransferFunction& tf, double lo, double hi) {
     std::string key = tf.colormap;
-    if (!tf.colors.empty()) key = tf.to_json()["colors"].dump() + "|" + std::to_string(lo) + "|" + std::to_string(hi);
+    if (!tf.colors.empty()) key = tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi);
     if (key == colormap_key_) return;
     std::vector<uint8_t> texels(256 * 4);
     for (int i = 0; i < 256; ++i) {
@@ -361,8 +361,8 @@ class GlRenderer final : public Renderer {
     colormap_key_ = key;
   }
 
-  void update_table(const lod::TransferFunction& tf, double lo, double hi, double unit, double max_length) {
-    const std::string key = tf.to_json().dump() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(unit) + "|" + std::to_string(max_length);
+  void update_table(const view::TransferFunction& tf, double lo, double hi, double unit, double max_length) {
+    const std::string key = tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(unit) + "|" + std::to_string(max_length);
     if (key == table_key_) return;
     table_ = preintegrate(tf, lo, hi, unit, std::max(max_length, 1e-30));
     if (!table_texture_) {
@@ -444,13 +444,12 @@ class GlRenderer final : public Renderer {
 
   // Slice planes (clip.h), opaque like isosurfaces, lit or flat; their triangles cached per
   // mesh and planes (and edges: lit or flat does not slice again).
-  bool draw_slices(const FrameSetup& setup, const protocol::SliceSpec& slices) {
-    protocol::SliceSpec geometry = slices;
+  bool draw_slices(const FrameSetup& setup, const view::SliceSpec& slices) {
+    view::SliceSpec geometry = slices;
     geometry.lit = true;
-    const std::string key = geometry.to_json().dump();
-    if (key != slices_.key) {
-      slices_ = {key, {}, {}};
-      for (const protocol::Plane& plane : slices.planes) slice_scene(*mesh_, plane, slices_.triangles, slices.edges ? &slices_.edges : nullptr);
+    if (!slices_.key || !(*slices_.key == geometry)) {
+      slices_ = {geometry, {}, {}};
+      for (const view::Plane& plane : slices.planes) slice_scene(*mesh_, plane, slices_.triangles, slices.edges ? &slices_.edges : nullptr);
     }
     if (slices_.triangles.empty()) return false;
     glNamedBufferData(line_buffer_, static_cast<GLsizeiptr>(slices_.triangles.size() * 4), slices_.triangles.data(), GL_STREAM_DRAW);
@@ -725,7 +724,7 @@ class GlRenderer final : public Renderer {
   LinePass line_pass_;       // after context_: made with a current context, gone before it
   PointIsoPass point_pass_;
   struct SliceCache {
-    std::string key;                    // the planes as JSON
+    std::optional<view::SliceSpec> key;  // the planes sliced (lit or flat alike)
     std::vector<float> triangles, edges;  // (x, y, z, value) corners
   } slices_;
 };

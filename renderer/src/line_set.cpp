@@ -81,7 +81,7 @@ std::vector<uint32_t> lines_in_box(const LineSet& lines, const std::array<double
   return out;
 }
 
-std::vector<uint32_t> line_at_pixel(const LineSet& lines, const lod::Camera& camera, uint32_t width, uint32_t height, double x, double y, double max_pixels) {
+std::vector<uint32_t> line_at_pixel(const LineSet& lines, const view::Camera& camera, uint32_t width, uint32_t height, double x, double y, double max_pixels) {
   const Frame frame = camera_frame(camera, width, height);
   double best = max_pixels * max_pixels;
   double best_depth = std::numeric_limits<double>::max();
@@ -89,7 +89,7 @@ std::vector<uint32_t> line_at_pixel(const LineSet& lines, const lod::Camera& cam
   // pixel centres are at integers in `project`; a click at (x, y) is at pixel (x - 0.5, y - 0.5)
   const double cx = x - 0.5, cy = y - 0.5;
   for (uint32_t l = 0; l < lines.line_count(); ++l) {
-    double pa[2], pb[2];
+    double pa[2] = {0, 0}, pb[2] = {0, 0};
     bool have_a = false;
     double depth_a = 0;
     for (uint32_t i = lines.line_first[l]; i < lines.line_first[l + 1]; ++i) {

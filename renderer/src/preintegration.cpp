@@ -18,14 +18,14 @@ struct Classified {
   std::array<float, 3> color;
   double tau;
 };
-Classified classify(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double t) {
+Classified classify(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double t) {
   const double value = lo + std::clamp(t, 0.0, 1.0) * (hi - lo);
   const double alpha = std::clamp(tf.alpha(value), 0.0, 0.999999);
   return {tf.colors.empty() ? colormap(tf.colormap, t) : tf.user_color(value), -std::log(1 - alpha) / unit_distance};
 }
 }  // namespace
 
-std::array<double, 4> integrate_segment(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
+std::array<double, 4> integrate_segment(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
                                         double length) {
   // steps follow the change of value along the segment (a constant value integrates exactly
   // in any number of steps): at most 1/1024 of the range a step
@@ -52,7 +52,7 @@ double PreintegrationTable::length_coordinate(double length) const {
   return std::clamp(std::log1p(std::max(length, 0.0) / length_scale) / std::log1p(max_length / length_scale), 0.0, 1.0);
 }
 
-PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n,
+PreintegrationTable preintegrate(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n,
                                  uint32_t lengths) {
   PreintegrationTable table;
   table.n = n;

@@ -70,7 +70,7 @@ ProbeHit probe(const SceneMesh& scene, const RenderSettings& settings, double x,
     }
   };
   std::vector<float> slices;
-  for (const protocol::Plane& plane : settings.slices.planes) slice_scene(scene, plane, slices, nullptr);
+  for (const view::Plane& plane : settings.slices.planes) slice_scene(scene, plane, slices, nullptr);
   test_triangles(slices, "slice");
   if (settings.iso)
     for (double iso : settings.isovalues) {

@@ -14,7 +14,7 @@
 
 namespace tetrascope::renderer {
 
-void slice_scene(const SceneMesh& scene, const protocol::Plane& plane, std::vector<float>& triangles, std::vector<float>* edges) {
+void slice_scene(const SceneMesh& scene, const view::Plane& plane, std::vector<float>& triangles, std::vector<float>* edges) {
   const size_t vertex_count = scene.xyz.size() / 3;
   std::vector<double> side(vertex_count);
   for (size_t v = 0; v < vertex_count; ++v) side[v] = plane.side(scene.xyz[3 * v], scene.xyz[3 * v + 1], scene.xyz[3 * v + 2]);
@@ -73,7 +73,7 @@ SliceHits slice_hits(const SceneMesh& scene, const RenderSettings& settings, dou
   hits.distance.assign(size_t{W} * H, std::numeric_limits<float>::infinity());
   hits.rgb.assign(size_t{W} * H, {0, 0, 0});
   std::vector<float> triangles;
-  for (const protocol::Plane& plane : settings.slices.planes) slice_scene(scene, plane, triangles, nullptr);
+  for (const view::Plane& plane : settings.slices.planes) slice_scene(scene, plane, triangles, nullptr);
   if (triangles.empty()) return hits;
   const Frame frame = camera_frame(settings.camera, W, H);
   for (size_t i = 0; i + 12 <= triangles.size(); i += 12) {

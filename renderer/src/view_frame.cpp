@@ -42,7 +42,7 @@ ViewPipeline::~ViewPipeline() = default;
 
 // The attribute defaults to the dataset's first; its colour range to the attribute's over the
 // whole dataset, so colours stay put while the cut changes.
-void ViewPipeline::resolve_attribute(lod::TransferFunction& tf) const {
+void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
   if (!store_) return;  // a whole mesh: SceneMesh::from picks and ranges the attribute
   const auto& manifest = store_->manifest();
   if (tf.attribute.empty() && manifest.attributes.empty()) return;
@@ -118,7 +118,7 @@ void ViewPipeline::apply_lines(const LineRequest& request, RenderSettings& s) {
   s.dash_phase = request.dash_phase;
 }
 
-void ViewPipeline::update_clip(const protocol::ClipSpec& clip, ViewTimings& timings) {
+void ViewPipeline::update_clip(const view::ClipSpec& clip, ViewTimings& timings) {
   const auto start = Clock::now();
   if (clip.empty()) {
     clipped_.reset();
@@ -134,28 +134,12 @@ void ViewPipeline::update_clip(const protocol::ClipSpec& clip, ViewTimings& timi
 
 RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* timings, const std::function<bool()>& should_stop) {
   RenderSettings s;
-  s.dvr = request.dvr;
-  s.iso = request.iso;
-  s.surface = request.surface;
-  s.wireframe = request.wireframe;
-  s.box = request.box;
-  s.width = request.width;
-  s.height = request.height;
-  s.tf = request.tf;
-  s.unit_distance = request.unit_distance;
-  s.volume = request.volume;
-  s.iso_opacity = request.iso_opacity;
-  s.isovalues = request.isovalues;
+  static_cast<view::DrawOptions&>(s) = request;  // drawn as asked, resolved below
   s.use_iso_color_attribute = !request.iso_color_attribute.empty();
-  s.points = request.points;
-  s.point_isovalues = request.point_isovalues;
-  s.point_size = request.point_size;
-  s.point_target = request.point_target;
-  s.slices = request.slices;
   resolve_attribute(s.tf);
   const bool trace = request.lines && (!traced_ || !same_trace(*traced_, request.line));
 
-  s.camera = request.camera ? *request.camera : lod::default_camera(bounds_);
+  s.camera = request.camera ? *request.camera : view::default_camera(bounds_);
   s.camera.aspect = double(s.width) / s.height;
   ViewTimings local;
   ViewTimings& t = timings ? *timings : local;

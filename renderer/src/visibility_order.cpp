@@ -31,7 +31,7 @@ bool tet_contains(const SceneMesh& mesh, size_t t, const Vec3& point) {
 
 }  // namespace
 
-void VisibilityOrder::set_transfer_function(const lod::TransferFunction& tf, double lo, double hi) {
+void VisibilityOrder::set_transfer_function(const view::TransferFunction& tf, double lo, double hi) {
   visible_prefix_.assign(kValueSlots + 1, 0);
   for (int i = 0; i < kValueSlots; ++i) {
     const double a0 = tf.alpha(lo + (hi - lo) * i / kValueSlots), a1 = tf.alpha(lo + (hi - lo) * (i + 1) / kValueSlots);

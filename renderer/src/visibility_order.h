@@ -22,7 +22,7 @@ namespace tetrascope::renderer {
 class VisibilityOrder {
  public:
   // Marks which of kValueSlots slices of [lo, hi] have any opacity.
-  void set_transfer_function(const lod::TransferFunction& tf, double lo, double hi);
+  void set_transfer_function(const view::TransferFunction& tf, double lo, double hi);
   // Isovalues composed in the volume, over [lo, hi] (0..1): a tet whose range holds one is
   // drawn even where the transfer function is transparent.
   void set_isovalues(std::vector<float> isos) { isos_ = std::move(isos); }

@@ -165,27 +165,9 @@ double shared_frame_ms(double frame_ms, size_t waiting, size_t workers) {
   return frame_ms / std::clamp(1.0 + per_worker, 1.0, 4.0);
 }
 
-double covered_pixels(const lod::Camera& camera, const storage::Bounds& bounds, uint32_t width, uint32_t height) {
-  const double all = double(width) * height;
-  const Vec3 forward = normalise(camera.target - camera.eye);
-  const Vec3 right = normalise(cross(forward, camera.up), {1, 0, 0});
-  const Vec3 up = cross(right, forward);
-  const double aspect = double(width) / height;
-  const double half_height = camera.orthographic ? camera.ortho_height / 2 : std::tan(camera.fov_degrees * M_PI / 360);
-  double lo[2] = {1e30, 1e30}, hi[2] = {-1e30, -1e30};
-  for (int corner = 0; corner < 8; ++corner) {
-    const Vec3 p{(corner & 1) ? bounds.max[0] : bounds.min[0], (corner & 2) ? bounds.max[1] : bounds.min[1], (corner & 4) ? bounds.max[2] : bounds.min[2]};
-    const Vec3 d = p - camera.eye;
-    const double depth = dot(d, forward);
-    if (!camera.orthographic && depth <= 1e-9) return all;  // the eye is inside the box, or a corner behind it
-    const double w = camera.orthographic ? 1 : depth;
-    const double sx = dot(d, right) / w / (half_height * aspect), sy = dot(d, up) / w / half_height;
-    lo[0] = std::min(lo[0], sx), hi[0] = std::max(hi[0], sx);
-    lo[1] = std::min(lo[1], sy), hi[1] = std::max(hi[1], sy);
-  }
-  const double fx = std::max(0.0, std::min(hi[0], 1.0) - std::max(lo[0], -1.0)) / 2;
-  const double fy = std::max(0.0, std::min(hi[1], 1.0) - std::max(lo[1], -1.0)) / 2;
-  return all * fx * fy;
+double covered_pixels(const view::Camera& camera, const storage::Bounds& bounds, uint32_t width, uint32_t height) {
+  const view::ViewFrame frame = view::ViewFrame::of(camera, width, height);
+  return double(width) * height * (frame.valid ? frame.box_share(bounds) : 1.0);
 }
 
 }  // namespace tetrascope::server

@@ -87,8 +87,8 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
   const auto start = Clock::now();
   if (!worker.renderer) worker.renderer = renderer::Renderer::create();
   open(state.dataset);
-  renderer::ViewRequest request = state.view;
-  const lod::Camera camera = request.camera ? *request.camera : lod::default_camera(pipeline_->bounds());
+  view::ViewRequest request = state.view;
+  const view::Camera camera = request.camera ? *request.camera : view::default_camera(pipeline_->bounds());
   const uint64_t still_budget = std::max<uint64_t>(state.view.budget, 1);
   RenderedFrame frame;
   bool final_step = false;

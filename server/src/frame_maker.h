@@ -19,7 +19,7 @@ namespace tetrascope::server {
 
 struct ViewState {
   std::shared_ptr<Dataset> dataset;
-  renderer::ViewRequest view;   // budget: of still frames; no camera: the dataset's default view
+  view::ViewRequest view;   // budget: of still frames; no camera: the dataset's default view
   uint64_t interaction_budget = 0;
   double max_error = 0;         // > 0: refinement ends once the cut's estimated error is at most this
   int interaction_quality = 60, still_quality = 90;

@@ -14,7 +14,7 @@ std::string number(double v) {
 
 }  // namespace
 
-void apply_lines_set(const protocol::LinesSet& m, renderer::LineRequest& line) {
+void apply_lines_set(const protocol::LinesSet& m, view::LineRequest& line) {
   if (m.field) line.field = *m.field;
   if (m.dense) line.seeds = "dense:" + std::to_string(m.count.value_or(kDefaultDenseCells));
   if (m.rake) {
@@ -33,7 +33,7 @@ void apply_lines_set(const protocol::LinesSet& m, renderer::LineRequest& line) {
   if (m.halos) line.halos = *m.halos;
   if (m.depth_correction) line.depth_correction = *m.depth_correction;
   if (m.dash_phase) line.dash_phase = *m.dash_phase;
-  if (m.flow) line.flow = *m.flow == "arrows" ? renderer::FlowStyle::arrows : *m.flow == "dashes" ? renderer::FlowStyle::dashes : renderer::FlowStyle::none;
+  if (m.flow) line.flow = *m.flow == "arrows" ? view::FlowStyle::arrows : *m.flow == "dashes" ? view::FlowStyle::dashes : view::FlowStyle::none;
 }
 
 bool is_animation_step(const protocol::LinesSet& m) {
@@ -41,7 +41,7 @@ bool is_animation_step(const protocol::LinesSet& m) {
          !m.depth_correction;
 }
 
-void apply_points_set(const protocol::PointsSet& m, renderer::ViewRequest& view) {
+void apply_points_set(const protocol::PointsSet& m, view::ViewRequest& view) {
   view.point_isovalues = m.values;
   if (m.size) view.point_size = *m.size;
 }

@@ -52,7 +52,7 @@ std::string hello_ok_reply(const ServerOptions& o, const std::string& renderer, 
       .dump();
 }
 
-std::string dataset_info_reply(const Dataset& dataset, const lod::Camera& camera, uint32_t id) {
+std::string dataset_info_reply(const Dataset& dataset, const view::Camera& camera, uint32_t id) {
   nlohmann::json info = dataset.info;
   info["type"] = "dataset.info";
   info["id"] = id;

@@ -6,7 +6,8 @@
 #include <string>
 
 #include "datasets.h"
-#include "tetrascope/lod/view.h"
+#include "tetrascope/view/camera.h"
+#include "tetrascope/view/transfer_function.h"
 #include "tetrascope/server/server.h"
 
 namespace tetrascope::server {
@@ -16,6 +17,6 @@ namespace tetrascope::server {
 std::string hello_ok_reply(const ServerOptions& options, const std::string& renderer, uint32_t id);
 
 // dataset.info: the dataset's info (datasets.h) and the camera it opens with.
-std::string dataset_info_reply(const Dataset& dataset, const lod::Camera& opening, uint32_t id);
+std::string dataset_info_reply(const Dataset& dataset, const view::Camera& opening, uint32_t id);
 
 }  // namespace tetrascope::server

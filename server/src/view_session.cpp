@@ -111,15 +111,15 @@ ViewSession::Then ViewSession::on_message(const protocol::DatasetOpen& m, uint32
   change_state(id, [&](ViewState& s) {
     s.dataset = dataset;
     s.view.camera.reset();
-    s.view.tf = lod::TransferFunction{};
+    s.view.tf = view::TransferFunction{};
     s.view.isovalues.clear();
     s.view.iso_color_attribute.clear();
-    s.view.line = renderer::LineRequest{};  // fields and seeds of the last dataset
+    s.view.line = view::LineRequest{};  // fields and seeds of the last dataset
     s.view.clip = {};
     s.view.slices = {};
   });
   watch(dataset);
-  link_.send_text(dataset_info_reply(*dataset, lod::default_camera(dataset->store->manifest().bounds), id));
+  link_.send_text(dataset_info_reply(*dataset, view::default_camera(dataset->store->manifest().bounds), id));
   link_.request_frames(FrameRequest::kStill);
   return Then::kReplied;
 }
@@ -149,7 +149,7 @@ void ViewSession::on_dataset_closed(const Dataset* closed, const std::string& co
 
 ViewSession::Then ViewSession::on_message(const protocol::CameraSet& m, uint32_t id) {
   need_dataset(id);
-  lod::Camera camera;
+  view::Camera camera;
   camera.eye = m.eye;
   camera.target = m.target;
   camera.up = m.up;

@@ -16,9 +16,10 @@ namespace {
 
 CliResult run(const std::string& args) { return run_cli(args, 120); }
 
-// scratch_dir empties its folder: made once for the whole program
+// made once for the whole program and kept across its tests (a test's own scratch_dir is
+// removed when that test passes)
 const std::filesystem::path& dir() {
-  static const std::filesystem::path d = scratch_dir("simplify-cli");
+  static const std::filesystem::path d = run_scratch_dir("simplify-cli");
   return d;
 }
 

@@ -27,11 +27,11 @@ struct Fidelity {
 };
 
 // The exact integrator's settings for a view of `store` at 128x96.
-renderer::RenderSettings view_settings(const storage::Store& store, const std::string& camera_text, const lod::TransferFunction& tf) {
+renderer::RenderSettings view_settings(const storage::Store& store, const std::string& camera_text, const view::TransferFunction& tf) {
   renderer::RenderSettings s;
   s.width = 128;
   s.height = 96;
-  s.camera = lod::parse_camera(camera_text, store.manifest().bounds);
+  s.camera = view::parse_camera(camera_text, store.manifest().bounds);
   s.camera.aspect = double(s.width) / s.height;
   s.tf = tf;
   return s;
@@ -39,7 +39,7 @@ renderer::RenderSettings view_settings(const storage::Store& store, const std::s
 
 // The cut of the fea_bracket store for `camera` and `tf` at `share` of the input's tets, and
 // the input decimated to the cut's tets, each against the input (exact integrator, 128x96).
-Fidelity cut_against_uniform(const std::string& camera_text, const lod::TransferFunction& tf, double share) {
+Fidelity cut_against_uniform(const std::string& camera_text, const view::TransferFunction& tf, double share) {
   const Built& b = built("fea_bracket.vtk");
   auto store = storage::Store::open(b.store);
   auto dag = lod::open_dag(*store);
@@ -69,8 +69,8 @@ Fidelity cut_against_uniform(const std::string& camera_text, const lod::Transfer
   return f;
 }
 
-lod::TransferFunction stress_tf() {
-  lod::TransferFunction tf;
+view::TransferFunction stress_tf() {
+  view::TransferFunction tf;
   tf.attribute = "von_mises_stress_psi";
   tf.opacity = {{0, 0}, {4, 0}, {21, 0.6}};  // the stressed parts; the low-stress bulk hidden
   return tf;

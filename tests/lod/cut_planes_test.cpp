@@ -17,8 +17,8 @@ TEST(CutPlanes, ClippedAwaySegmentsAreNeitherRefinedNorRead) {
   storage::SegmentCache cache(*store, 1ull << 28);
   const auto& bounds = store->manifest().bounds;
   const double mid = 0.5 * (bounds.min[0] + bounds.max[0]);
-  lod::CutCriteria criteria = lod::criteria_for(*store, *dag, lod::TransferFunction{});
-  criteria.clip = {protocol::Plane{{1, 0, 0}, mid}};  // keep x <= mid
+  lod::CutCriteria criteria = lod::criteria_for(*store, *dag, view::TransferFunction{});
+  criteria.clip = {view::Plane{{1, 0, 0}, mid}};  // keep x <= mid
   lod::Cut cut(*dag);
   cut.update(criteria, 1ull << 40);  // no budget limit: everything wanted is refined
   size_t refined_away = 0, refined_kept = 0;
@@ -49,8 +49,8 @@ TEST(CutPlanes, SegmentsASliceCrossesAreRefinedFirst) {
   auto store = storage::Store::open(b.store);
   auto dag = lod::open_dag(*store);
   const auto& bounds = store->manifest().bounds;
-  const protocol::Plane slice{{0, 0, 1}, 0.5 * (bounds.min[2] + bounds.max[2])};
-  lod::CutCriteria criteria = lod::criteria_for(*store, *dag, lod::TransferFunction{});
+  const view::Plane slice{{0, 0, 1}, 0.5 * (bounds.min[2] + bounds.max[2])};
+  lod::CutCriteria criteria = lod::criteria_for(*store, *dag, view::TransferFunction{});
   criteria.slices = {slice};
   // a budget that allows a few refinements only: they go to the slice
   lod::Cut probe(*dag);

@@ -32,7 +32,7 @@ struct OnTemp {
   std::unique_ptr<storage::Store> store = storage::Store::open(built.store);
   std::unique_ptr<lod::Dag> dag = lod::open_dag(*store);
   lod::CutCriteria criteria = lod::criteria_for(*store, *dag, [] {
-    lod::TransferFunction tf;
+    view::TransferFunction tf;
     tf.attribute = "Temp";
     return tf;
   }());
@@ -123,9 +123,9 @@ TEST(Cut, UpdateHonoursTheBudgetAndReportsWhatChanged) {
   EXPECT_LT(resident.size(), dag->node_count());
   // nothing in view: nothing refines
   lod::CutCriteria away = criteria;
-  lod::Camera camera = lod::parse_camera("azimuth=0,elevation=0", store->manifest().bounds);
+  view::Camera camera = view::parse_camera("azimuth=0,elevation=0", store->manifest().bounds);
   for (int k = 0; k < 3; ++k) camera.target[k] = 2 * camera.eye[k] - camera.target[k];  // look away from the mesh
-  away.frustum = lod::view_frustum(camera, 0, 1e9);
+  away.frustum = view::view_frustum(camera, 0, 1e9);
   cut.update(away, 45000);
   EXPECT_EQ(cut.tet_count(), coarsest);
 }
@@ -143,7 +143,7 @@ TEST(Cut, ALargerBudgetNeverRaisesTheFieldError) {
   storage::SegmentCache cache(*store, 1ull << 28);
   const storage::TetMesh input = storage::load_mesh(sample_mesh());
   criteria.opacity.clear();  // every value counts
-  lod::set_view(criteria, lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
+  lod::set_view(criteria, view::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
   const uint64_t coarsest = lod::Cut(*dag).tet_count(), finest = b.report.levels.front().tets;
   double last_error = 1e300, last_estimate = 1e300;
   for (int step = 0; step <= 6; ++step) {
@@ -175,8 +175,8 @@ TEST(Cut, AnUpdateFromAnyCutReachesWhatAFreshCutReaches) {
   auto volume = t.criteria;
   auto iso = volume;
   iso.isovalues = {0.5};  // exactly on a bin edge, where no vertex value lies
-  const lod::Camera camera = lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds);
-  for (auto* c : {&volume, &iso}) c->frustum = lod::view_frustum(camera, 0, 1e30);
+  const view::Camera camera = view::parse_camera("azimuth=30,elevation=20", store->manifest().bounds);
+  for (auto* c : {&volume, &iso}) c->frustum = view::view_frustum(camera, 0, 1e30);
   lod::Cut fresh(*dag);
   fresh.update(iso, 500000);
   lod::Cut refined(*dag);
@@ -195,7 +195,7 @@ TEST(Cut, ACutRefinedInStepsReachesWhatOneUpdateReaches) {
   const auto& store = t.store;
   const auto& dag = t.dag;
   lod::CutCriteria& criteria = t.criteria;
-  lod::set_view(criteria, lod::parse_camera("eye=1.5,1,0.8,target=0,0,0.5,up=0,0,1,fov=25", store->manifest().bounds));
+  lod::set_view(criteria, view::parse_camera("eye=1.5,1,0.8,target=0,0,0.5,up=0,0,1,fov=25", store->manifest().bounds));
   const uint64_t still = 100000;
   lod::Cut fresh(*dag);
   fresh.update(criteria, still);

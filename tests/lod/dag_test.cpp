@@ -116,10 +116,10 @@ TEST(Dag, ADagOfFormat1StillOpensAndRefines) {
       ASSERT_TRUE(std::ranges::equal(old->spatial_histogram(n, c), dag->spatial_histogram(n, c)));
     }
   EXPECT_TRUE(lod::verify_dag(*store, *old).empty());
-  lod::TransferFunction tf;
+  view::TransferFunction tf;
   tf.attribute = "Temp";
   auto criteria = lod::criteria_for(*store, *old, tf);
-  lod::set_view(criteria, lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
+  lod::set_view(criteria, view::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
   lod::Cut cut(*old);
   const uint64_t coarsest = cut.tet_count();
   const auto changes = cut.update(criteria, 20000);

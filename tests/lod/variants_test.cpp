@@ -24,8 +24,8 @@ namespace {
 
 constexpr uint32_t kVariants = 3;
 
-lod::TransferFunction stress_tf() {
-  lod::TransferFunction tf;
+view::TransferFunction stress_tf() {
+  view::TransferFunction tf;
   tf.attribute = "von_mises_stress_psi";
   tf.opacity = {{0, 0}, {4, 0}, {21, 0.6}};
   return tf;
@@ -93,7 +93,7 @@ TEST(Variants, ACutSpendsWhatItsBudgetLeavesOnVariantsAndStaysConforming) {
   storage::SegmentCache cache(*store, 1ull << 28);
   const uint64_t input = store->manifest().json["multiresolution"]["input"]["tetrahedra"].get<uint64_t>();
   lod::CutCriteria criteria = lod::criteria_for(*store, *dag, stress_tf(), {});
-  lod::set_view(criteria, lod::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
+  lod::set_view(criteria, view::parse_camera("azimuth=30,elevation=20", store->manifest().bounds));
   lod::Cut plain(*dag), filled(*dag);
   filled.attach_variants(variants.get());
   uint32_t used = 0;
@@ -130,7 +130,7 @@ TEST(Variants, FillingTheBudgetWithVariantsNeverLowersThePsnr) {
     renderer::RenderSettings s;
     s.width = 128;
     s.height = 96;
-    s.camera = lod::parse_camera(camera_text, store->manifest().bounds);
+    s.camera = view::parse_camera(camera_text, store->manifest().bounds);
     s.camera.aspect = double(s.width) / s.height;
     s.tf = stress_tf();
     const renderer::Image full = renderer::reference_render(renderer::SceneMesh::from(input, s.tf.attribute), s);

@@ -61,7 +61,7 @@ TEST(Planes, NormalsAreMadeUnitAndTheOffsetScaledWithThem) {
   EXPECT_LE(half[0].side(0, 10, 10), 0);  // far on the normal's side: kept when inverted
   EXPECT_GT(half[0].side(0, 0, 0), 0);
   // a round trip through JSON
-  EXPECT_EQ(parse_clip_spec(clip.to_json(), 1), clip);
+  EXPECT_EQ(parse_clip_spec(clip_json(clip), 1), clip);
 }
 
 TEST(Planes, SlicesAreLitUnlessSentFlat) {
@@ -69,8 +69,8 @@ TEST(Planes, SlicesAreLitUnlessSentFlat) {
   EXPECT_TRUE(slice(R"({"type":"slice.set","id":1,"planes":[{"normal":[1,0,0],"offset":0}]})").lit);
   const SliceSpec flat = slice(R"({"type":"slice.set","id":2,"planes":[{"normal":[1,0,0],"offset":0}],"lit":false})");
   EXPECT_FALSE(flat.lit);
-  EXPECT_EQ(flat.to_json()["lit"], false);
-  EXPECT_EQ(parse_slice_spec(flat.to_json(), 2), flat);
+  EXPECT_EQ(slice_json(flat)["lit"], false);
+  EXPECT_EQ(parse_slice_spec(slice_json(flat), 2), flat);
   // a lit that is not a boolean names the field
   try {
     parse_slice_spec(nlohmann::json::parse(R"({"planes":[],"lit":"off"})"), 3);

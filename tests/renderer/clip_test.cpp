@@ -10,7 +10,7 @@
 
 #include "mesh_checks.h"
 #include "test_paths.h"
-#include "tetrascope/protocol/planes.h"
+#include "tetrascope/view/planes.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/probe.h"
 #include "tetrascope/renderer/render.h"
@@ -25,13 +25,13 @@ renderer::Renderer& gl() {
   return *r;
 }
 
-protocol::ClipPlane clip_plane(std::array<double, 3> n, double d, bool invert = false) {
+view::ClipPlane clip_plane(std::array<double, 3> n, double d, bool invert = false) {
   const double l = std::hypot(n[0], n[1], n[2]);
   return {{{n[0] / l, n[1] / l, n[2] / l}, d / l}, invert};
 }
 
-protocol::ClipSpec clip_of(std::vector<protocol::ClipPlane> planes) {
-  protocol::ClipSpec c;
+view::ClipSpec clip_of(std::vector<view::ClipPlane> planes) {
+  view::ClipSpec c;
   c.planes = std::move(planes);
   return c;
 }
@@ -73,11 +73,11 @@ TEST(Slice, LinearFieldInABoxHasTheCrossSectionAreaAndTheValueEverywhere) {
 }
 
 // The slice alone (no volume) of the unit cube seen from +z, f over [0, 1] through viridis.
-renderer::RenderSettings slice_view(const renderer::SceneMesh& scene, const protocol::Plane& plane, bool lit) {
+renderer::RenderSettings slice_view(const renderer::SceneMesh& scene, const view::Plane& plane, bool lit) {
   renderer::RenderSettings s;
   s.width = s.height = 96;
   s.dvr = false;
-  s.camera = lod::parse_camera("eye=0.5,0.5,3,target=0.5,0.5,0.5,up=0,1,0,fov=30", scene.bounds);
+  s.camera = view::parse_camera("eye=0.5,0.5,3,target=0.5,0.5,0.5,up=0,1,0,fov=30", scene.bounds);
   s.tf.attribute = scene.attribute;
   s.tf.colormap = "viridis";
   s.tf.range = std::array<double, 2>{0, 1};
@@ -92,7 +92,7 @@ TEST(Slice, AFlatSliceHasTheColormapColourOfTheValueAndALitObliqueOneIsShaded) {
   const auto scene = renderer::SceneMesh::from(kuhn_box(6, 0, [](float x, float, float) { return x; }), "f");
   gl().set_mesh(scene);
   const double h = 1 / std::sqrt(2.0);
-  for (const protocol::Plane& plane : {protocol::Plane{{0, 0, 1}, 0.5}, protocol::Plane{{h, 0, h}, h}}) {
+  for (const view::Plane& plane : {view::Plane{{0, 0, 1}, 0.5}, view::Plane{{h, 0, h}, h}}) {
     const bool oblique = plane.normal[0] != 0;
     SCOPED_TRACE(oblique ? "oblique" : "head-on");
     const auto flat_settings = slice_view(scene, plane, false);
@@ -169,7 +169,7 @@ TEST(Probe, EveryPointAttributeAtThePickedPointOnASliceTheBoundaryAndThroughACli
   renderer::RenderSettings s = slice_view(scene, {{0, 0, 1}, 0.4}, true);
   // the slice is nearer than the boundary from an eye inside the box
   renderer::RenderSettings inside = s;
-  inside.camera = lod::parse_camera("eye=0.5,0.5,0.9,target=0.5,0.5,0,up=0,1,0,fov=60", scene.bounds);
+  inside.camera = view::parse_camera("eye=0.5,0.5,0.9,target=0.5,0.5,0,up=0,1,0,fov=60", scene.bounds);
   size_t probed = 0;
   for (const auto& [x, y] : {std::pair{48.5, 48.5}, std::pair{30.2, 61.7}, std::pair{70.9, 25.1}}) {
     // on the slice z = 0.4
@@ -207,7 +207,7 @@ TEST(Clip, ABoxCutInHalfKeepsHalfItsVolumeAndStaysConforming) {
   for (double jitter : {0.0, 0.4}) {
     const storage::TetMesh box = kuhn_box(5, jitter, [](float x, float y, float z) { return x + 2 * y - z; });
     struct Case {
-      protocol::ClipPlane plane;
+      view::ClipPlane plane;
       double area;  // of the kept half's boundary
     };
     // x <= 0.5 (not on the 5-grid), x >= 0.4 (inverted: through jittered vertices or not), and the
@@ -239,11 +239,11 @@ TEST(Clip, PlanesABoxAndCrinkleCompose) {
   EXPECT_NEAR(check_mesh(corner).volume, 0.125, 1e-5);
   EXPECT_NEAR(boundary_area(corner), 6 * 0.25, 1e-4);
   // a clip box
-  protocol::ClipSpec boxed;
-  boxed.box = protocol::ClipBox{{0.1, 0.2, 0.3}, {0.6, 0.7, 0.9}};
+  view::ClipSpec boxed;
+  boxed.box = view::ClipBox{{0.1, 0.2, 0.3}, {0.6, 0.7, 0.9}};
   EXPECT_NEAR(check_mesh(renderer::clip_mesh(box, boxed)).volume, 0.5 * 0.5 * 0.6, 1e-5);
   // crinkle keeps whole original tets: more than the half, less than all, nothing new
-  protocol::ClipSpec crinkle = clip_of({clip_plane({1, 0, 0}, 0.5)});
+  view::ClipSpec crinkle = clip_of({clip_plane({1, 0, 0}, 0.5)});
   crinkle.crinkle = true;
   const auto whole = renderer::clip_mesh(box, crinkle);
   const double volume = check_mesh(whole).volume;
@@ -273,14 +273,14 @@ TEST(Clip, TheScenesRangeAndCapStay) {
 renderer::RenderSettings settings_for(const renderer::SceneMesh& scene, uint32_t size) {
   renderer::RenderSettings s;
   s.width = s.height = size;
-  s.camera = lod::parse_camera("azimuth=35,elevation=25", scene.bounds);
+  s.camera = view::parse_camera("azimuth=35,elevation=25", scene.bounds);
   s.tf.attribute = scene.attribute;
   s.tf.opacity = {{scene.value_min, 0.05}, {scene.value_max, 0.6}};
   return s;
 }
 
 // The clip plane through the middle of a mesh's box, across its longest side, tilted.
-protocol::ClipPlane middle_plane(const renderer::SceneMesh& scene) {
+view::ClipPlane middle_plane(const renderer::SceneMesh& scene) {
   int axis = 0;
   for (int k = 1; k < 3; ++k)
     if (scene.bounds.max[k] - scene.bounds.min[k] > scene.bounds.max[axis] - scene.bounds.min[axis]) axis = k;
@@ -363,7 +363,7 @@ TEST(Clip, AClipPlaneOnOneraShowsTheWing) {
   s.height = 144;
   s.dvr = false;
   s.surface = true;
-  s.camera = lod::parse_camera("eye=0.7,0.7,3,target=0.7,0.7,0,up=0,1,0,fov=40", scene.bounds);
+  s.camera = view::parse_camera("eye=0.7,0.7,3,target=0.7,0.7,0,up=0,1,0,fov=40", scene.bounds);
   s.camera.aspect = 192.0 / 144;
   const renderer::Image image = gl().render(s);
   const auto path = source_dir() / "tests" / "renderer" / "golden" / "onera_clip.png";

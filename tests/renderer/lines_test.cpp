@@ -47,7 +47,7 @@ std::shared_ptr<const renderer::LineSet> swirl_lines(const storage::TetMesh& m) 
 renderer::RenderSettings lines_settings(const renderer::SceneMesh& scene, uint32_t size) {
   renderer::RenderSettings s;
   s.width = s.height = size;
-  s.camera = lod::parse_camera("azimuth=35,elevation=25", scene.bounds);
+  s.camera = view::parse_camera("azimuth=35,elevation=25", scene.bounds);
   s.tf.attribute = scene.attribute;
   s.tf.opacity = {{scene.value_min, 0.05}, {scene.value_max, 0.6}};
   s.dvr = false;
@@ -104,9 +104,9 @@ TEST(Lines, GhostedLinesWithHalosMatchTheirGoldenImage) {
   EXPECT_GT(differing_pixels(all_opaque, image, 30), 500u);
   // arrows and dashes mark the flow: each differs from no flow marks
   renderer::RenderSettings plain = all;
-  plain.flow = renderer::FlowStyle::none;
+  plain.flow = view::FlowStyle::none;
   renderer::RenderSettings dashes = all;
-  dashes.flow = renderer::FlowStyle::dashes;
+  dashes.flow = view::FlowStyle::dashes;
   const renderer::Image plain_image = gl().render(plain);
   EXPECT_GT(differing_pixels(all_opaque, plain_image, 30), 50u) << "arrowheads";
   EXPECT_GT(differing_pixels(gl().render(dashes), plain_image, 30), 50u) << "dashes";
@@ -172,7 +172,7 @@ TEST(Lines, DepthCorrectionKeepsHalosAndArrowsTheirImageSizeAndWorldSizeWithout)
   s.dvr = false;
   s.lines = near_and_far_lines();
   s.line_width = 4;
-  s.flow = renderer::FlowStyle::none;
+  s.flow = view::FlowStyle::none;
   const uint32_t mid = 128;
   auto widths = [&](double correction) {
     renderer::RenderSettings t = s;
@@ -198,7 +198,7 @@ TEST(Lines, DepthCorrectionKeepsHalosAndArrowsTheirImageSizeAndWorldSizeWithout)
 
   // arrows: corrected, the near line (at 3/5 of the target's depth) holds 5/3 as many arrows
   // (each as long in the image as at the target); uncorrected, as many as its arc length says
-  s.flow = renderer::FlowStyle::arrows;
+  s.flow = view::FlowStyle::arrows;
   s.flow_spacing = 0.1;  // 6 arrows on the 0.6 long line in the world
   auto arrows = [&](double correction) {
     renderer::RenderSettings t = s;
@@ -243,7 +243,7 @@ TEST(Lines, OpaqueLinesOccludeTheVolumeBehindThem) {
   line->value_max = 20;
   line->diagonal = 0.8;
   auto s = lines_settings(scene, 128);
-  s.camera = lod::parse_camera("eye=0.5,0.5,4,target=0.5,0.5,0.5,up=0,1,0", scene.bounds);
+  s.camera = view::parse_camera("eye=0.5,0.5,4,target=0.5,0.5,0.5,up=0,1,0", scene.bounds);
   s.tf.opacity = {{scene.value_min, 0.8}, {scene.value_max, 0.8}};
   s.dvr = true;
   const renderer::Image volume = gl().render(s);
@@ -371,7 +371,7 @@ TEST(Lines, BadLineAndPointSettingsAreRefused) {
 
 TEST(Lines, ThePipelineTracesSelectsAndRefusesBadFieldsAndSeeds) {
   renderer::ViewPipeline pipeline(swirl_box(5));
-  renderer::ViewRequest request;
+  view::ViewRequest request;
   request.dvr = false;
   request.lines = true;
   request.width = request.height = 64;
@@ -391,7 +391,7 @@ TEST(Lines, ThePipelineTracesSelectsAndRefusesBadFieldsAndSeeds) {
   double px = 0, py = 0;
   {
     const uint32_t last = s.lines->line_first[6] - 1;  // the line's end point, projected
-    const lod::Camera& cam = s.camera;
+    const view::Camera& cam = s.camera;
     const Vec3 p{s.lines->xyz[3 * last], s.lines->xyz[3 * last + 1], s.lines->xyz[3 * last + 2]};
     const Vec3 f = normalise(cam.target - cam.eye), r = normalise(cross(f, cam.up)), u = cross(r, f);
     const Vec3 q = p - cam.eye;

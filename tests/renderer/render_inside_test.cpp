@@ -47,7 +47,7 @@ constexpr double kProjectedMinimumDb = 35.0;
 
 // GL against the reference for one camera, the exact method; prints the PSNR. The projected
 // method is checked against the same reference image (>= kProjectedMinimumDb).
-double inside_psnr(const renderer::SceneMesh& scene, const lod::Camera& camera, uint32_t width, uint32_t height, const char* name,
+double inside_psnr(const renderer::SceneMesh& scene, const view::Camera& camera, uint32_t width, uint32_t height, const char* name,
                    double opacity_low = 0.05, double opacity_high = 0.6, double unit_distance = 0) {
   renderer::RenderSettings s;
   s.width = width;
@@ -59,17 +59,17 @@ double inside_psnr(const renderer::SceneMesh& scene, const lod::Camera& camera, 
   s.unit_distance = unit_distance;
   gl().set_mesh(scene);
   const renderer::Image reference = renderer::reference_render(scene, s);
-  s.volume = renderer::VolumeMethod::exact;
+  s.volume = view::VolumeMethod::exact;
   const double db = renderer::psnr(gl().render(s), reference);
-  s.volume = renderer::VolumeMethod::projected;
+  s.volume = view::VolumeMethod::projected;
   const double projected = renderer::psnr(gl().render(s), reference);
   std::printf("GL volume rendering vs reference from inside %s, %ux%u: exact %.1f dB, projected %.1f dB\n", name, width, height, db, projected);
   EXPECT_GE(projected, kProjectedMinimumDb) << name;
   return db;
 }
 
-lod::Camera look(std::array<double, 3> eye, std::array<double, 3> target, std::array<double, 3> up = {0, 0, 1}) {
-  lod::Camera c;
+view::Camera look(std::array<double, 3> eye, std::array<double, 3> target, std::array<double, 3> up = {0, 0, 1}) {
+  view::Camera c;
   c.eye = eye;
   c.target = target;
   c.up = up;
@@ -113,7 +113,7 @@ TEST(RenderInside, SampleDiskFromInside) {
   // eye's plane, so what is behind the camera showed); after 61.0 dB
   char text[160];
   std::snprintf(text, sizeof text, "eye=%.9g,%.9g,%.9g,target=0,0,0,up=0,0,1,ortho", eye[0], eye[1], eye[2]);
-  EXPECT_GE(inside_psnr(scene, lod::parse_camera(text, scene.bounds), 96, 72, "disk_out_ref, orthographic"), 50.0);
+  EXPECT_GE(inside_psnr(scene, view::parse_camera(text, scene.bounds), 96, 72, "disk_out_ref, orthographic"), 50.0);
 }
 
 TEST(RenderInside, SharedDatasetsFromInside) {

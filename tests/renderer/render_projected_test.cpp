@@ -19,7 +19,7 @@
 namespace tetrascope::testing {
 namespace {
 
-using renderer::VolumeMethod;
+using view::VolumeMethod;
 
 renderer::Renderer& gl() {
   // kept until exit: Mesa's driver frees some of its memory only while loaded
@@ -27,7 +27,7 @@ renderer::Renderer& gl() {
   return *r;
 }
 
-renderer::RenderSettings settings_for(const renderer::SceneMesh& scene, uint32_t w, uint32_t h, const lod::Camera& camera) {
+renderer::RenderSettings settings_for(const renderer::SceneMesh& scene, uint32_t w, uint32_t h, const view::Camera& camera) {
   renderer::RenderSettings s;
   s.width = w;
   s.height = h;
@@ -54,8 +54,8 @@ Psnrs both_methods(const renderer::SceneMesh& scene, renderer::RenderSettings s,
   return {projected, exact};
 }
 
-lod::Camera look(std::array<double, 3> eye, std::array<double, 3> target) {
-  lod::Camera c;
+view::Camera look(std::array<double, 3> eye, std::array<double, 3> target) {
+  view::Camera c;
   c.eye = eye;
   c.target = target;
   c.up = {0, 0, 1};
@@ -95,7 +95,7 @@ TEST(ProjectedTets, ThickVertexIsTheRayThroughTheTet) {
         mesh.value.push_back(float(2 * x - y + 0.5 * z));  // linear: the segment's values are exact
       }
     }
-    lod::Camera c = look({4, -3, 2}, {0, 0, 0});
+    view::Camera c = look({4, -3, 2}, {0, 0, 0});
     c.orthographic = ortho;
     c.ortho_height = 4;
     const renderer::Frame f = renderer::camera_frame(c, 100, 100);
@@ -136,11 +136,11 @@ TEST(ProjectedTets, ThickVertexIsTheRayThroughTheTet) {
 TEST(ProjectedTets, SampleFromOutsideMatchesTheReference) {
   const storage::TetMesh m = storage::load_mesh(sample_mesh());
   const auto scene = renderer::SceneMesh::from(m, "Temp");
-  const auto s = settings_for(scene, 160, 160, lod::parse_camera("azimuth=35,elevation=25", scene.bounds));
+  const auto s = settings_for(scene, 160, 160, view::parse_camera("azimuth=35,elevation=25", scene.bounds));
   const Psnrs db = both_methods(scene, s, "disk_out_ref from outside");
   EXPECT_GE(db.projected, 40.0);
   EXPECT_GE(db.exact, 50.0);
-  lod::Camera ortho = lod::parse_camera("azimuth=35,elevation=25", scene.bounds);
+  view::Camera ortho = view::parse_camera("azimuth=35,elevation=25", scene.bounds);
   ortho.orthographic = true;
   const Psnrs o = both_methods(scene, settings_for(scene, 128, 96, ortho), "disk_out_ref from outside, orthographic");
   EXPECT_GE(o.projected, 40.0);
@@ -179,7 +179,7 @@ TEST(ProjectedTets, TranslucentIsosurfacesInTheVolume) {
   if (kSanitized) GTEST_SKIP() << "about 30 s under a sanitizer (seconds in release): the release run covers it";
   const storage::TetMesh m = storage::load_mesh(sample_mesh());
   const auto scene = renderer::SceneMesh::from(m, "Temp");
-  auto s = settings_for(scene, 128, 128, lod::parse_camera("azimuth=35,elevation=25", scene.bounds));
+  auto s = settings_for(scene, 128, 128, view::parse_camera("azimuth=35,elevation=25", scene.bounds));
   s.tf.opacity = {{scene.value_min, 0.02}, {scene.value_max, 0.3}};
   gl().set_mesh(scene);
   const renderer::Image volume_only = gl().render(s);
@@ -214,7 +214,7 @@ TEST(ProjectedTets, ShouldStopEndsTheFrameBetweenChunks) {
   ASSERT_GT(tets, uint64_t{renderer::kTetsPerChunk});
   gl().set_mesh(scene);
   for (VolumeMethod method : {VolumeMethod::projected, VolumeMethod::exact}) {
-    auto s = settings_for(scene, 64, 64, lod::parse_camera("azimuth=35,elevation=25", scene.bounds));
+    auto s = settings_for(scene, 64, 64, view::parse_camera("azimuth=35,elevation=25", scene.bounds));
     s.volume = method;
     renderer::FrameTimings whole;
     gl().render(s, &whole);

@@ -10,8 +10,8 @@
 namespace tetrascope::testing {
 namespace {
 
-renderer::ViewRequest request_with_budget(uint64_t budget) {
-  renderer::ViewRequest r;
+view::ViewRequest request_with_budget(uint64_t budget) {
+  view::ViewRequest r;
   r.width = 64;
   r.height = 48;
   r.budget = budget;

@@ -98,14 +98,14 @@ TEST(FrameCostModel, ManySessionsWaitingShareTheFrameTime) {
 
 TEST(FrameCostModel, CoveredPixelsFollowTheViewOfTheBox) {
   const storage::Bounds box{{-1, -1, -1}, {1, 1, 1}};
-  lod::Camera far;
+  view::Camera far;
   far.eye = {0, 0, 40};
   far.fov_degrees = 30;
-  lod::Camera near = far;
+  view::Camera near = far;
   near.eye = {0, 0, 6};
-  lod::Camera inside = far;
+  view::Camera inside = far;
   inside.eye = {0, 0, 0.5};
-  lod::Camera away = far;
+  view::Camera away = far;
   away.target = {0, 0, 80};  // looking away from the box
   const double all = 400.0 * 300;
   const double small = covered_pixels(far, box, 400, 300), large = covered_pixels(near, box, 400, 300);

@@ -18,12 +18,19 @@
 
 #include "tetrascope/lod/dag.h"
 #include "tetrascope/lod/variants.h"
-#include "tetrascope/lod/view.h"
-#include "tetrascope/protocol/planes.h"
+#include "tetrascope/view/camera.h"
+#include "tetrascope/view/transfer_function.h"
+#include "tetrascope/view/planes.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::lod {
+
+// What a cut adapts to is view's: the camera and its frustum, the transfer function, planes.
+using view::Camera;
+using view::Frustum;
+using view::TransferFunction;
+using view::view_frustum;
 
 // What the cut optimises for: the error each segment leaves on screen. On a store with error
 // masses (dag format 2) and a volume view, E = V · Σ_n C(n) M(n) S(c_n): M the segment's error
@@ -48,8 +55,8 @@ struct CutCriteria {
   std::vector<double> isovalues;
   std::optional<Frustum> frustum;
   std::optional<Camera> camera;  // the eye and the field of view, for A
-  std::vector<protocol::Plane> clip;    // kept half-spaces n.x <= d (ClipSpec::half_spaces)
-  std::vector<protocol::Plane> slices;
+  std::vector<view::Plane> clip;    // kept half-spaces n.x <= d (ClipSpec::half_spaces)
+  std::vector<view::Plane> slices;
   // The transfer function's opacity is that of a slab this thick (0: 1/100 of the diagonal,
   // as the renderers take it): a thinner slab makes the same value error show more. Scales
   // the error masses' E, so the estimates of different views compare; the order is the same.
@@ -57,8 +64,8 @@ struct CutCriteria {
 };
 constexpr double kSliceWeight = 1e6;
 // Whether the box (min xyz, max xyz) lies wholly outside one of the kept half-spaces.
-bool clipped_away(std::span<const protocol::Plane> clip, const float box[6]);
-bool crosses(const protocol::Plane& plane, const float box[6]);
+bool clipped_away(std::span<const view::Plane> clip, const float box[6]);
+bool crosses(const view::Plane& plane, const float box[6]);
 // Both view parts of the criteria from one camera (the frustum reaches `far_plane`).
 void set_view(CutCriteria& criteria, const Camera& camera, double far_plane = 1e30);
 
@@ -181,7 +188,7 @@ struct CutMesh {
 // `should_stop` (may be empty) is asked before each patch; when it says so the assembly ends
 // there, `interrupted` set (a refinement step given up for input).
 CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, const Cut& cut, bool adjacency = true,
-                     std::span<const protocol::Plane> clip = {}, const std::function<bool()>& should_stop = {});
+                     std::span<const view::Plane> clip = {}, const std::function<bool()>& should_stop = {});
 
 // The criteria of a transfer function over a store's attribute (the manifest's range maps
 // the function's values onto the histogram bins), and of isosurfaces at `isovalues`

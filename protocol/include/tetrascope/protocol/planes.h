@@ -16,51 +16,23 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/view/planes.h"
+
 namespace tetrascope::protocol {
 
-constexpr size_t kMaxClipPlanes = 6;   // half-spaces of one clip (plus the optional box)
-constexpr size_t kMaxSlicePlanes = 6;  // slices drawn at once
-constexpr double kMaxPlaneCoordinate = 1e30;
+// The planes themselves are view's (view/planes.h): this checks and converts JSON and text.
+using view::ClipBox;
+using view::ClipPlane;
+using view::ClipSpec;
+using view::kMaxClipPlanes;
+using view::kMaxPlaneCoordinate;
+using view::kMaxSlicePlanes;
+using view::Plane;
+using view::SliceSpec;
 
-struct Plane {
-  std::array<double, 3> normal{1, 0, 0};
-  double offset = 0;  // d of n.x = d
-  // signed distance in units of |n|: <= 0 on the kept side of a clip plane
-  double side(double x, double y, double z) const { return normal[0] * x + normal[1] * y + normal[2] * z - offset; }
-  bool operator==(const Plane&) const = default;
-};
-
-struct ClipPlane {
-  Plane plane;
-  bool invert = false;  // keep n.x >= d instead
-  // the plane as it keeps: n.x <= d after inversion
-  Plane kept() const { return invert ? Plane{{-plane.normal[0], -plane.normal[1], -plane.normal[2]}, -plane.offset} : plane; }
-  bool operator==(const ClipPlane&) const = default;
-};
-
-struct ClipBox {
-  std::array<double, 3> min{}, max{};  // kept: inside, min <= max on every axis
-  bool operator==(const ClipBox&) const = default;
-};
-
-struct ClipSpec {
-  std::vector<ClipPlane> planes;  // at most kMaxClipPlanes
-  std::optional<ClipBox> box;
-  bool crinkle = false;  // keep whole tets touching the kept side instead of cutting them
-  bool empty() const { return planes.empty() && !box; }
-  // Every half-space the clip keeps (n.x <= d): the planes after inversion, then the box's six.
-  std::vector<Plane> half_spaces() const;
-  nlohmann::json to_json() const;
-  bool operator==(const ClipSpec&) const = default;
-};
-
-struct SliceSpec {
-  std::vector<Plane> planes;  // at most kMaxSlicePlanes
-  bool edges = false;         // draw the tets' edges on the slice
-  bool lit = true;            // shaded by the headlight; false: flat, the transfer function's colour of the value
-  nlohmann::json to_json() const;
-  bool operator==(const SliceSpec&) const = default;
-};
+// The JSON of clip.set and slice.set for a spec (parse_clip_spec / parse_slice_spec read it back).
+nlohmann::json clip_json(const ClipSpec& clip);
+nlohmann::json slice_json(const SliceSpec& slices);
 
 // The messages (protocol.h's Message holds them).
 struct ClipSet {

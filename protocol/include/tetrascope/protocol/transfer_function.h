@@ -21,31 +21,21 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tetrascope/view/transfer_function.h"
+
 namespace tetrascope::protocol {
 
-// The colormaps the renderer draws (renderer::colormap).
-inline constexpr std::array<std::string_view, 4> kColormapNames{"viridis", "plasma", "cool-warm", "grayscale"};
-// Opacity or colour points of a transfer function; Limits::max_tf_points defaults to it.
-inline constexpr uint32_t kMaxTfPoints = 256;
-inline constexpr size_t kMaxAttributeNameLength = 128;
+// The transfer function itself is view's (view/transfer_function.h): this converts JSON to and
+// from it.
+using view::kColormapNames;
+using view::kMaxAttributeNameLength;
+using view::kMaxTfPoints;
+using view::TransferFunction;
 
-struct TransferFunction {
-  std::string attribute;  // empty: the dataset's first attribute
-  std::optional<std::array<double, 2>> range;  // lo < hi, finite
-  std::string colormap = "viridis";            // one of kColormapNames
-  std::vector<std::array<double, 2>> opacity;  // (value, alpha), ascending values
-  std::vector<std::array<double, 4>> colors;   // (value, r, g, b), ascending values; empty: the colormap
-
-  // Opacity at a value.
-  double alpha(double value) const;
-  // The user colour at a value (colors must not be empty).
-  std::array<float, 3> user_color(double value) const;
-
-  // A transfer-function file (`--tf FILE`): the JSON above, plus an optional "name" label;
-  // unknown keys are refused (a typo must not pass silently). Throws std::invalid_argument.
-  static TransferFunction from_json(const nlohmann::json& j);
-  nlohmann::json to_json() const;
-};
+// A transfer-function file (`--tf FILE`): the JSON above, plus an optional "name" label;
+// unknown keys are refused (a typo must not pass silently). Throws std::invalid_argument.
+TransferFunction transfer_function_from_json(const nlohmann::json& j);
+nlohmann::json transfer_function_json(const TransferFunction& tf);
 
 // The one check of a transfer function's fields in `object` (untrusted), used by tf.set and
 // from_json; keys other than the fields above are ignored. Throws ProtocolError

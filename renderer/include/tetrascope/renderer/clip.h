@@ -19,7 +19,7 @@
 #include <span>
 #include <vector>
 
-#include "tetrascope/protocol/planes.h"
+#include "tetrascope/view/planes.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh.h"
 
@@ -36,18 +36,18 @@ struct ClipMesh {
 
 // The part of `mesh` on the kept side of every half-space of `spec` (crinkle: the tets that
 // touch it), with unused vertices dropped. Tets stay positively oriented when they were.
-ClipMesh clip_tets(ClipMesh mesh, const protocol::ClipSpec& spec);
+ClipMesh clip_tets(ClipMesh mesh, const view::ClipSpec& spec);
 
 // The clipped scene: value range, bounds, diagonal and longest edge are the source's, so
 // colours, opacity per unit length and the camera's planes do not move with the planes.
-SceneMesh clip_scene(const SceneMesh& scene, const protocol::ClipSpec& spec);
+SceneMesh clip_scene(const SceneMesh& scene, const view::ClipSpec& spec);
 // The clipped mesh with all its attributes (`tetrascope cut --clip`).
-storage::TetMesh clip_mesh(const storage::TetMesh& mesh, const protocol::ClipSpec& spec);
+storage::TetMesh clip_mesh(const storage::TetMesh& mesh, const view::ClipSpec& spec);
 
 // The cross-section of `scene` with `plane`: triangles as (x, y, z, value) corners (12 floats
 // a triangle), and with `edges` the sides of every tet's section polygon as (x, y, z, 0) line
 // corners (8 floats a segment). A face lying in the plane is emitted once.
-void slice_scene(const SceneMesh& scene, const protocol::Plane& plane, std::vector<float>& triangles, std::vector<float>* edges);
+void slice_scene(const SceneMesh& scene, const view::Plane& plane, std::vector<float>& triangles, std::vector<float>* edges);
 
 // Total area of (x, y, z, value) triangles (tests, checks).
 double triangles_area(std::span<const float> triangles);

@@ -41,8 +41,7 @@
 #include <vector>
 
 #include "tetrascope/lod/streamlines.h"
-#include "tetrascope/lod/view.h"
-#include "tetrascope/protocol/planes.h"
+#include "tetrascope/view/view_request.h"
 #include "tetrascope/storage/mesh.h"
 
 namespace tetrascope::renderer {
@@ -83,16 +82,16 @@ LineSet line_set_from(const lod::Streamlines& lines, const std::string& field);
 std::vector<uint32_t> lines_in_box(const LineSet& lines, const std::array<double, 3>& lo, const std::array<double, 3>& hi);
 // The line drawn nearest pixel (x, y) (top-left origin) of a view, within `max_pixels`: a
 // click. Empty when none is that close.
-std::vector<uint32_t> line_at_pixel(const LineSet& lines, const lod::Camera& camera, uint32_t width, uint32_t height, double x, double y,
+std::vector<uint32_t> line_at_pixel(const LineSet& lines, const view::Camera& camera, uint32_t width, uint32_t height, double x, double y,
                                     double max_pixels = 8);
 
-enum class FlowStyle : uint8_t { none, arrows, dashes };
+using view::FlowStyle;
 
 // Limits of the line and point passes (checked by Renderer::render).
 constexpr double kMaxLineWidth = 32;   // pixels
 constexpr double kMaxPointSize = 64;   // pixels
 // How the volume is drawn (see the top of this file).
-enum class VolumeMethod { projected, exact };
+using view::VolumeMethod;
 
 // Tets a volume draw call issues at most: between two, Renderer::render asks
 // RenderSettings::should_stop whether to go on. A frame that may be stopped draws smaller
@@ -102,14 +101,10 @@ constexpr uint32_t kTetsPerChunk = 65536;
 constexpr uint32_t kFirstStopChunk = 1024;
 constexpr double kStopCheckMs = 30;
 
-struct RenderSettings {
-  bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
-  lod::Camera camera;
-  uint32_t width = 512, height = 512;
-  lod::TransferFunction tf;          // attribute, range, colormap, opacity
-  double unit_distance = 0;          // opacity is that of a slab this thick (0: 1/100 of the box diagonal)
-  std::vector<double> isovalues;     // attribute units
-  double iso_opacity = 1;            // < 1: semi-transparent isosurfaces (sorted without dvr, composed in the volume with it)
+// What a frame draws: the view's drawing options, resolved against the dataset (the attribute,
+// its colour range, isovalues), and the camera, lines and points as drawn.
+struct RenderSettings : view::DrawOptions {
+  view::Camera camera;
   bool use_iso_color_attribute = false;  // colour isosurfaces by the scene's iso_color_attribute (else by value)
   std::array<float, 3> background{0.1f, 0.1f, 0.12f};
   // stream lines (§7.3): drawn when set
@@ -129,19 +124,9 @@ struct RenderSettings {
   // the world, so far halos are narrower and far arrows shorter, like the geometry. No effect
   // in an orthographic view.
   double depth_correction = 1;
-  // point-based isosurfaces (§7.2): drawn when `points` is set
-  bool points = false;
-  std::vector<double> point_isovalues;   // attribute units; none: 8 regularly spaced over the colour range
+  // point-based isosurfaces (§7.2, DrawOptions::points)
   double point_area = 0;                 // isosurface area a point stands for; 0: total area / point_target
-  uint64_t point_target = 400000;        // points wanted when point_area is 0
-  double point_size = 0;                 // splat diameter in pixels; 0: covering (from point_area and depth)
   bool point_depth_scaling = false;      // §7.2: fewer points far away
-  // Slice planes of the scene drawn, opaque, coloured through the colormap, lit by the
-  // headlight (flat, the colour unshaded, without `slices.lit`), with the tets' edges on them
-  // when `slices.edges` (clip.h; a clip is applied to the scene itself, see clip_scene, so it
-  // clips the slices too).
-  protocol::SliceSpec slices;
-  VolumeMethod volume = VolumeMethod::exact;
   // Asked between draw calls (every kTetsPerChunk tets of the volume, and between passes);
   // true stops drawing: the frame is read back as it stands and FrameTimings::interrupted is
   // set. Empty: never stop.
@@ -195,12 +180,12 @@ struct PreintegrationTable {
   double length_at(uint32_t m) const;
   double length_coordinate(double length) const;  // 0..1 along the length axis (clamped)
 };
-PreintegrationTable preintegrate(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n = 128,
+PreintegrationTable preintegrate(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n = 128,
                                  uint32_t lengths = 32);
 
 // Colour and opacity of one ray segment through a tet, integrated exactly (fine steps): the
 // reference the table approximates.
-std::array<double, 4> integrate_segment(const lod::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
+std::array<double, 4> integrate_segment(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
                                         double length);
 
 class Renderer {

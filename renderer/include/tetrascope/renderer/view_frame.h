@@ -20,51 +20,16 @@
 #include <vector>
 
 #include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/view.h"
+#include "tetrascope/view/view_request.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::renderer {
 
-// Stream lines of a view (§7.3): traced on the view's mesh when the field, seeds or steps
-// change (a store: on the cut the view has then, whose estimated error the pipeline reports);
-// the selection and style change without tracing again.
-struct LineRequest {
-  std::string field;               // a 3-component attribute; empty: the dataset's first
-  std::string seeds;               // lod::parse_seeds text (line:, plane:, points:, dense:N); empty: dense:12
-  uint32_t max_steps = 2000;       // per direction
-  // the opaque lines; none of the three: every line opaque, else the rest ghosted
-  std::vector<uint32_t> selected;                  // line ids
-  std::optional<std::array<double, 6>> select_box;  // lo x, y, z, hi x, y, z: the lines passing it (§7.3.2)
-  std::optional<std::array<double, 2>> select_pixel;  // a click, fractions 0..1 of the image from the top left: the nearest line within 8 pixels
-  double line_width = 2.5, ghost_opacity = 0.15;
-  bool halos = true;
-  FlowStyle flow = FlowStyle::arrows;
-  double depth_correction = 1;     // RenderSettings::depth_correction
-  double dash_phase = 0;           // RenderSettings::dash_phase
-  bool operator==(const LineRequest&) const = default;
-};
-
-struct ViewRequest {
-  std::optional<lod::Camera> camera;  // none: lod::default_camera of the dataset's bounds
-  lod::TransferFunction tf;           // no attribute: the dataset's first; no range: the attribute's over the whole dataset
-  bool dvr = true, iso = false, surface = false, wireframe = false, box = false;
-  bool lines = false, points = false;
-  LineRequest line;
-  std::vector<double> point_isovalues;  // points mode; none: 8 regularly spaced over the colour range
-  double point_size = 0;                // pixels; 0: covering splats
-  uint64_t point_target = 400000;       // points wanted (RenderSettings::point_target)
-  std::vector<double> isovalues;      // attribute units; none (with iso): mid-range
-  double iso_opacity = 1;
-  std::string iso_color_attribute;               // a second attribute colouring the isosurfaces; empty: by value
-  double unit_distance = 0;           // RenderSettings::unit_distance
-  VolumeMethod volume = VolumeMethod::exact;  // RenderSettings::volume
-  uint64_t budget = 0;                // tets of the cut (stores only)
-  uint32_t width = 1024, height = 768;
-  protocol::ClipSpec clip;     // applied to the scene (clip_scene) and to the cut (criteria, assembly)
-  protocol::SliceSpec slices;  // drawn (RenderSettings::slices); the cut refines where they cross
-};
+// The request a view draws (view/view_request.h).
+using view::LineRequest;
+using view::ViewRequest;
 
 // Where a frame's time went (ms): cut update, assembly of the cut's mesh and scene (0 when
 // nothing changed), scene upload to the renderer (0 when it held the scene), drawing and
@@ -120,7 +85,7 @@ class ViewPipeline {
   std::optional<double> lines_cut_error() const { return lines_cut_error_; }
 
  private:
-  void resolve_attribute(lod::TransferFunction& tf) const;
+  void resolve_attribute(view::TransferFunction& tf) const;
   void rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute);
   void trace_lines(const storage::TetMesh& mesh, const LineRequest& request);
   void apply_lines(const LineRequest& request, RenderSettings& s);
@@ -142,10 +107,10 @@ class ViewPipeline {
   std::vector<uint32_t> selection_;
   std::optional<double> lines_cut_error_;
   // the clipped scene, rebuilt when the scene or the clip changes
-  void update_clip(const protocol::ClipSpec& clip, ViewTimings& timings);
+  void update_clip(const view::ClipSpec& clip, ViewTimings& timings);
   std::unique_ptr<const SceneMesh> clipped_;
-  protocol::ClipSpec clip_;
-  std::vector<protocol::Plane> assembled_clip_;  // the half-spaces the scene was assembled with
+  view::ClipSpec clip_;
+  std::vector<view::Plane> assembled_clip_;  // the half-spaces the scene was assembled with
   bool scene_stale_ = false;              // a reassembly was stopped: scene_ is not the cut's
   uint64_t clipped_from_ = 0;             // the scene generation clipped_ was cut from
   uint64_t drawn_generation_ = 0;         // of scene(): clipped_'s own or scene_generation_

@@ -15,7 +15,8 @@
 #include <mutex>
 #include <vector>
 
-#include "tetrascope/lod/view.h"
+#include "tetrascope/view/camera.h"
+#include "tetrascope/view/transfer_function.h"
 #include "tetrascope/storage/mesh.h"
 
 namespace tetrascope::server {
@@ -66,6 +67,6 @@ double shared_frame_ms(double frame_ms, size_t waiting, size_t workers);
 // The share of a width x height view that the box covers on screen (its corners' projected
 // bounding rectangle, clipped to the view), in pixels; the whole view when the eye is inside
 // the box or a corner lies behind the eye.
-double covered_pixels(const lod::Camera& camera, const storage::Bounds& bounds, uint32_t width, uint32_t height);
+double covered_pixels(const view::Camera& camera, const storage::Bounds& bounds, uint32_t width, uint32_t height);
 
 }  // namespace tetrascope::server

@@ -1,14 +1,16 @@
-// Camera parsing (--camera) and the view frustum a cut is restricted to.
-#include "tetrascope/lod/view.h"
+// Camera parsing (--camera), the view frame (projection, rays, the share of the view a box
+// covers) and the view frustum a cut is restricted to.
+#include "tetrascope/view/camera.h"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "tetrascope/storage/parse_number.h"
 #include "tetrascope/storage/vec3.h"
 
-namespace tetrascope::lod {
+namespace tetrascope::view {
 namespace {
 
 using V3 = Vec3;
@@ -136,10 +138,97 @@ bool Frustum::intersects(const float box[6]) const {
   return true;
 }
 
+ViewFrame ViewFrame::of(const Camera& c) {
+  ViewFrame f;
+  f.eye = c.eye;
+  const V3 view = c.target - c.eye;
+  f.distance = length(view);
+  f.forward = unit(view);
+  const V3 side = cross(f.forward, c.up);
+  f.valid = f.distance > 0 && length(side) > 0;
+  if (f.valid) {
+    f.right = unit(side);
+    f.up = cross(f.right, f.forward);
+  }
+  f.tan_half = std::tan(c.fov_degrees * M_PI / 360);
+  f.ortho = c.orthographic;
+  f.half_height = c.ortho_height / 2;
+  f.aspect = std::max(c.aspect, 1e-6);
+  return f;
+}
+
+ViewFrame ViewFrame::of(const Camera& c, uint32_t width, uint32_t height) {
+  ViewFrame f = of(c);
+  f.aspect = double(width) / std::max(1u, height);
+  f.width = width;
+  f.height = height;
+  return f;
+}
+
+void ViewFrame::ray(int x, int y, V3* origin, V3* direction) const {
+  const double u = 2 * (x + 0.5) / width - 1, v = 1 - 2 * (y + 0.5) / height;
+  if (ortho) {
+    for (int k = 0; k < 3; ++k) (*origin)[k] = eye[k] + u * half_height * aspect * right[k] + v * half_height * up[k];
+    *direction = forward;
+    return;
+  }
+  *origin = eye;
+  V3 d;
+  for (int k = 0; k < 3; ++k) d[k] = forward[k] + u * tan_half * aspect * right[k] + v * tan_half * up[k];
+  *direction = normalise(d);
+}
+
+bool ViewFrame::project(const V3& p, double* px, double* py) const {
+  const V3 q = p - eye;
+  const double x = dot(q, right), y = dot(q, up), z = dot(q, forward);
+  double u, v;
+  if (ortho) {
+    u = x / (half_height * aspect);
+    v = y / half_height;
+  } else {
+    if (z <= 1e-12) {
+      *px = *py = 0;
+      return false;
+    }
+    u = x / (z * tan_half * aspect);
+    v = y / (z * tan_half);
+  }
+  *px = (u + 1) * width / 2 - 0.5;
+  *py = (1 - v) * height / 2 - 0.5;
+  return true;
+}
+
+// (A bounding sphere, clamped to 1, gave every large box reaching past the view the share of
+// the whole view: the cut's error weights and the frame cost both take this rectangle.)
+double ViewFrame::box_share(const storage::Bounds& b) const {
+  double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+  for (int corner = 0; corner < 8; ++corner) {
+    const V3 p{(corner & 1) ? b.max[0] : b.min[0], (corner & 2) ? b.max[1] : b.min[1], (corner & 4) ? b.max[2] : b.min[2]};
+    const double z = depth(p);
+    if (!ortho && z <= 1e-9 * distance) return 1.0;  // reaches the eye's plane: fills the view
+    const auto xy = ndc(p, z);
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = std::min(lo[k], xy[k]);
+      hi[k] = std::max(hi[k], xy[k]);
+    }
+  }
+  const double w = std::clamp(hi[0], -1.0, 1.0) - std::clamp(lo[0], -1.0, 1.0);
+  const double h = std::clamp(hi[1], -1.0, 1.0) - std::clamp(lo[1], -1.0, 1.0);
+  return std::max(0.0, w) * std::max(0.0, h) / 4;
+}
+
+double ViewFrame::box_share(const float box[6]) const {
+  storage::Bounds b;
+  for (int k = 0; k < 3; ++k) {
+    b.min[k] = box[k];
+    b.max[k] = box[3 + k];
+  }
+  return box_share(b);
+}
+
 Frustum view_frustum(const Camera& c, double near_plane, double far_plane) {
-  const V3 forward = unit((c.target - c.eye));
-  const V3 right = unit(cross(forward, c.up));
-  const V3 up = cross(right, forward);
+  const ViewFrame frame = ViewFrame::of(c);
+  const V3 forward = frame.forward, right = frame.right, up = frame.up;
   Frustum f;
   auto plane = [&](const V3& n, const V3& point) { return std::array<double, 4>{n[0], n[1], n[2], -dot(n, point)}; };
   const V3 near_point{c.eye[0] + near_plane * forward[0], c.eye[1] + near_plane * forward[1], c.eye[2] + near_plane * forward[2]};
@@ -168,4 +257,4 @@ Frustum view_frustum(const Camera& c, double near_plane, double far_plane) {
   return f;
 }
 
-}  // namespace tetrascope::lod
+}  // namespace tetrascope::view
