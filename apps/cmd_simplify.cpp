@@ -9,9 +9,9 @@
 #include "commands.h"
 #include <cmath>
 
-#include "tetrascope/lod/border_intersection.h"
-#include "tetrascope/lod/error_measure.h"
-#include "tetrascope/lod/simplify.h"
+#include "tetrascope/lod/simplify/border_intersection.h"
+#include "tetrascope/lod/field/error_measure.h"
+#include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/vtk_writer.h"

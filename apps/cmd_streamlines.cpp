@@ -1,5 +1,5 @@
 // `tetrascope streamlines`: stream lines of a vector field of a mesh or store, written as
-// legacy VTK POLYDATA (dissertation §7.3; lod/src/streamlines.cpp).
+// legacy VTK POLYDATA (dissertation §7.3; lod/field/streamlines.cpp).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,12 +13,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/streamlines.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 #include "args.h"
 #include "commands.h"

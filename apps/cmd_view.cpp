@@ -12,9 +12,9 @@
 
 #include "args.h"
 #include "commands.h"
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/streamlines.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/clip.h"

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "tetrascope/lod/simplify.h"
+#include "tetrascope/lod/simplify/simplify.h"
 
 namespace tetrascope::apps {
 

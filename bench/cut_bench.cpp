@@ -13,8 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/storage/store.h"
 
 using namespace tetrascope;

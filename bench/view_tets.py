@@ -2,7 +2,7 @@
 in the camera's view frustum, in front of the eye. Tells the fidelity cases that show part of the
 mesh from those that show most of it (a view-adaptive cut can only gain on what the
 view leaves out). The camera text is `tetrascope render --camera`'s (eye/target/up/fov, or
-azimuth/elevation/distance about the bounds' centre, as lod/src/camera.cpp resolves it).
+azimuth/elevation/distance about the bounds' centre, as view/src/camera.cpp resolves it).
 usage: pvpython bench/view_tets.py MESH.vtk CAMERA [WxH]   (prints one JSON line)"""
 import json
 import math

@@ -9,7 +9,7 @@
 
 #include "tetrascope/view/camera.h"
 #include "tetrascope/view/transfer_function.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::renderer {
 

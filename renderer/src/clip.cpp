@@ -12,7 +12,7 @@
 #include <unordered_map>
 
 #include "tetrascope/renderer/clip.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::renderer {
 namespace {

@@ -18,7 +18,7 @@
 #include "scene_geometry.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 #include "visibility_order.h"
 
 namespace tetrascope::renderer {

@@ -21,7 +21,7 @@
 
 #include "gl_shaders.h"
 #include "lines.h"
-#include "tetrascope/storage/parallel_for.h"
+#include "tetrascope/core/parallel_for.h"
 
 namespace tetrascope::renderer {
 namespace {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <thread>
 
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::renderer {
 

@@ -10,8 +10,8 @@
 #include "camera_math.h"
 #include "slice_hits.h"
 #include "tetrascope/renderer/render.h"
-#include "tetrascope/storage/tet_topology.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/tet_topology.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::renderer {
 

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <map>
 
-#include "tetrascope/storage/tet_topology.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/tet_topology.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::renderer {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "tetrascope/renderer/render.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::renderer {
 

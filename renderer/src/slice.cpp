@@ -10,7 +10,7 @@
 #include "camera_math.h"
 #include "slice_hits.h"
 #include "tetrascope/renderer/clip.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::renderer {
 

@@ -5,9 +5,9 @@
 #include <chrono>
 #include <stdexcept>
 
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/streamlines.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/field/streamlines.h"
+#include "tetrascope/core/tet_topology.h"
 #include "tetrascope/renderer/clip.h"
 
 namespace tetrascope::renderer {

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstring>
 
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/variants.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/variants.h"
 #include "tetrascope/protocol/protocol.h"
 
 namespace tetrascope::server {

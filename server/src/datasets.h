@@ -14,7 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::server {

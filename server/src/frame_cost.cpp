@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::server {
 namespace {

@@ -12,7 +12,7 @@
 
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/server/client.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::server {
 namespace {

@@ -33,7 +33,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::storage {
 

@@ -10,7 +10,7 @@
 #include <fstream>
 
 #include "tetrascope/storage/store.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::storage {
 

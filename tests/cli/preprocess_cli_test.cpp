@@ -16,8 +16,8 @@
 #include "fixture_writers.h"
 #include "cli_run.h"
 #include "test_paths.h"
-#include "tetrascope/lod/mt_build.h"
-#include "tetrascope/lod/store_check.h"
+#include "tetrascope/lod/mt/mt_build.h"
+#include "tetrascope/lod/mt/store_check.h"
 
 namespace tetrascope::testing {
 namespace {

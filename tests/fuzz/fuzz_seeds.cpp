@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "fixture_writers.h"
-#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/store.h"

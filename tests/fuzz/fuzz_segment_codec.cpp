@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "tetrascope/storage/segment_codec.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace {
 constexpr uint32_t kMaxTets = 4096;

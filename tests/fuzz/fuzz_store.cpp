@@ -9,8 +9,8 @@
 #include <filesystem>
 
 #include "store_input.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/variants.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/cut/variants.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 

@@ -11,9 +11,9 @@
 
 #include "mt_fixture.h"
 #include "test_paths.h"
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/simplify.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store_verify.h"

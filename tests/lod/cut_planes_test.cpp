@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "mt_fixture.h"
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::testing {

@@ -13,9 +13,9 @@
 #include "mesh_checks.h"
 #include "mt_fixture.h"
 #include "test_paths.h"
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store_verify.h"
 

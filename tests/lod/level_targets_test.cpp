@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "tetrascope/lod/level_targets.h"
+#include "tetrascope/lod/mt/level_targets.h"
 
 namespace tetrascope::testing {
 namespace {

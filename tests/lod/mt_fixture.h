@@ -8,8 +8,8 @@
 #include <set>
 #include <string>
 
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/mt/mt_build.h"
 
 namespace tetrascope::testing {
 

@@ -15,8 +15,8 @@
 
 #include "mt_stages.h"
 #include "test_paths.h"
-#include "tetrascope/lod/mt_build.h"
-#include "tetrascope/lod/ranks.h"
+#include "tetrascope/lod/mt/mt_build.h"
+#include "tetrascope/lod/mt/ranks.h"
 #include "tetrascope/storage/store_verify.h"
 
 namespace tetrascope::testing {

@@ -1,6 +1,6 @@
 // Quadric error metrics (lod/quadric.h): a fundamental quadric measures squared distance to its
 // subspace, in space and in R^(3+A); its minimum is the point it was anchored at.
-#include "tetrascope/lod/quadric.h"
+#include "tetrascope/lod/simplify/quadric.h"
 
 #include <gtest/gtest.h>
 

@@ -13,9 +13,9 @@
 
 #include "fixture_writers.h"
 #include "test_paths.h"
-#include "tetrascope/lod/octree_partition.h"
-#include "tetrascope/lod/segmentation.h"
-#include "tetrascope/lod/streaming_order.h"
+#include "tetrascope/lod/mt/octree_partition.h"
+#include "tetrascope/lod/mt/segmentation.h"
+#include "tetrascope/lod/mt/streaming_order.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store.h"

@@ -1,4 +1,4 @@
-// The sampling simplifier (lod/src/simplify_sample*.cpp, dissertation §4.2): its output is
+// The sampling simplifier (lod/simplify/simplify_sample*.cpp, dissertation §4.2): its output is
 // conforming, positively oriented and inside the input's domain up to the border error; locked
 // border faces stay bit-identical; a border collapse that would make the border intersect
 // itself is refused; Steiner points carry interpolated values; bad thresholds are refused.
@@ -11,19 +11,19 @@
 #include <map>
 #include <set>
 
-#include "../../lod/src/simplify_sample.h"
+#include "../../lod/simplify/simplify_sample.h"
 #include <random>
 
 #include "mesh_checks.h"
 #include "mt_fixture.h"
 #include "test_paths.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/cut.h"
-#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/store_verify.h"
-#include "tetrascope/lod/border_intersection.h"
-#include "tetrascope/lod/error_measure.h"
-#include "tetrascope/lod/simplify.h"
+#include "tetrascope/lod/simplify/border_intersection.h"
+#include "tetrascope/lod/field/error_measure.h"
+#include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/storage/mesh_stream.h"
 
 namespace tetrascope::testing {

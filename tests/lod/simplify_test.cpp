@@ -11,9 +11,9 @@
 #include "fixture_writers.h"
 #include "mesh_checks.h"
 #include "test_paths.h"
-#include "tetrascope/lod/error_measure.h"
-#include "tetrascope/lod/quadric.h"
-#include "tetrascope/lod/simplify.h"
+#include "tetrascope/lod/field/error_measure.h"
+#include "tetrascope/lod/simplify/quadric.h"
+#include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/storage/mesh_stream.h"
 
 namespace tetrascope::testing {

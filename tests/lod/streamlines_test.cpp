@@ -1,6 +1,6 @@
-// Stream lines (lod/src/streamlines.cpp) on Kuhn-split boxes with analytic per-vertex fields,
+// Stream lines (lod/field/streamlines.cpp) on Kuhn-split boxes with analytic per-vertex fields,
 // and `tetrascope streamlines` on the sample mesh.
-#include "tetrascope/lod/streamlines.h"
+#include "tetrascope/lod/field/streamlines.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "mesh_checks.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 #include "cli_run.h"
 #include "test_paths.h"
 

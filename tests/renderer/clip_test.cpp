@@ -15,7 +15,7 @@
 #include "tetrascope/renderer/probe.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh_stream.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::testing {
 namespace {

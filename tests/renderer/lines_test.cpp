@@ -8,10 +8,10 @@
 
 #include "mesh_checks.h"
 #include "test_paths.h"
-#include "tetrascope/lod/streamlines.h"
+#include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/renderer/view_frame.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::testing {
 namespace {

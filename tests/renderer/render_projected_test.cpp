@@ -13,8 +13,8 @@
 #include "test_paths.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh_stream.h"
-#include "tetrascope/storage/tet_topology.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/tet_topology.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::testing {
 namespace {

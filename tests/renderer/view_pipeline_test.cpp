@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "mt_fixture.h"
-#include "tetrascope/lod/dag.h"
+#include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/renderer/view_frame.h"
 
 namespace tetrascope::testing {

@@ -11,12 +11,12 @@
 #include "cli_run.h"
 #include "fixture_writers.h"
 #include "test_paths.h"
-#include "tetrascope/lod/dag.h"
-#include "tetrascope/lod/mt_build.h"
+#include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::testing {
 namespace {

@@ -8,7 +8,7 @@
 
 #include "fixture_writers.h"
 #include "test_paths.h"
-#include "tetrascope/lod/segmentation.h"
+#include "tetrascope/lod/mt/segmentation.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 

@@ -1,11 +1,11 @@
-#include "tetrascope/storage/tet_topology.h"
+#include "tetrascope/core/tet_topology.h"
 
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <set>
 
-#include "tetrascope/storage/parallel_for.h"
+#include "tetrascope/core/parallel_for.h"
 
 namespace tetrascope {
 namespace {

@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "tetrascope/storage/parse_number.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::view {
 namespace {

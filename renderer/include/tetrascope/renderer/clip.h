@@ -11,7 +11,7 @@
 //  - slice: the exact cross-section of the tets with a plane (marching tets on the signed
 //    distance), triangles carrying the attribute, and optionally the polygon edges.
 //
-// Planes arrive checked (protocol::parse_clip_spec / parse_slice_spec / parse_plane_text):
+// Planes (view/planes.h) arrive checked (protocol::parse_clip_spec / parse_slice_spec / parse_plane_text):
 // unit, finite normals. Nothing here throws on their account.
 #pragma once
 

@@ -40,7 +40,7 @@
 #include <string>
 #include <vector>
 
-#include "tetrascope/lod/streamlines.h"
+#include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/view/view_request.h"
 #include "tetrascope/storage/mesh.h"
 

@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "tetrascope/lod/cut.h"
+#include "tetrascope/lod/cut/cut.h"
 #include "tetrascope/view/view_request.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh.h"

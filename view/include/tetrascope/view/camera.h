@@ -9,7 +9,7 @@
 #include <string>
 
 #include "tetrascope/storage/mesh.h"
-#include "tetrascope/storage/vec3.h"
+#include "tetrascope/core/vec3.h"
 
 namespace tetrascope::view {
 

@@ -1,0 +1,116 @@
+// `tetrascope preprocess`: the multi-triangulation of dissertation §6.3.1-6.3.2, built in
+// stages (mt_stages.h): ingest, levels, histograms, store.
+//
+// Level 0 is the input mesh, partitioned by octree + METIS (§6.1) as `tetrascope segment`
+// does. Level i+1 comes from the mesh M(i) of level i: partition it again (the mesh turned
+// 45° about its longest box axis through the centroid on every odd level, so that the borders
+// frozen at one level fall inside the segments of the next), cut every level-i segment
+// (floor) by the new segments (ceilings) into patches, and simplify each ceiling segment with
+// its border vertices locked. Stop at the base budget or one segment. A vertex keeps its
+// global id while its position and values are unchanged; a moved vertex gets a new id.
+//
+// The vertices are held in memory (the table, and a few ids per vertex); the tets of a level
+// are held in memory when they fit a quarter of --memory-mb, else in a spill file read a
+// segment at a time (NodeTets), so that the input need never be whole in memory. Segment-wise work (simplification, error measure) runs on `threads`, and
+// under MPI (options.ranks) is shared among the ranks, each of which holds the whole build.
+#include "tetrascope/lod/cut/variants.h"
+#include "tetrascope/lod/mt/mt_build.h"
+
+#include <chrono>
+#include <future>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "mt_stages.h"
+#include "tetrascope/lod/cut/dag_format.h"
+#include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/sha256.h"
+
+namespace tetrascope::lod {
+
+nlohmann::json PreprocessReport::to_json() const {
+  nlohmann::json levels_json = nlohmann::json::array();
+  for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
+  return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
+          {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"variants_bytes", variants_bytes}, {"variant_tets", variant_tets}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
+          {"segment_tets", segment_tets}, {"level_ratio", level_ratio}, {"grading", grading}, {"seconds", seconds},
+          {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
+}
+
+namespace {
+
+void check_options(const PreprocessOptions& options, const std::filesystem::path& store_path) {
+  if (options.segment_tets != 0 && options.segment_tets < 256) throw std::invalid_argument("--segment-tets must be 'auto' or at least 256");
+  if (options.base_tets < 1) throw std::invalid_argument("--base-tets must be at least 1");
+  if (options.level_ratio != 0 && !(options.level_ratio > 0.01 && options.level_ratio < 0.95))
+    throw std::invalid_argument("--level-ratio must be 'auto' or in (0.01, 0.95)");
+  if (options.histogram_bins < 2 || options.histogram_bins > dag::kMaxBins) throw std::invalid_argument("--bins must be 2 to " + std::to_string(dag::kMaxBins));
+  if (options.threads < 1 || options.threads > 64) throw std::invalid_argument("--threads must be 1 to 64");
+  if (options.variants > kMaxVariants) throw std::invalid_argument("--variants must be 0 to " + std::to_string(kMaxVariants));
+  if (options.variants > 0 && options.simplifier != SimplifyMethod::kQem) throw std::invalid_argument("--variants needs --simplifier qem");
+  if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
+  if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
+}
+
+}  // namespace
+
+PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::filesystem::path& store_path, const PreprocessOptions& given,
+                            storage::Progress* progress) {
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+  check_options(given, store_path);
+  PreprocessOptions options = given;  // with the segment size resolved once the input is read
+  const mt::StageProgress stage{progress, {}};
+  PreprocessReport report;
+
+  stage("read", 0);
+  std::filesystem::path hashed = mesh_path;
+  if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
+  // under MPI every rank reads and builds, rank 0 alone hashes and writes
+  const bool writes = !options.ranks || options.ranks->rank() == 0;
+  std::optional<storage::FileHasher> sha256;
+  if (writes) sha256.emplace(hashed);  // checks the file is regular first; cancelled if reading fails
+  const std::filesystem::path spill_directory = store_path.has_parent_path() ? store_path.parent_path() : std::filesystem::path(".");
+  mt::IngestedMesh mesh = mt::ingest_mesh(mesh_path, options, spill_directory);
+  report.spilled_bytes = mesh.tets.spilled_bytes();
+  report.input_vertices = mesh.input_vertices;
+  report.input_tets = mesh.input_tets;
+  report.grading = mesh.grading;
+  if (options.segment_tets == 0) options.segment_tets = auto_segment_tets(mesh.grading);
+  if (options.level_ratio == 0) options.level_ratio = auto_level_ratio(mesh.grading);
+  report.segment_tets = options.segment_tets;
+  report.level_ratio = options.level_ratio;
+  report.read_seconds = seconds_since(start);
+
+  const auto levels_start = clock::now();
+  mt::Hierarchy hierarchy = mt::build_levels(mesh, options, stage);
+  const std::vector<mt::PatchRange> arcs = mt::dag_arcs(hierarchy, static_cast<uint32_t>(mesh.channels.size()) * options.histogram_bins);
+  report.segment_seconds = hierarchy.partition_seconds;
+  report.tetgen_fallbacks = hierarchy.tetgen_fallbacks;
+  report.simplify_seconds = seconds_since(levels_start) - hierarchy.partition_seconds;
+  report.spilled_bytes += hierarchy.nodes.spilled_bytes();
+
+  if (!writes) {
+    report.seconds = seconds_since(start);
+    return report;
+  }
+
+  const auto write_start = clock::now();
+  stage("write", 0);
+  const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256->get(); }}, stage);
+  report.levels = written.levels;
+  report.segments = static_cast<uint32_t>(hierarchy.nodes.size());
+  report.patches = static_cast<uint32_t>(arcs.size());
+  report.store_bytes = written.store_bytes;
+  report.dag_bytes = written.dag_bytes;
+  report.variants_bytes = written.variants_bytes;
+  report.variant_tets = hierarchy.variants ? hierarchy.variants->tets() : 0;
+  report.write_seconds = seconds_since(write_start);
+  report.seconds = seconds_since(start);
+  if (progress) progress->finish();
+  return report;
+}
+
+}  // namespace tetrascope::lod
