@@ -315,7 +315,8 @@ std::vector<std::string> verify_variants(const storage::Store& store, const Dag&
           const float* x = &v.xyz[3 * size_t{v.tets[4 * t + k]}];
           return Vec3{x[0], x[1], x[2]};
         };
-        if (!(dot(cross(p(1) - p(0), p(2) - p(0)), p(3) - p(0)) > 0)) ++inverted;
+        // inverted: negative volume (flat tets of a flat or coincident input stay flat, as in it)
+        if (dot(cross(p(1) - p(0), p(2) - p(0)), p(3) - p(0)) < 0) ++inverted;
         for (int f = 0; f < 4; ++f) {
           Face face = tet_face(v.tets, t, f);
           bool named = true;
@@ -323,7 +324,7 @@ std::vector<std::string> verify_variants(const storage::Store& store, const Dag&
           if (named) ++uses[face_key(face)];
         }
       }
-      if (inverted) problems.push_back(name + ": " + std::to_string(inverted) + " tets are not positively oriented");
+      if (inverted) problems.push_back(name + ": " + std::to_string(inverted) + " tets are inverted");
       uint64_t missing = 0;
       for (const Face& f : border) {
         auto it = uses.find(f);

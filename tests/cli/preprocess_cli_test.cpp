@@ -10,7 +10,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <sstream>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "fixture_writers.h"
@@ -177,6 +179,59 @@ TEST(PreprocessCli, UnknownLevelTargetsIsRefusedNamingTheChoices) {
 // --variants K: 0 to 8 segment variants; more is refused naming the range and
 // leaves no store. With some, the store holds variants.bin, which info lists and verify checks,
 // and `cut` exports a cut that uses the budget its refinements could not.
+// Copies of one tet (a cell written twice, or 20,000 times): preprocess builds a store that
+// verifies, with the defaults, one-tet levels and the sampling simplifier alike, or refuses
+// with a message; it never dies of a signal (it crashed measuring an emptied level's error).
+TEST(PreprocessCli, DuplicatedTetsNeverCrashPreprocess) {
+  auto dir = scratch_dir("pre_duplicates");
+  const std::string corners = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+  write_file(dir / "twice.off", "OFF\n4 2 0\n" + corners + "4 0 1 2 3\n4 0 1 2 3\n");
+  std::string many = "OFF\n4 20000 0\n" + corners;
+  for (int i = 0; i < 20000; ++i) many += "4 0 1 2 3\n";
+  write_file(dir / "many.off", many);
+  const std::pair<const char*, const char*> runs[] = {{"twice.off", "--base-tets 1"}, {"many.off", ""}, {"many.off", "--simplifier sample"}};
+  int built = 0;
+  for (const auto& [file, options] : runs) {
+    const std::string out = (dir / ("s" + std::to_string(built))).string();
+    Result r = run("preprocess " + (dir / file).string() + " -o " + out + " --progress none " + options);
+    ASSERT_LT(r.status, 128) << file << " " << options << ": died of a signal\n" << r.out;
+    if (r.status == 0) {
+      EXPECT_EQ(run("verify " + out).status, 0) << file << " " << options;
+    } else {
+      EXPECT_NE(r.out.find("error"), std::string::npos) << file << " " << options << ": no message\n" << r.out;
+    }
+    ++built;
+  }
+}
+
+// A flat mesh (every tet of zero volume: a grid with its z collapsed) builds with variants as it
+// builds without them: a variant's flat tets are flat as its segment's are, not inverted
+// (`--variants 2` refused the store: "tets are not positively oriented").
+TEST(PreprocessCli, AFlatMeshBuildsWithVariantsAsWithout) {
+  auto dir = scratch_dir("pre_flat_variants");
+  std::string off = grid_off(6);
+  // z of every point (the third number of each point line) to 0
+  std::istringstream lines(off);
+  std::string line, flat;
+  int row = 0, points = 0;
+  while (std::getline(lines, line)) {
+    std::istringstream words(line);
+    std::vector<std::string> w((std::istream_iterator<std::string>(words)), std::istream_iterator<std::string>());
+    if (row == 0) points = std::stoi(w.at(0));  // "points tets", then the points
+    if (row >= 1 && row < 1 + points && w.size() >= 3) w[2] = "0";
+    for (size_t i = 0; i < w.size(); ++i) flat += (i ? " " : "") + w[i];
+    flat += "\n";
+    ++row;
+  }
+  write_file(dir / "flat.off", flat);
+  for (const char* variants : {"0", "2"}) {
+    const std::string out = (dir / (std::string("v") + variants)).string();
+    Result r = run("preprocess " + (dir / "flat.off").string() + " -o " + out + " --progress none --segment-tets 256 --base-tets 100 --variants " + variants);
+    EXPECT_EQ(r.status, 0) << "--variants " << variants << "\n" << r.out;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / "v2" / "variants.bin"));
+}
+
 TEST(PreprocessCli, VariantsOutOfRangeAreRefusedAndVariantsBuiltAreListedAndVerified) {
   auto dir = scratch_dir("pre_variants");
   write_file(dir / "grid.off", grid_off(12));  // 8,640 tets

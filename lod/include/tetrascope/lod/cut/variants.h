@@ -121,7 +121,8 @@ class Variants {
 };
 
 // verify's checks of variants.bin: every variant keeps its segment's border faces (those it
-// shares with other segments) and its tets are positively oriented. Empty when sound.
+// shares with other segments) and none of its tets is inverted (a flat input's flat tets are
+// allowed, as in its segments). Empty when sound.
 std::vector<std::string> verify_variants(const storage::Store& store, const Dag& dag);
 
 }  // namespace tetrascope::lod
