@@ -375,6 +375,14 @@ int run_render(const Arguments& all) {
   const double reference_db = o.reference ? write_reference(o, pipeline->scene(), frame, image) : -1;
   nlohmann::json j = render_report(o, settings, pipeline->scene(), renderer->description(), frames, reference_db);
   if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
+  if (const auto budget = pipeline->cut_budget()) {
+    j["cut"] = {{"budget", budget->budget}, {"tets", budget->tets}, {"budget_used", budget->budget ? double(budget->tets) / double(budget->budget) : 0.0},
+                {"budget_limited", budget->budget_limited}, {"over_budget", budget->over_budget}};
+    // below the coarsest level the cut cannot go: said, not drawn silently
+    if (budget->over_budget)
+      std::fprintf(stderr, "tetrascope render: the store's coarsest cut holds %llu tets, above the budget of %llu; drawn as it is\n",
+                   static_cast<unsigned long long>(budget->tets), static_cast<unsigned long long>(budget->budget));
+  }
   if (const auto lines = pipeline->lines()) {
     j["lines"] = {{"field", lines->field}, {"count", lines->line_count()}, {"points", lines->point_count()}, {"selected", settings.selected_lines.size()},
                   {"segments_opaque", frames.back().line_segments_opaque}, {"segments_ghosted", frames.back().line_segments_ghosted}};

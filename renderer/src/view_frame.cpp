@@ -153,6 +153,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     auto start = Clock::now();
     const auto changes = cut_->update(criteria, request.budget);
     cut_estimated_error_ = changes.estimated_error;
+    cut_budget_ = CutBudget{request.budget, changes.tets, changes.budget_limited, changes.over_budget};
     t.cut_ms = ms_since(start);
     start = Clock::now();
     // segments wholly clipped away are not read (a change of the clip may need others)

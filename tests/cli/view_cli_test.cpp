@@ -140,6 +140,16 @@ TEST(RenderCli, RendersTheCutOfAStoreFromTheDefaultView) {
   EXPECT_GT(j["iso_triangles"].get<uint64_t>(), 0u);
   const auto& range = j["legend"]["range"];
   EXPECT_LT(range[0].get<double>(), range[1].get<double>()) << "the colour range is the attribute's over the whole dataset";
+  // how the cut met its budget is reported; below the coarsest level it says so, not silently
+  EXPECT_EQ(j["cut"]["budget"], 9000);
+  EXPECT_EQ(j["cut"]["tets"], j["tets"]);
+  EXPECT_FALSE(j["cut"]["over_budget"].get<bool>());
+  Result below = run("render " + store + " -o " + (dir / "below.png").string() + " --size 32x24 --budget 10 --json");
+  ASSERT_EQ(below.status, 0) << below.out;
+  const auto b = last_json_line(below.out);
+  EXPECT_TRUE(b["cut"]["over_budget"].get<bool>()) << below.out;
+  EXPECT_GT(b["cut"]["tets"].get<uint64_t>(), 10u);
+  EXPECT_NE(below.out.find("above the budget of 10"), std::string::npos) << below.out;
   Result mesh_budget = run("render " + sample_mesh().string() + " -o " + (dir / "x.png").string() + " --budget 9000");
   EXPECT_EQ(mesh_budget.status, 2);
   EXPECT_NE(mesh_budget.out.find("multiresolution"), std::string::npos) << mesh_budget.out;

@@ -73,6 +73,14 @@ class ViewPipeline {
 
   // The cut's estimated error after the last update (stores only; see lod::CutChanges).
   std::optional<double> cut_estimated_error() const { return cut_estimated_error_; }
+  // How the last update's cut met its budget (stores only): its tets, whether a wanted
+  // refinement did not fit (budget_limited) and whether even the coarsest cut is above it
+  // (over_budget: the store's coarsest level holds more tets than asked for).
+  struct CutBudget {
+    uint64_t budget = 0, tets = 0;
+    bool budget_limited = false, over_budget = false;
+  };
+  std::optional<CutBudget> cut_budget() const { return cut_budget_; }
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)
   // The scene drawn after update: clipped when the request has a clip.
   const SceneMesh& scene() const { return clipped_ ? *clipped_ : *scene_; }
@@ -98,6 +106,7 @@ class ViewPipeline {
   std::optional<storage::TetMesh> mesh_;  // the whole mesh, without a store
   storage::Bounds bounds_;
   std::optional<double> cut_estimated_error_;
+  std::optional<CutBudget> cut_budget_;
   std::unique_ptr<const SceneMesh> scene_;
   std::string attribute_, iso_color_attribute_;      // the scene's
   uint64_t scene_generation_ = 0;         // unique over all pipelines of the process
