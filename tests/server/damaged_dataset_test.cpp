@@ -73,18 +73,8 @@ class DamagedDatasetTest : public ::testing::Test {
     c->send("view.resize", {{"width", 160}, {"height", 120}});
     return c;
   }
-  // The next text message of `type`, skipping frames and other messages.
   static nlohmann::json next_text(SessionClient& c, const std::string& type, std::chrono::milliseconds timeout = 60s) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      auto m = c.read(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
-      if (!m) break;
-      if (m->binary) continue;
-      auto j = nlohmann::json::parse(m->data);
-      if (j["type"] == type) return j;
-    }
-    ADD_FAILURE() << "no '" << type << "' message within the timeout";
-    return {};
+    return testing::next_text(c, type, timeout);
   }
   // True when a frame (binary message) arrives within `timeout`.
   static bool frame_arrives(SessionClient& c, std::chrono::milliseconds timeout = 60s) {

@@ -48,18 +48,8 @@ class ManageTest : public ::testing::Test {
     EXPECT_EQ(r.status, 201) << r.body;
     return nlohmann::json::parse(r.body).value("path", "");
   }
-  // the next text message of `type` (errors included), skipping frames
   static nlohmann::json next_text(SessionClient& c, const std::string& type, std::chrono::milliseconds timeout = 30s) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      auto m = c.read(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
-      if (!m) break;
-      if (m->binary) continue;
-      auto j = nlohmann::json::parse(m->data);
-      if (j["type"] == type) return j;
-    }
-    ADD_FAILURE() << "no '" << type << "' message within the timeout";
-    return {};
+    return testing::next_text(c, type, timeout);
   }
   bool no_trash_left() {
     for (const auto& entry : fs::directory_iterator(data_dir()))

@@ -86,4 +86,19 @@ inline std::string upload(const std::string& base, const std::filesystem::path& 
   return nlohmann::json::parse(r.body).value("path", "");
 }
 
+// The next text message of `type` on a session (errors included), skipping frames and other
+// messages; a test failure (and null) when none comes within `timeout`.
+inline nlohmann::json next_text(server::SessionClient& c, const std::string& type, std::chrono::milliseconds timeout = std::chrono::seconds(30)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto m = c.read(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
+    if (!m) break;
+    if (m->binary) continue;
+    auto j = nlohmann::json::parse(m->data);
+    if (j["type"] == type) return j;
+  }
+  ADD_FAILURE() << "no '" << type << "' message within the timeout";
+  return {};
+}
+
 }  // namespace tetrascope::testing
