@@ -145,6 +145,14 @@ def compared(full, other, view):
     return psnr_module.psnr(psnr_module.read_pfm(f"{full}.reference.pfm"), psnr_module.read_pfm(f"{other}.reference.pfm"), 1.0)
 
 
+def coverage(full, view):
+    """The share of the full mesh's image the view shows something in: pixels that differ from
+    the background (RenderSettings::background, 0.1 0.1 0.12) by more than one 8-bit level."""
+    image = psnr_module.read_png(f"{full}.png") / 255.0 if view["kind"] == "iso" else psnr_module.read_pfm(f"{full}.reference.pfm")
+    background = [0.1, 0.1, 0.12]
+    return float((abs(image - background).max(axis=-1) > 1.5 / 255).mean())
+
+
 def quartiles(values):
     if not values:
         return None
@@ -153,19 +161,46 @@ def quartiles(values):
     return {"median": statistics.median(values), "q1": q[0], "q3": q[2], "min": values[0], "max": values[-1]}
 
 
+MIN_COVERAGE = 0.05  # views showing less of the image are reported apart (their PSNR says little)
+
+
 def summary(cells):
     out = {}
     for key in sorted({c["budget_pct"] for c in cells}):
-        at = [c for c in cells if c["budget_pct"] == key and c["gain_db"] is not None]
+        at = [c for c in cells if c["budget_pct"] == key and c["gain_db"] is not None and c.get("coverage", 1) >= MIN_COVERAGE]
         gains = [c["gain_db"] for c in at]
         out[str(key)] = {
             "cells": len(at),
+            "cells_showing_little": sum(1 for c in cells if c["budget_pct"] == key and c.get("coverage", 1) < MIN_COVERAGE),
             "gain_db": quartiles(gains),
             "losing_over_0_5_db": sum(g < -0.5 for g in gains) / len(gains) if gains else None,
             "beating_by_3_db": sum(g >= 3 for g in gains) / len(gains) if gains else None,
             "budget_used": quartiles([c["budget_used"] for c in at]),
         }
     return out
+
+
+def finish(record, cells):
+    record["summary"] = summary(cells)
+    record["by_mesh"] = {m: summary([c for c in cells if c["mesh"] == m]) for m in sorted({c["mesh"] for c in cells})}
+    record["by_eye"] = {side: summary([c for c in cells if c["inside"] == (side == "inside")]) for side in ("inside", "outside")}
+    record["by_kind"] = {k: summary([c for c in cells if c["kind"] == k]) for k in sorted({c["kind"] for c in cells})}
+    record["min_coverage"] = MIN_COVERAGE
+
+
+def resummarise(a):
+    results = Path(a.output)
+    old = json.loads(results.read_text())
+    for record in old["records"]:
+        if record["seed"] != a.seed:
+            continue
+        for c in record["cells"]:
+            if "coverage" not in c:
+                name = OUT / f"{Path(c['mesh']).stem}.s{a.seed}.v{c['view']}"
+                c["coverage"] = coverage(f"{name}.full", c)
+        finish(record, record["cells"])
+        print(json.dumps(record["summary"], indent=1))
+    results.write_text(json.dumps(old, indent=1))
 
 
 def main():
@@ -178,7 +213,10 @@ def main():
     parser.add_argument("--tetrascope", default=str(ROOT / "build" / "release" / "apps" / "tetrascope"))
     parser.add_argument("--preprocess-args", default="", help="extra options for tetrascope preprocess")
     parser.add_argument("--output", default=str(RESULTS), help="the results file (records by seed)")
+    parser.add_argument("--summarise", action="store_true", help="only recompute the record of --seed from its cells and images")
     a = parser.parse_args()
+    if a.summarise:
+        return resummarise(a)
     binary = a.tetrascope
     budgets = [float(b) for b in a.budgets.split(",")]
     OUT.mkdir(parents=True, exist_ok=True)
@@ -210,6 +248,7 @@ def main():
             view = draw_view(rng, store_info["bounds"], tf_attribute, v)
             name = OUT / f"{mesh.stem}.s{a.seed}.v{v}"
             render(binary, mesh, f"{name}.full", view, a.size)
+            shown = coverage(f"{name}.full", view)
             for pct in budgets:
                 tets, path = decimated[pct]
                 cut = render(binary, store, f"{name}.cut{pct:g}", view, a.size, budget=tets)
@@ -218,7 +257,7 @@ def main():
                 dec_db = compared(f"{name}.full", f"{name}.dec{pct:g}", view)
                 gain = None if not (math.isfinite(cut_db) and math.isfinite(dec_db)) else cut_db - dec_db
                 cell = {"mesh": mesh.name, "view": v, "inside": view["inside"], "kind": view["kind"], "camera": view["camera"], "tf": view["tf"],
-                        "budget_pct": pct, "budget_tets": tets, "cut_tets": cut["tets"], "budget_used": cut["tets"] / tets,
+                        "coverage": shown, "budget_pct": pct, "budget_tets": tets, "cut_tets": cut["tets"], "budget_used": cut["tets"] / tets,
                         "cut_db": cut_db if math.isfinite(cut_db) else None, "decimated_db": dec_db if math.isfinite(dec_db) else None,
                         "gain_db": gain, "cut_estimated_error": cut.get("cut_estimated_error")}
                 cells.append(cell)
@@ -226,9 +265,8 @@ def main():
     record = {"seed": a.seed, "date": datetime.date.today().isoformat(), "views_per_mesh": a.views, "budgets_pct": budgets, "size": a.size,
               "commit": run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip(),
               "method": "PSNR against the full mesh by the exact CPU integrator (float colours; isosurfaces: GL, 8 bits); the decimation by tetrascope simplify --tets to the budget; gain = cut - decimation",
-              "summary": summary(cells),
-              "by_mesh": {m: summary([c for c in cells if c["mesh"] == m]) for m in sorted({c["mesh"] for c in cells})},
               "cells": cells}
+    finish(record, cells)
     results = Path(a.output)
     old = json.loads(results.read_text()) if results.exists() else {"records": []}
     old["records"] = [r for r in old.get("records", []) if r.get("seed") != a.seed] + [record]
