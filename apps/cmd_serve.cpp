@@ -51,7 +51,7 @@ int run_serve(const Arguments& raw) {
   o.max_running_jobs = std::max(1u, args.number("--max-jobs", o.max_running_jobs));
   o.max_queued_jobs = args.number("--max-queued-jobs", o.max_queued_jobs);
   o.max_connections = std::max(1u, args.number("--max-connections", o.max_connections));
-  o.max_connections_per_ip = std::max(1u, args.number("--max-connections-per-ip", o.max_connections_per_ip));
+  o.max_connections_per_ip = args.number("--max-connections-per-ip", o.max_connections_per_ip);  // 0: none (behind a proxy every client has its address)
   o.min_upload_bytes_per_second = args.number("--min-upload-rate", static_cast<uint32_t>(o.min_upload_bytes_per_second));
   o.hello_timeout = std::chrono::seconds(std::max(1u, args.number("--hello-timeout", static_cast<uint32_t>(o.hello_timeout.count() / 1000))));
   // 0: a worker keeps its scene and buffers while idle

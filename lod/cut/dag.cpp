@@ -70,7 +70,7 @@ std::unique_ptr<Dag> Dag::open(const std::filesystem::path& file, std::span<cons
   const std::string name = file.string() + ": ";
   auto fail = [&](const std::string& what) { throw DagError(name + what); };
   std::ifstream in(file, std::ios::binary);
-  if (!in) fail("cannot open");
+  if (!in) throw DagIoError(name + "cannot open");
   std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   auto dag = std::unique_ptr<Dag>(new Dag());
   Header& h = dag->header_;

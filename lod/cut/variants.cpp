@@ -316,7 +316,7 @@ std::vector<std::string> verify_variants(const storage::Store& store, const Dag&
           return Vec3{x[0], x[1], x[2]};
         };
         // inverted: negative volume (flat tets of a flat or coincident input stay flat, as in it)
-        if (dot(cross(p(1) - p(0), p(2) - p(0)), p(3) - p(0)) < 0) ++inverted;
+        if (!(dot(cross(p(1) - p(0), p(2) - p(0)), p(3) - p(0)) >= 0)) ++inverted;  // (NaN counts)
         for (int f = 0; f < 4; ++f) {
           Face face = tet_face(v.tets, t, f);
           bool named = true;

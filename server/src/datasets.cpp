@@ -1,6 +1,7 @@
 #include "datasets.h"
 
 #include <stdlib.h>
+#include <sys/stat.h>
 
 #include <cerrno>
 #include <cmath>
@@ -60,6 +61,7 @@ size_t sweep_data_leftovers(const fs::path& data_dir) {
 }
 
 bool is_store_damage(const std::exception& e) {
+  if (dynamic_cast<const storage::StoreIoError*>(&e) || dynamic_cast<const lod::DagIoError*>(&e)) return false;  // could not read: not damage
   return dynamic_cast<const storage::StoreError*>(&e) || dynamic_cast<const lod::DagError*>(&e) || dynamic_cast<const lod::VariantsError*>(&e) ||
          dynamic_cast<const DatasetDamaged*>(&e);
 }
@@ -99,6 +101,17 @@ size_t Dataset::notify_closed(const std::string& code, const std::string& messag
 }
 
 namespace {
+
+// The latest status change of a store's files (ns): any write, rename or copy into place moves
+// it, a copy that keeps modification times (cp -a) included. -1 when none can be read.
+int64_t store_change_time(const fs::path& folder) {
+  int64_t latest = -1;
+  for (const char* file : {"manifest.json", "segments.bin", "dag.bin", "variants.bin"}) {
+    struct stat st {};
+    if (::stat((folder / file).c_str(), &st) == 0) latest = std::max<int64_t>(latest, int64_t{st.st_ctim.tv_sec} * 1000000000 + st.st_ctim.tv_nsec);
+  }
+  return latest;
+}
 
 nlohmann::json store_summary(const std::string& name, const storage::Store& store) {
   const auto& m = store.manifest();
@@ -151,8 +164,7 @@ nlohmann::json DatasetRegistry::list() const {
 std::optional<std::string> DatasetRegistry::damage_of(const std::string& name) const {
   auto it = damaged_.find(name);
   if (it == damaged_.end()) return std::nullopt;
-  std::error_code ec;
-  if (fs::last_write_time(data_dir_ / name / "manifest.json", ec) != it->second.manifest_time || ec) return std::nullopt;  // written anew since
+  if (store_change_time(data_dir_ / name) != it->second.changed) return std::nullopt;  // written, copied or restored since
   return it->second.why;
 }
 
@@ -175,7 +187,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   } catch (const std::exception& e) {
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);
-    damaged_[name] = {why, fs::last_write_time(folder / "manifest.json", ec)};
+    damaged_[name] = {why, store_change_time(folder)};
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   if (!d->dag) throw std::runtime_error(name + " is a single-level store: run tetrascope preprocess to view it");
@@ -190,7 +202,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   } catch (const std::exception& e) {  // a coarsest segment fails its checksum
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);
-    damaged_[name] = {why, fs::last_write_time(folder / "manifest.json", ec)};
+    damaged_[name] = {why, store_change_time(folder)};
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   d->info["coarsest_tets"] = mesh.tet_count();
@@ -224,8 +236,7 @@ size_t DatasetRegistry::close_damaged(const std::shared_ptr<Dataset>& dataset, c
     std::lock_guard lock(mutex_);
     if (auto it = open_.find(dataset->name); it != open_.end() && it->second == dataset) {
       open_.erase(it);
-      std::error_code ec;
-      damaged_[dataset->name] = {reason, fs::last_write_time(data_dir_ / dataset->name / "manifest.json", ec)};
+      damaged_[dataset->name] = {reason, store_change_time(data_dir_ / dataset->name)};
     }
   }
   return dataset->notify_closed(protocol::code::kDatasetDamaged, "the dataset '" + dataset->name + "' is damaged and was closed: " + reason);

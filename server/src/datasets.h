@@ -105,10 +105,11 @@ class DatasetRegistry {
   std::shared_ptr<storage::SegmentPool> pool_;
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Dataset>> open_;
-  // Stores found damaged: why, and the manifest's change time then (a rebuilt store is tried again).
+  // Stores found damaged: why, and the latest status change of their files then (a store
+  // written, copied or restored since is tried again).
   struct Damage {
     std::string why;
-    std::filesystem::file_time_type manifest_time;
+    int64_t changed = -1;
   };
   std::map<std::string, Damage> damaged_;
   std::optional<std::string> damage_of(const std::string& name) const;  // under mutex_

@@ -3,6 +3,8 @@
 // other request, its small body read in full, to handle_request (http_router.cpp).
 #include <unistd.h>
 
+#include <cstdio>
+
 #include <boost/beast/version.hpp>
 #include <boost/beast/websocket.hpp>
 
@@ -32,9 +34,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     ++server_.http_connections;
   }
   ~HttpSession() {
+    server_.release(address_);
     {
       std::lock_guard lock(server_.connections_mutex);
-      if (auto it = server_.connections_by_ip.find(address_); it != server_.connections_by_ip.end() && --it->second == 0) server_.connections_by_ip.erase(it);
       if (waiting_) server_.waiting_headers.erase(*waiting_);
     }
     --server_.http_connections;
@@ -56,8 +58,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     {
       std::lock_guard lock(server_.connections_mutex);
       waiting_ = server_.next_waiting++;
-      server_.waiting_headers[*waiting_] = {std::chrono::steady_clock::now(), [weak = weak_from_this()] {
-                                              if (auto self = weak.lock()) net::post(self->stream_.get_executor(), [self] { self->evict(); });
+      // (the strand taken now: the closure runs on the accepting thread)
+      server_.waiting_headers[*waiting_] = {std::chrono::steady_clock::now(), [weak = weak_from_this(), strand = stream_.get_executor()] {
+                                              if (auto self = weak.lock()) net::post(strand, [self] { self->evict(); });
                                             }};
     }
     http::async_read_header(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_header, shared_from_this()));
@@ -292,33 +295,58 @@ void Server::Impl::accept() {
   acceptor->async_accept(net::make_strand(io), [this](beast::error_code ec, tcp::socket socket) {
     if (stopped) return;
     if (ec) return on_accept_failed(ec);
-    beast::error_code address_ec;
-    const net::ip::address address = socket.remote_endpoint(address_ec).address();
-    // at the cap, a connection that has waited on its header longest makes room
-    bool refused = http_connections >= static_cast<int64_t>(options.max_connections) && !evict_one_waiting();
-    if (!refused) {
-      std::lock_guard lock(connections_mutex);
-      unsigned& from_address = connections_by_ip[address];
-      refused = from_address >= options.max_connections_per_ip;
-      if (!refused) ++from_address;
-      else if (from_address == 0) connections_by_ip.erase(address);
-    }
-    if (refused) {
-      // over a cap: a short answer instead of a connection that holds a descriptor
-      static constexpr std::string_view kBusy =
-          "HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: 40\r\nConnection: close\r\n\r\n"
-          "too many connections; try again shortly\n";
-      beast::error_code ignored;
-      socket.non_blocking(true, ignored);
-      socket.write_some(net::buffer(kBusy), ignored);
-      socket.close(ignored);
-      ++metrics.http_requests;
-      metrics.count_http_error("connection", 503);
-    } else {
-      std::make_shared<HttpSession>(*this, std::move(socket), address)->start();
+    try {
+      accepted(std::move(socket));
+    } catch (const std::exception& e) {  // (out of memory): this connection is lost, the next is accepted
+      ++metrics.handler_exceptions;
+      std::fprintf(stderr, "tetrascope serve: a connection was dropped: %s\n", e.what());
     }
     accept();
   });
+}
+
+bool Server::Impl::admit(const net::ip::address& address) {
+  {
+    std::lock_guard lock(connections_mutex);
+    auto it = connections_by_ip.find(address);
+    if (options.max_connections_per_ip > 0 && it != connections_by_ip.end() && it->second >= options.max_connections_per_ip) return false;
+  }
+  // at the cap, a connection that has waited on its header longest makes room
+  if (http_connections >= static_cast<int64_t>(options.max_connections) && !evict_one_waiting()) return false;
+  std::lock_guard lock(connections_mutex);
+  ++connections_by_ip[address];
+  return true;
+}
+
+void Server::Impl::accepted(tcp::socket socket) {
+  beast::error_code address_ec;
+  const net::ip::address address = socket.remote_endpoint(address_ec).address();
+  if (!admit(address)) {
+    // over a cap: a short answer instead of a connection that holds a descriptor
+    static constexpr std::string_view kBusy =
+        "HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: 40\r\nConnection: close\r\n\r\n"
+        "too many connections; try again shortly\n";
+    beast::error_code ignored;
+    socket.non_blocking(true, ignored);
+    socket.write_some(net::buffer(kBusy), ignored);
+    socket.close(ignored);
+    ++metrics.http_requests;
+    metrics.count_http_error("connection", 503);
+    return;
+  }
+  std::shared_ptr<HttpSession> session;
+  try {
+    session = std::make_shared<HttpSession>(*this, std::move(socket), address);
+  } catch (...) {
+    release(address);  // admitted, but no session came to count it down
+    throw;
+  }
+  session->start();
+}
+
+void Server::Impl::release(const net::ip::address& address) {
+  std::lock_guard lock(connections_mutex);
+  if (auto it = connections_by_ip.find(address); it != connections_by_ip.end() && --it->second == 0) connections_by_ip.erase(it);
 }
 
 bool Server::Impl::evict_one_waiting() {

@@ -238,7 +238,9 @@ nlohmann::json JobRunner::submit(const nlohmann::json& body) {
   }
   auto job = std::make_shared<Job>();
   job->id = new_id();
-  job->source = source;
+  // the path as resolved ("./uploads/x", "uploads//x" and "uploads/x" are one file), so the
+  // checks that an upload is in use (job_reading) cannot be passed by another spelling
+  job->source = path->lexically_relative(fs::weakly_canonical(data_dir_, ec)).generic_string();
   job->name = name;
   job->options = options;
   job->created = now_s();

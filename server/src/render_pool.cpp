@@ -1,5 +1,6 @@
 #include "render_pool.h"
 
+#include <cstdio>
 #include <malloc.h>
 
 namespace tetrascope::server {
@@ -97,7 +98,11 @@ void RenderPool::run(size_t index) {
       task = std::move(from.front());
       from.pop_front();
     }
-    task(worker);  // tasks catch their own errors
+    try {
+      task(worker);  // tasks catch their own errors; one that did not is logged, the worker goes on
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tetrascope serve: a render task failed unexpectedly: %s\n", e.what());
+    }
     holds_memory = true;
   }
   // The context stays up to exit (see run_render in apps/cmd_view.cpp): Mesa, unloaded by eglTerminate, leaves

@@ -29,35 +29,13 @@ namespace net = boost::asio;
 
 struct Server::Impl {
   ServerOptions options;
-  net::io_context io;
-  std::unique_ptr<net::ip::tcp::acceptor> acceptor;
-  std::vector<std::thread> threads;
+  // What a connection's or session's destructor touches is declared before io: handlers still
+  // pending when the server stops are destroyed with io, after the members declared below it.
   Metrics metrics;
-  std::unique_ptr<DatasetRegistry> datasets;
-  FrameCostModel frame_cost;  // what a frame costs the pool's workers, fitted from every session's frames (outlives the pool)
-  std::unique_ptr<RenderPool> pool;
-  std::unique_ptr<JobRunner> jobs;
-  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
-  std::atomic<bool> stopped{false};
   std::atomic<int64_t> http_connections{0};
-  // accept() waits this long when the process is out of file descriptors, instead of spinning
-  static constexpr std::chrono::milliseconds kAcceptPause{100};
-  std::unique_ptr<net::steady_timer> accept_pause;
-  // Every kIdleTrimPeriod with no session open, after frames were rendered since the last
-  // time: malloc_trim, so the heap freed by sessions and renders goes back to the system
-  // (glibc keeps it in per-thread arenas otherwise; bench/idle_memory.py).
-  static constexpr std::chrono::seconds kIdleTrimPeriod{5};
-  std::unique_ptr<net::steady_timer> idle_trim;
-  uint64_t frames_at_last_trim = 0;
-  void trim_when_idle();
   // names under uploads/ whose upload is streaming in: a second one is refused (409)
   std::mutex uploads_mutex;
   std::set<std::string> uploads_in_progress;
-
-  void accept();
-  void on_accept_failed(const boost::system::error_code& ec);
-  void run_io();  // one io thread: io.run(), going on past any exception a handler let through
-
   // Connections per client address, and those waiting on a request header (a slow or idle
   // client), by arrival: at the connection cap the oldest of these that has waited at least
   // kEvictAfter is closed to let a new connection in, so clients that trickle headers cannot
@@ -72,6 +50,35 @@ struct Server::Impl {
   std::map<net::ip::address, unsigned> connections_by_ip;
   std::map<uint64_t, Waiting> waiting_headers;
   uint64_t next_waiting = 0;
+  net::io_context io;
+  std::unique_ptr<net::ip::tcp::acceptor> acceptor;
+  std::vector<std::thread> threads;
+  std::unique_ptr<DatasetRegistry> datasets;
+  FrameCostModel frame_cost;  // what a frame costs the pool's workers, fitted from every session's frames (outlives the pool)
+  std::unique_ptr<RenderPool> pool;
+  std::unique_ptr<JobRunner> jobs;
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+  std::atomic<bool> stopped{false};
+  // accept() waits this long when the process is out of file descriptors, instead of spinning
+  static constexpr std::chrono::milliseconds kAcceptPause{100};
+  std::unique_ptr<net::steady_timer> accept_pause;
+  // Every kIdleTrimPeriod with no session open, after frames were rendered since the last
+  // time: malloc_trim, so the heap freed by sessions and renders goes back to the system
+  // (glibc keeps it in per-thread arenas otherwise; bench/idle_memory.py).
+  static constexpr std::chrono::seconds kIdleTrimPeriod{5};
+  std::unique_ptr<net::steady_timer> idle_trim;
+  uint64_t frames_at_last_trim = 0;
+  void trim_when_idle();
+
+  void accept();
+  void on_accept_failed(const boost::system::error_code& ec);
+  void run_io();  // one io thread: io.run(), going on past any exception a handler let through
+  // Admits a new connection from `address` or says why not: the per-address cap first (a
+  // connection that will be refused evicts nobody), then the global cap, where the connection
+  // waiting longest on its header makes room. Counts the address when admitted.
+  bool admit(const net::ip::address& address);
+  void accepted(net::ip::tcp::socket socket);  // admitted (a session started) or answered 503
+  void release(const net::ip::address& address);  // a connection from `address` ended
   bool near_connection_cap() const { return http_connections * 4 >= int64_t{options.max_connections} * 3; }
   // Closes the oldest connection waiting on a header for kEvictAfter or longer; false if none.
   bool evict_one_waiting();

@@ -35,6 +35,7 @@ ViewSession::ViewSession(Server::Impl& server, SessionState& shared, Link link) 
 }
 
 void ViewSession::handle(bool text, const std::string& message) {
+  std::optional<uint32_t> id;  // the message's, once parsed
   try {
     // messages per second, over a one-second window
     const auto now = std::chrono::steady_clock::now();
@@ -46,14 +47,17 @@ void ViewSession::handle(bool text, const std::string& message) {
       throw protocol::ProtocolError(protocol::code::kRateLimited, "more than " + std::to_string(server_.options.limits.max_messages_per_second) + " messages a second; this one was dropped");
     if (!text) throw protocol::ProtocolError(protocol::code::kBinaryMessage, "control messages are JSON text frames");
     protocol::Envelope envelope = protocol::parse_message(message, server_.options.limits);
+    id = envelope.id;
     if (!hello_ && envelope.type != "hello") throw protocol::ProtocolError(protocol::code::kHelloFirst, "send hello first", envelope.id);
     apply(envelope);
     bad_in_row_ = 0;
   } catch (const protocol::ProtocolError& e) {
     refuse(e.code(), client_text(e.what()), e.id());
   } catch (const std::exception& e) {
-    // whatever a message makes fail stays in this session's reply, never the process's end
-    refuse(protocol::code::kInternal, client_text(e.what()), std::nullopt);
+    // whatever a message makes fail stays in this session's reply, never the process's end; the
+    // server's fault, so it does not count towards the client's bad messages in a row
+    server_.metrics.count_error(protocol::code::kInternal);
+    link_.send_text(protocol::error_reply(protocol::code::kInternal, client_text(e.what()), id));
   }
 }
 

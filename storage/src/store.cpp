@@ -32,7 +32,7 @@ namespace {
 
 std::string read_text(const std::filesystem::path& path, uint64_t limit) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open");
+  if (!in) throw StoreIoError(path.string() + ": cannot open");
   in.seekg(0, std::ios::end);
   auto size = static_cast<uint64_t>(in.tellg());
   if (size > limit) fail(path, "larger than " + std::to_string(limit) + " bytes");
@@ -218,7 +218,7 @@ std::unique_ptr<Store> Store::open(const std::filesystem::path& directory) {
 
   // ---- segments.bin header ----
   s->fd_ = ::open(segments_path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (s->fd_ < 0) fail(segments_path, std::string("cannot open: ") + std::strerror(errno));
+  if (s->fd_ < 0) throw StoreIoError(segments_path.string() + ": cannot open: " + std::strerror(errno));
   const uint64_t file_bytes = read_header(s->fd_, segments_path, s->manifest_, manifest_compression, s->header_);
 
   // ---- directory and neighbour lists ----
@@ -240,7 +240,7 @@ std::shared_ptr<const MappedSegment> Store::map_segment(uint32_t segment) const 
   const std::string where = "segment " + std::to_string(segment) + ": ";
   size_t length = static_cast<size_t>(r.bytes);
   void* address = ::mmap(nullptr, length, PROT_READ, MAP_SHARED, fd_, static_cast<off_t>(r.offset));
-  if (address == MAP_FAILED) fail(file, where + "cannot map: " + std::strerror(errno));
+  if (address == MAP_FAILED) throw StoreIoError(file.string() + ": " + where + "cannot map: " + std::strerror(errno));
   struct Unmap {  // on any failure below
     void* address;
     size_t length;

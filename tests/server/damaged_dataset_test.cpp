@@ -283,7 +283,7 @@ TEST_F(DamagedDatasetTest, ReplacingAnUploadAQueuedJobReadsIsRefused) {
     return nlohmann::json::parse(r.body).value("id", "");
   };
   const std::string running = submit(first, "a");
-  const std::string queued = submit(second, "b");
+  const std::string queued = submit("./" + second, "b");  // another spelling of the same file
   const HttpResult replaced = http_request(base_ + "/api/v1/uploads?name=second.vtk", "POST", "OFF\n4 1 0\n", "", "application/octet-stream");
   const auto state = testing::get_json(base_, "/api/v1/jobs/" + queued)["state"];
   if (state == "queued" || state == "running") {  // (the job did not end between the calls)
@@ -374,6 +374,20 @@ TEST_F(DamagedDatasetTest, SlowPartialHeadersFromManyClientsNeverLockOutAnAuthor
   EXPECT_LT(std::chrono::steady_clock::now() - before, 10s) << "the calls waited for header timeouts";
   const HttpResult metrics = http_request(base_ + "/metrics", "GET", "", "secret");
   EXPECT_NE(metrics.body.find("tetrascope_connections_evicted_total"), std::string::npos);
+}
+
+// A server stopped while connections wait on their headers (idle keep-alive, slow clients)
+// ends cleanly: their handlers, destroyed with the server, find what they count down still
+// there (under ASan a use after free).
+TEST_F(DamagedDatasetTest, StoppingTheServerWithConnectionsWaitingOnAHeaderIsClean) {
+  start();
+  std::vector<SlowClient> waiting;
+  for (uint32_t host = 2; host <= 4; ++host) waiting.emplace_back(server_->port(), INADDR_LOOPBACK - 1 + host);
+  EXPECT_EQ(http_request(base_ + "/api/v1/health", "GET").status, 200);
+  std::this_thread::sleep_for(200ms);
+  server_.reset();
+  start();  // and the data folder serves again
+  EXPECT_EQ(http_request(base_ + "/api/v1/health", "GET").status, 200);
 }
 
 }  // namespace

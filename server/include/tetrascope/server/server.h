@@ -43,7 +43,7 @@ struct ServerOptions {
   std::chrono::milliseconds upload_rate_window{10000};
   unsigned max_running_jobs = 1;
   unsigned max_connections = 256;      // HTTP connections at once (WebSocket sessions count in max_sessions); more are answered 503
-  unsigned max_connections_per_ip = 32;  // of them from one client address (503 past it), so no one address fills the cap
+  unsigned max_connections_per_ip = 32;  // of them from one client address (503 past it), so no one address fills the cap; 0: no such cap (behind a proxy)
   unsigned max_queued_jobs = 16;       // jobs waiting for a slot; a submit past it gets 429
   uint64_t job_memory_bytes = 0;       // address space (RLIMIT_AS) of each job; 0: the machine's physical memory
   uint32_t job_cpu_seconds = 0;        // CPU time (RLIMIT_CPU) of each job; 0: no limit

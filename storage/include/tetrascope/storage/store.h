@@ -28,6 +28,12 @@ class StoreError : public std::runtime_error {
  public:
   explicit StoreError(const std::string& message) : std::runtime_error(message) {}
 };
+// A store file that could not be opened or mapped (permissions, out of descriptors or memory):
+// the store may be sound; the server does not mark it damaged.
+class StoreIoError : public StoreError {
+ public:
+  using StoreError::StoreError;
+};
 
 struct StoreAttribute {
   std::string name;

@@ -20,6 +20,11 @@ class DagError : public std::runtime_error {
  public:
   explicit DagError(const std::string& message) : std::runtime_error(message) {}
 };
+// dag.bin could not be read (permissions, out of descriptors): not damage.
+class DagIoError : public DagError {
+ public:
+  using DagError::DagError;
+};
 
 // dag.bin, read and checked (every block's CRC, every count, range and index, patch ranges
 // tiling each segment, levels decreasing along every arc, histograms finite).
