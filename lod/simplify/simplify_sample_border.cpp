@@ -188,8 +188,8 @@ class BorderSimplifier {
       for (auto [q, p] : {std::pair{v, w}, std::pair{w, v}}) push_edge(q, p);
   }
 
-  // the refused collapses of the edges at v, pushed again (both directions: the old code's
-  // order; an entry whose edge is gone or whose other end moved is skipped)
+  // the refused collapses of the edges at v, pushed again (both directions; an entry whose
+  // edge is gone or whose other end moved is skipped)
   void retry_refused(uint32_t v) {
     retry_.swap(refused_[v]);
     refused_[v].clear();
