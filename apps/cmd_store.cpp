@@ -10,6 +10,7 @@
 #include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/lod/mt/store_check.h"
 #include "tetrascope/lod/cut/variants.h"
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/lod/mt/segmentation.h"
 #include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/segment_codec.h"
@@ -110,6 +111,7 @@ int run_verify(const Arguments& raw) {
       if (auto dag = lod::open_dag(*store)) {
         for (auto& p : lod::verify_dag(*store, *dag)) report.problems.push_back(p);
         for (auto& p : lod::verify_variants(*store, *dag)) report.problems.push_back(p);
+        for (auto& p : lod::verify_vertex_hierarchy(store->path())) report.problems.push_back(p);
       }
     } catch (const std::exception& e) {
       report.problems.push_back(e.what());
@@ -157,9 +159,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants"});
+  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants", "--vertices"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--vertices independent|queue|off] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -174,6 +176,13 @@ int run_preprocess(const Arguments& raw) {
   }
   options.min_segments = static_cast<uint32_t>(args.number("--min-segments", options.min_segments));
   options.variants = static_cast<uint32_t>(args.number("--variants", options.variants));
+  // the binary vertex hierarchy (vertices.bin): independent edges (the default), one global queue, or none
+  if (args.has("--vertices")) {
+    const std::string v = args.get("--vertices");
+    if (v != "independent" && v != "queue" && v != "off") throw std::invalid_argument("--vertices must be 'independent', 'queue' or 'off'");
+    if (v == "off") options.vertex_hierarchy_max_tets = 0;
+    options.vertex_hierarchy_independent = v == "independent";
+  }
   // auto (the default): 0.25 on a graded mesh, 0.5 on a nearly uniform one (auto_level_ratio)
   if (args.has("--level-ratio") && args.get("--level-ratio") != "auto") {
     options.level_ratio = args.real("--level-ratio");

@@ -15,6 +15,7 @@
 #include "tetrascope/lod/cut/cut.h"
 #include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/lod/field/streamlines.h"
+#include "tetrascope/lod/vertex/vertex_front.h"
 #include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/clip.h"
@@ -172,6 +173,11 @@ RenderOptions render_options(const Args& args) {
     throw std::invalid_argument(std::string("--mode: ") + e.what());
   }
   line_options(args, o);
+  if (args.has("--lod")) {
+    const std::string lod = args.get("--lod");
+    if (lod != "vertices" && lod != "segments") throw std::invalid_argument("--lod must be 'vertices' (single vertex splits, when the store has them) or 'segments' (the segments' DAG)");
+    v.segment_cut = lod == "segments";
+  }
   v.wireframe = args.has("--wireframe");
   v.box = args.has("--box");
   if (args.has("--tf")) v.tf = read_tf(args.get("--tf"));
@@ -264,14 +270,35 @@ double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const 
   return r::psnr(image, reference);
 }
 
+// `tetrascope cut` on the store's vertex hierarchy: the front for the view under the budget.
+int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, const view::TransferFunction& tf, std::span<const double> isovalues,
+                    const lod::CutCriteria& view, const protocol::ClipSpec& clip, uint64_t budget) {
+  lod::FrontCriteria criteria = lod::front_criteria(vertices, tf, isovalues);
+  criteria.camera = view.camera;
+  criteria.clip = view.clip;
+  lod::VertexFront front(vertices);
+  const auto start = Clock::now();
+  const lod::FrontChanges changes = front.update(criteria, budget);
+  const double update_ms = ms_since(start);
+  storage::TetMesh mesh = front.mesh();
+  if (!clip.empty()) mesh = r::clip_mesh(mesh, clip);
+  storage::write_vtk(args.get("--output"), mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
+  nlohmann::json j = {{"tets", mesh.tet_count()}, {"vertices", mesh.vertex_count()}, {"budget", budget}, {"by", "vertices"}, {"splits", changes.splits},
+                      {"budget_limited", changes.budget_limited}, {"over_budget", changes.over_budget}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms}};
+  if (args.has("--json")) std::cout << j.dump(2) << "\n";
+  else std::printf("%s: %zu tets, %zu vertices by %u vertex splits (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.tet_count(), mesh.vertex_count(),
+                   changes.splits, static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
+  return 0;
+}
+
 }  // namespace
 
 int run_cut(const Arguments& all) {
   protocol::ClipSpec clip;
   const Arguments raw = take_plane_options(all, clip, nullptr);
-  Args args(raw, {"--json"}, {"--output", "--budget", "--camera", "--size", "--tf", "--iso", "--attribute"});
+  Args args(raw, {"--json"}, {"--output", "--budget", "--camera", "--size", "--tf", "--iso", "--attribute", "--lod"});
   if (args.positionals().size() != 1 || !args.has("--output") || !args.has("--budget")) {
-    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--lod vertices|segments] [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--json]\n");
     return 2;
   }
   const OpenedStore opened = open_multires(args.positionals()[0], " (made by segment); run tetrascope preprocess for a multiresolution store");
@@ -292,6 +319,8 @@ int run_cut(const Arguments& all) {
     lod::set_view(criteria, camera);
   }
   criteria.clip = clip.half_spaces();
+  const auto vertices = args.get("--lod", "vertices") == "vertices" ? lod::open_vertex_hierarchy(store.path()) : nullptr;
+  if (vertices) return write_front_cut(args, *vertices, tf, isovalues, criteria, clip, budget);
   lod::Cut cut(*opened.dag);
   const std::unique_ptr<lod::Variants> variants = lod::Variants::open(store, *opened.dag);  // as render shows the cut
   cut.attach_variants(variants.get());
@@ -320,9 +349,9 @@ int run_render(const Arguments& all) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
-             "--point-target", "--compare", "--volume"});
+             "--point-target", "--compare", "--volume", "--lod"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
@@ -339,7 +368,7 @@ int run_render(const Arguments& all) {
   if (std::filesystem::is_directory(input)) {
     opened = open_multires(input, "; render the mesh file or preprocess it");
     cache = std::make_unique<storage::SegmentCache>(*opened.store, kCutCacheBytes);
-    pipeline = std::make_unique<r::ViewPipeline>(*opened.store, *opened.dag, *cache);
+    pipeline = std::make_unique<r::ViewPipeline>(*opened.store, *opened.dag, *cache, lod::open_vertex_hierarchy(opened.store->path()));
     o.view.budget = args.number("--budget", kDefaultRenderBudget);
   } else {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
@@ -377,7 +406,7 @@ int run_render(const Arguments& all) {
   if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
   if (const auto budget = pipeline->cut_budget()) {
     j["cut"] = {{"budget", budget->budget}, {"tets", budget->tets}, {"budget_used", budget->budget ? double(budget->tets) / double(budget->budget) : 0.0},
-                {"budget_limited", budget->budget_limited}, {"over_budget", budget->over_budget}};
+                {"budget_limited", budget->budget_limited}, {"over_budget", budget->over_budget}, {"by", pipeline->front() && !o.view.segment_cut ? "vertices" : "segments"}};
     // below the coarsest level the cut cannot go: said, not drawn silently
     if (budget->over_budget)
       std::fprintf(stderr, "tetrascope render: the store's coarsest cut holds %llu tets, above the budget of %llu; drawn as it is\n",

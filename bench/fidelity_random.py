@@ -126,8 +126,8 @@ def draw_view(rng, bounds, attribute, index):
     return {"camera": camera, "inside": inside, "kind": kind, "tf": tf}
 
 
-def render(binary, source, image, view, size, budget=None):
-    args = [binary, "render", source, "-o", f"{image}.png", "--camera", view["camera"], "--size", size, "--json"]
+def render(binary, source, image, view, size, budget=None, extra=()):
+    args = [binary, "render", source, "-o", f"{image}.png", "--camera", view["camera"], "--size", size, "--json", *extra]
     if view["kind"] == "iso":
         args += ["--mode", "iso", "--attribute", view["tf"]["attribute"], "--iso", repr(view["tf"]["iso"])]
     else:
@@ -196,7 +196,7 @@ def resummarise(a):
             continue
         for c in record["cells"]:
             if "coverage" not in c:
-                name = OUT / f"{Path(c['mesh']).stem}.s{a.seed}.v{c['view']}"
+                name = Path(a.work) / f"{Path(c['mesh']).stem}.s{a.seed}.v{c['view']}"
                 c["coverage"] = coverage(f"{name}.full", c)
         finish(record, record["cells"])
         print(json.dumps(record["summary"], indent=1))
@@ -213,20 +213,23 @@ def main():
     parser.add_argument("--tetrascope", default=str(ROOT / "build" / "release" / "apps" / "tetrascope"))
     parser.add_argument("--preprocess-args", default="", help="extra options for tetrascope preprocess")
     parser.add_argument("--output", default=str(RESULTS), help="the results file (records by seed)")
+    parser.add_argument("--work", default=str(OUT), help="where stores, decimations and images are kept (a store there is reused)")
+    parser.add_argument("--render-args", default="", help="extra options for tetrascope render of the cut (e.g. --lod segments)")
     parser.add_argument("--summarise", action="store_true", help="only recompute the record of --seed from its cells and images")
     a = parser.parse_args()
     if a.summarise:
         return resummarise(a)
     binary = a.tetrascope
     budgets = [float(b) for b in a.budgets.split(",")]
-    OUT.mkdir(parents=True, exist_ok=True)
+    out = Path(a.work)
+    out.mkdir(parents=True, exist_ok=True)
     rng = random.Random(a.seed)
     cells = []
     for mesh in [Path(m) for m in a.meshes.split(",") if m]:
         if not mesh.is_file():
             print(f"skip {mesh}: not present", file=sys.stderr)
             continue
-        base = OUT / mesh.stem
+        base = out / mesh.stem
         store = Path(f"{base}.store")
         if not (store / "manifest.json").exists():
             run([binary, "preprocess", mesh, "-o", store, "--progress", "none", "--force"] + a.preprocess_args.split())
@@ -246,12 +249,12 @@ def main():
             attribute = scalars[rng.randrange(len(scalars))]
             tf_attribute = {"name": attribute["name"], "min": attribute["min"], "max": attribute["max"], "histogram": attribute.get("histogram")}
             view = draw_view(rng, store_info["bounds"], tf_attribute, v)
-            name = OUT / f"{mesh.stem}.s{a.seed}.v{v}"
+            name = out / f"{mesh.stem}.s{a.seed}.v{v}"
             render(binary, mesh, f"{name}.full", view, a.size)
             shown = coverage(f"{name}.full", view)
             for pct in budgets:
                 tets, path = decimated[pct]
-                cut = render(binary, store, f"{name}.cut{pct:g}", view, a.size, budget=tets)
+                cut = render(binary, store, f"{name}.cut{pct:g}", view, a.size, budget=tets, extra=a.render_args.split())
                 render(binary, path, f"{name}.dec{pct:g}", view, a.size)
                 cut_db = compared(f"{name}.full", f"{name}.cut{pct:g}", view)
                 dec_db = compared(f"{name}.full", f"{name}.dec{pct:g}", view)
@@ -263,7 +266,7 @@ def main():
                 cells.append(cell)
                 print(json.dumps({k: cell[k] for k in ("mesh", "view", "kind", "inside", "budget_pct", "cut_tets", "cut_db", "decimated_db", "gain_db")}), flush=True)
     record = {"seed": a.seed, "date": datetime.date.today().isoformat(), "views_per_mesh": a.views, "budgets_pct": budgets, "size": a.size,
-              "commit": run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip(),
+              "commit": run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip(), "preprocess_args": a.preprocess_args, "render_args": a.render_args,
               "method": "PSNR against the full mesh by the exact CPU integrator (float colours; isosurfaces: GL, 8 bits); the decimation by tetrascope simplify --tets to the budget; gain = cut - decimation",
               "cells": cells}
     finish(record, cells)

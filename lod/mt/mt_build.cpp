@@ -35,7 +35,9 @@ nlohmann::json PreprocessReport::to_json() const {
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
           {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"variants_bytes", variants_bytes}, {"variant_tets", variant_tets}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
           {"segment_tets", segment_tets}, {"level_ratio", level_ratio}, {"grading", grading}, {"seconds", seconds},
-          {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"write", write_seconds}}}};
+          {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"vertices", vertex_seconds}, {"write", write_seconds}}},
+          {"vertices", vertex_hierarchy_skipped.empty() ? nlohmann::json{{"bytes", vertices_bytes}, {"collapses", vertex_collapses}, {"base_tets", vertex_base_tets}, {"depth", vertex_depth}}
+                                                        : nlohmann::json{{"skipped", vertex_hierarchy_skipped}}}};
 }
 
 namespace {
@@ -51,6 +53,36 @@ void check_options(const PreprocessOptions& options, const std::filesystem::path
   if (options.variants > 0 && options.simplifier != SimplifyMethod::kQem) throw std::invalid_argument("--variants needs --simplifier qem");
   if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
   if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
+}
+
+// The binary vertex hierarchy of the whole mesh (§5.2.1), when it is wanted and fits.
+std::optional<VertexHierarchy> vertex_hierarchy(const std::filesystem::path& mesh_path, const PreprocessOptions& options, PreprocessReport& report) {
+  constexpr uint64_t kBytesPerTet = 600;  // the simplifier's and the replay's arrays, measured on ONERA
+  if (options.vertex_hierarchy_max_tets == 0) {
+    report.vertex_hierarchy_skipped = "turned off";
+    return std::nullopt;
+  }
+  if (report.input_tets > options.vertex_hierarchy_max_tets) {
+    report.vertex_hierarchy_skipped = "the mesh has more than " + std::to_string(options.vertex_hierarchy_max_tets) + " tets";
+    return std::nullopt;
+  }
+  if (options.memory_mb && report.input_tets * kBytesPerTet > options.memory_mb << 20) {
+    report.vertex_hierarchy_skipped = "its build would pass --memory-mb";
+    return std::nullopt;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  storage::ReadStats stats;
+  storage::TetMesh mesh = storage::load_mesh(mesh_path, &stats, options.read_limits);
+  storage::drop_unused_vertices(mesh);
+  VertexHierarchyOptions vo;
+  vo.independent = options.vertex_hierarchy_independent;
+  VertexHierarchyReport built;
+  VertexHierarchy h = build_vertex_hierarchy(mesh, vo, &built);
+  report.vertex_collapses = built.collapses;
+  report.vertex_base_tets = built.base_tets;
+  report.vertex_depth = built.depth;
+  report.vertex_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return h;
 }
 
 }  // namespace
@@ -97,9 +129,12 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
     return report;
   }
 
+  const std::optional<VertexHierarchy> vertices = vertex_hierarchy(mesh_path, options, report);
   const auto write_start = clock::now();
   stage("write", 0);
-  const mt::StoreOutput written = mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256->get(); }}, stage);
+  const mt::StoreOutput written =
+      mt::write_mt_store({mesh, hierarchy, arcs, options, mesh_path, store_path, [&] { return sha256->get(); }, vertices ? &*vertices : nullptr}, stage);
+  report.vertices_bytes = written.vertices_bytes;
   report.levels = written.levels;
   report.segments = static_cast<uint32_t>(hierarchy.nodes.size());
   report.patches = static_cast<uint32_t>(arcs.size());

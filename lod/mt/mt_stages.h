@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/lod/cut/variants.h"
 
 #include "tetrascope/lod/mt/level_targets.h"
@@ -263,10 +264,11 @@ struct StoreInput {
   const PreprocessOptions& options;
   std::filesystem::path mesh_path, store_path;
   std::function<std::string()> source_sha256;  // waited for only when the manifest is written
+  const VertexHierarchy* vertices = nullptr;   // written as vertices.bin when set
 };
 
 struct StoreOutput {
-  uint64_t store_bytes = 0, dag_bytes = 0, variants_bytes = 0;
+  uint64_t store_bytes = 0, dag_bytes = 0, variants_bytes = 0, vertices_bytes = 0;
   std::vector<LevelReport> levels;
 };
 

@@ -278,6 +278,8 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
                                  {"patches", in.arcs.size()}, {"histogram_bins", options.histogram_bins},
                                  {"build", {{"segment_tets", options.segment_tets}, {"grading", mesh.grading}, {"min_segments", options.min_segments}, {"base_tets", options.base_tets}, {"level_ratio", options.level_ratio}, {"level_targets", options.common_error ? "error" : "ratio"}, {"variants", options.variants}, {"seed", options.seed}}}};
   if (h.variants && !h.variants->empty()) manifest["multiresolution"]["variants"] = {{"file", "variants.bin"}, {"tets", h.variants->tets()}};
+  if (in.vertices)
+    manifest["multiresolution"]["vertices"] = {{"file", kVertexHierarchyFile}, {"collapses", in.vertices->collapse_count()}, {"base_tets", in.vertices->base_tets()}};
   return manifest;
 }
 
@@ -312,11 +314,15 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
   StoreOutput out;
   out.dag_bytes = write_dag_file(in, node_bounds, writer.temp_directory());
   if (h.variants) out.variants_bytes = h.variants->write(writer.temp_directory() / "variants.bin", node_count);
+  if (in.vertices) {
+    write_vertex_hierarchy(writer.temp_directory() / kVertexHierarchyFile, *in.vertices);
+    out.vertices_bytes = std::filesystem::file_size(writer.temp_directory() / kVertexHierarchyFile);
+  }
   out.levels = level_reports(h, in.arcs, vertex_total);
   nlohmann::json manifest = manifest_json(in, order, out.levels);
   stage("write", 0.95);
   writer.finish(adjacency.neighbours, manifest);
-  out.store_bytes = writer.bytes_written() + out.dag_bytes + out.variants_bytes;
+  out.store_bytes = writer.bytes_written() + out.dag_bytes + out.variants_bytes + out.vertices_bytes;
   return out;
 }
 

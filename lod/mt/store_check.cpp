@@ -4,6 +4,7 @@
 
 #include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/lod/cut/variants.h"
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 
@@ -19,6 +20,7 @@ std::vector<std::string> check_store(const std::filesystem::path& directory) {
     if (auto dag = open_dag(*store)) {
       for (auto& p : verify_dag(*store, *dag)) problems.push_back(p);
       for (auto& p : verify_variants(*store, *dag)) problems.push_back(p);
+      for (auto& p : verify_vertex_hierarchy(directory)) problems.push_back(p);
     }
   } catch (const std::exception& e) {
     problems.push_back(e.what());

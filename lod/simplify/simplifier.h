@@ -77,6 +77,8 @@ class Simplifier {
     std::unordered_map<uint64_t, uint64_t> refused;  // edge -> versions of its ends when refused
     double cost_limit = std::numeric_limits<double>::infinity();  // a collapse may cost at most this
     double deferred_cost = -1;  // set when a collapse was put off because its valid placement costs more
+    std::vector<SimplifyCollapse> log;  // SimplifyOptions::record_collapses
+    std::vector<float> log_values;
   };
   void link_of(Worker& w, uint32_t v, uint32_t other, LinkSets& link, LinkSets* edge_link);
   bool link_condition(Worker& w, uint32_t p, uint32_t q);
@@ -103,7 +105,7 @@ class Simplifier {
   void run_queue(Worker& w);
   void run_regions(int threads);
   void run_independent(Worker& w);
-  void merge_counts(const Worker& w);
+  void merge_counts(Worker& w);
 
   storage::TetMesh& mesh_;
   SimplifyOptions options_;

@@ -269,6 +269,10 @@ bool Simplifier::collapse(Worker& w, uint32_t p, uint32_t q) {
     }
   }
   // apply
+  if (options_.record_collapses) {
+    w.log.push_back({keep, gone, static_cast<float>(chosen->cost), {static_cast<float>(chosen->position[0]), static_cast<float>(chosen->position[1]), static_cast<float>(chosen->position[2])}});
+    w.log_values.insert(w.log_values.end(), values.begin(), values.end());
+  }
   for (int k = 0; k < 3; ++k) position_[3 * size_t{keep} + k] = chosen->position[k];
   for (size_t i = 0; i < floats_; ++i) values_[keep * floats_ + i] = values[i];
   quadric::add(quadrics_.at(keep), quadrics_.at(gone), d_);
@@ -297,6 +301,9 @@ bool Simplifier::collapse(Worker& w, uint32_t p, uint32_t q) {
   ++version_[gone];
   ++w.counts.collapses;
   marked_[keep] = marked_[gone] = 1;
+  if (options_.independent_stars)
+    for (uint32_t t : star_[keep])
+      for (int k = 0; k < 4; ++k) marked_[tets_[4 * t + k]] = 1;
   return true;
 }
 

@@ -104,15 +104,19 @@ void Simplifier::run_regions(int threads) {
     workers[r].remove_limit = to_remove ? std::max<uint64_t>(1, static_cast<uint64_t>(0.97 * double(to_remove) * double(tets_in[r]) / double(total))) : 0;
   }
   parallel_for(workers.size(), static_cast<unsigned>(threads), [&](size_t r, unsigned) { run_queue(workers[r]); });
-  for (const Worker& w : workers) merge_counts(w);
+  for (Worker& w : workers) merge_counts(w);
   std::fill(region_.begin(), region_.end(), 0);
   Worker last;
   run_queue(last);
   merge_counts(last);
 }
 
-void Simplifier::merge_counts(const Worker& w) {
+void Simplifier::merge_counts(Worker& w) {
   report_.collapses += w.counts.collapses;
+  report_.collapse_log.insert(report_.collapse_log.end(), w.log.begin(), w.log.end());
+  report_.collapse_values.insert(report_.collapse_values.end(), w.log_values.begin(), w.log_values.end());
+  w.log.clear();
+  w.log_values.clear();
   report_.refused_topology += w.counts.refused_topology;
   report_.refused_geometry += w.counts.refused_geometry;
   report_.runs += w.counts.runs;
@@ -134,17 +138,23 @@ void Simplifier::run_independent(Worker& w) {
       if (tet_alive_[t]) alive.push_back(t);
     if (alive.empty()) break;
     double sum = 0;
-    int samples = 0;
+    std::vector<double> costs;
     for (int s = 0; s < 64; ++s) {
       uint32_t t = alive[rng() % alive.size()];
       int i = static_cast<int>(rng() % 4), j = (i + 1 + static_cast<int>(rng() % 3)) % 4;
       uint32_t a = tets_[4 * t + i], b = tets_[4 * t + j];
       if (best_candidates(std::min(a, b), std::max(a, b), w.candidates)) {
         sum += w.candidates.front().cost;
-        ++samples;
+        costs.push_back(w.candidates.front().cost);
       }
     }
-    double estimate = samples ? sum / samples : 0;
+    // §4.1.1: the mean; with independent stars (a vertex hierarchy) a low quantile, so that
+    // each run keeps to the cheapest edges and the collapses stay near the order of their cost
+    double estimate = costs.empty() ? 0 : sum / static_cast<double>(costs.size());
+    if (options_.independent_stars && !costs.empty()) {
+      std::nth_element(costs.begin(), costs.begin() + costs.size() / 4, costs.end());
+      estimate = costs[costs.size() / 4];
+    }
     threshold = std::max(estimate, threshold * (idle_runs > 0 ? 4.0 : 1.0));
     if (threshold <= 0) threshold = std::numeric_limits<double>::min();
     if (options_.max_error > 0) threshold = std::min(threshold, options_.max_error);

@@ -30,10 +30,37 @@ const storage::StoreAttribute* find_attribute(const storage::StoreManifest& mani
 
 }  // namespace
 
-ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache)
-    : store_(&store), dag_(&dag), cache_(&cache), cut_(std::make_unique<lod::Cut>(dag)), bounds_(store.manifest().bounds) {
+ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache, std::shared_ptr<const lod::VertexHierarchy> vertices)
+    : store_(&store), dag_(&dag), cache_(&cache), cut_(std::make_unique<lod::Cut>(dag)), vertices_(std::move(vertices)), bounds_(store.manifest().bounds) {
   variants_ = lod::Variants::open(store, dag);  // null without variants.bin
   cut_->attach_variants(variants_.get());
+  if (vertices_) front_ = std::make_unique<lod::VertexFront>(*vertices_);
+}
+
+void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, ViewTimings& t, bool trace) {
+  lod::FrontCriteria criteria = lod::front_criteria(*vertices_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
+  criteria.camera = s.camera;
+  criteria.clip = request.clip.half_spaces();
+  criteria.slices = request.slices.planes;
+  criteria.unit_distance = s.unit_distance;
+  auto start = Clock::now();
+  const lod::FrontChanges changes = front_->update(criteria, request.budget);
+  cut_estimated_error_ = changes.estimated_error;
+  cut_budget_ = CutBudget{request.budget, changes.tets, changes.budget_limited, changes.over_budget};
+  t.cut_ms = ms_since(start);
+  start = Clock::now();
+  std::optional<storage::TetMesh> mesh;
+  if (!scene_ || !scene_from_front_ || scene_stale_ || changes.changed || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute) {
+    mesh = front_->mesh();
+    rebuild_scene(*mesh, s.tf.attribute, request.iso_color_attribute);
+    scene_from_front_ = true;
+    scene_stale_ = false;
+    assembled_clip_.clear();
+  }
+  t.assemble_ms = ms_since(start);
+  update_clip(request.clip, t);
+  if (trace) trace_lines(mesh ? *mesh : front_->mesh(), request.line);
+  if (request.lines) apply_lines(request.line, s);
 }
 
 ViewPipeline::ViewPipeline(storage::TetMesh mesh) : mesh_(std::move(mesh)), bounds_(storage::compute_bounds(*mesh_)) {}
@@ -145,6 +172,10 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   ViewTimings& t = timings ? *timings : local;
   if (store_) {
     if (s.iso && s.isovalues.empty() && s.tf.range) s.isovalues = {0.5 * ((*s.tf.range)[0] + (*s.tf.range)[1])};
+    if (front_ && !request.segment_cut) {
+      update_front(request, s, t, trace);
+      return s;
+    }
     lod::CutCriteria criteria = lod::criteria_for(*store_, *dag_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
     lod::set_view(criteria, s.camera);
     criteria.unit_distance = s.unit_distance;
@@ -158,7 +189,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     start = Clock::now();
     // segments wholly clipped away are not read (a change of the clip may need others)
     std::optional<lod::CutMesh> assembled;
-    if (!scene_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute ||
+    if (!scene_ || scene_from_front_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute ||
         iso_color_attribute_ != request.iso_color_attribute || !(assembled_clip_ == criteria.clip)) {
       assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip, should_stop);
       if (assembled->interrupted || (should_stop && should_stop())) {
@@ -168,6 +199,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
         return s;
       }
       rebuild_scene(assembled->mesh, s.tf.attribute, request.iso_color_attribute);
+      scene_from_front_ = false;
       assembled_clip_ = criteria.clip;
       scene_stale_ = false;
     }

@@ -9,6 +9,7 @@
 
 #include "tetrascope/lod/cut/cut.h"
 #include "tetrascope/lod/cut/variants.h"
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/protocol/protocol.h"
 
 namespace tetrascope::server {
@@ -63,7 +64,7 @@ size_t sweep_data_leftovers(const fs::path& data_dir) {
 bool is_store_damage(const std::exception& e) {
   if (dynamic_cast<const storage::StoreIoError*>(&e) || dynamic_cast<const lod::DagIoError*>(&e)) return false;  // could not read: not damage
   return dynamic_cast<const storage::StoreError*>(&e) || dynamic_cast<const lod::DagError*>(&e) || dynamic_cast<const lod::VariantsError*>(&e) ||
-         dynamic_cast<const DatasetDamaged*>(&e);
+         dynamic_cast<const lod::VertexHierarchyError*>(&e) || dynamic_cast<const DatasetDamaged*>(&e);
 }
 
 void Dataset::watch(std::weak_ptr<void> owner, OnClosed on_closed) {
@@ -106,7 +107,7 @@ namespace {
 // it, a copy that keeps modification times (cp -a) included. -1 when none can be read.
 int64_t store_change_time(const fs::path& folder) {
   int64_t latest = -1;
-  for (const char* file : {"manifest.json", "segments.bin", "dag.bin", "variants.bin"}) {
+  for (const char* file : {"manifest.json", "segments.bin", "dag.bin", "variants.bin", lod::kVertexHierarchyFile}) {
     struct stat st {};
     if (::stat((folder / file).c_str(), &st) == 0) latest = std::max<int64_t>(latest, int64_t{st.st_ctim.tv_sec} * 1000000000 + st.st_ctim.tv_nsec);
   }
@@ -184,6 +185,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     d->store = storage::Store::open(folder);
     d->dag = lod::open_dag(*d->store);
     if (d->dag) lod::Variants::open(*d->store, *d->dag);  // its header and index checked now; a variant's block when shown
+    d->vertices = lod::open_vertex_hierarchy(folder);      // every section's checksum and link checked now
   } catch (const std::exception& e) {
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::server {
@@ -51,6 +52,7 @@ struct Dataset {
   std::unique_ptr<storage::Store> store;
   std::unique_ptr<lod::Dag> dag;
   std::unique_ptr<storage::SegmentCache> cache;
+  std::shared_ptr<const lod::VertexHierarchy> vertices;  // vertices.bin, null when the store has none
   nlohmann::json info;  // name, counts, levels, bounds, attributes (range, 64-bin histogram of the coarsest level)
 
   // Sessions viewing the dataset register here; closing it (deleted, or found damaged) calls

@@ -75,7 +75,7 @@ void FrameMaker::open(const std::shared_ptr<Dataset>& dataset) {
   // and the next frame of this dataset tries again rather than drawing with no pipeline
   dataset_.reset();
   pipeline_.reset();
-  auto pipeline = std::make_unique<renderer::ViewPipeline>(*dataset->store, *dataset->dag, *dataset->cache);
+  auto pipeline = std::make_unique<renderer::ViewPipeline>(*dataset->store, *dataset->dag, *dataset->cache, dataset->vertices);
   coarsest_tets_ = lod::Cut(*dataset->dag).tet_count();
   finest_tets_ = dataset->info.value("tets", uint64_t{0});
   pipeline_ = std::move(pipeline);

@@ -39,13 +39,13 @@ std::multiset<Tet> tets_by_global_id(const lod::CutMesh& m) {
   return out;
 }
 
-void expect_conforming(const lod::CutMesh& m, const std::string& what) {
-  const MeshCheck c = check_mesh(m.mesh);
+size_t expect_conforming(const storage::TetMesh& mesh, const std::string& what) {
+  const MeshCheck c = check_mesh(mesh);
   EXPECT_EQ(c.faces_shared_by_more_than_two, 0u) << what;
   size_t inverted = 0;
-  for (size_t t = 0; t < m.mesh.tet_count(); ++t) {
-    const uint32_t* v = &m.mesh.tets[4 * t];
-    inverted += storage::signed_volume(m.mesh, v[0], v[1], v[2], v[3]) < 0;
+  for (size_t t = 0; t < mesh.tet_count(); ++t) {
+    const uint32_t* v = &mesh.tets[4 * t];
+    inverted += storage::signed_volume(mesh, v[0], v[1], v[2], v[3]) < 0;
   }
   EXPECT_EQ(inverted, 0u) << what;
   // boundary triangles, outward (face f of a positive tet, vertices in kTetFace order)
@@ -53,17 +53,17 @@ void expect_conforming(const lod::CutMesh& m, const std::string& what) {
   std::map<std::array<uint32_t, 2>, int> edge_uses;
   double enclosed = 0;
   size_t boundary_faces = 0;
-  for (size_t t = 0; t < m.mesh.tet_count(); ++t)
+  for (size_t t = 0; t < mesh.tet_count(); ++t)
     for (int f = 0; f < 4; ++f) {
-      std::array<uint32_t, 3> tri{m.mesh.tets[4 * t + kFace[f][0]], m.mesh.tets[4 * t + kFace[f][1]], m.mesh.tets[4 * t + kFace[f][2]]}, key = tri;
+      std::array<uint32_t, 3> tri{mesh.tets[4 * t + kFace[f][0]], mesh.tets[4 * t + kFace[f][1]], mesh.tets[4 * t + kFace[f][2]]}, key = tri;
       std::sort(key.begin(), key.end());
       if (c.face_uses.at(key) != 1) continue;
       ++boundary_faces;
       double p[3][3];
       for (int i = 0; i < 3; ++i) {
-        p[i][0] = m.mesh.x[tri[i]];
-        p[i][1] = m.mesh.y[tri[i]];
-        p[i][2] = m.mesh.z[tri[i]];
+        p[i][0] = mesh.x[tri[i]];
+        p[i][1] = mesh.y[tri[i]];
+        p[i][2] = mesh.z[tri[i]];
       }
       enclosed += (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
                    p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])) / 6;
@@ -74,6 +74,11 @@ void expect_conforming(const lod::CutMesh& m, const std::string& what) {
   for (const auto& [edge, uses] : edge_uses) open_edges += uses != 2;
   EXPECT_EQ(open_edges, 0u) << what << ": the boundary is not a closed surface";
   EXPECT_NEAR(c.volume, enclosed, 1e-6 * std::fabs(enclosed)) << what << ": tets overlap or leave gaps";
+  return boundary_faces;
+}
+
+void expect_conforming(const lod::CutMesh& m, const std::string& what) {
+  const size_t boundary_faces = expect_conforming(m.mesh, what);
   // the cut's own adjacency agrees
   size_t unpaired = 0;
   for (uint32_t o : m.opposites) unpaired += o == storage::store::kMeshBoundary;

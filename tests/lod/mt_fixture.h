@@ -31,5 +31,7 @@ std::multiset<Tet> tets_by_global_id(const lod::CutMesh& m);
 // closed (each boundary edge in exactly two boundary triangles), no inverted tet, and the
 // summed tet volume equal to the volume the boundary encloses (overlaps or gaps break it).
 void expect_conforming(const lod::CutMesh& m, const std::string& what);
+// The same checks on a mesh alone; returns its boundary faces.
+size_t expect_conforming(const storage::TetMesh& mesh, const std::string& what);
 
 }  // namespace tetrascope::testing

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "tetrascope/lod/cut/cut.h"
+#include "tetrascope/lod/vertex/vertex_front.h"
 #include "tetrascope/view/view_request.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/storage/mesh.h"
@@ -50,8 +51,11 @@ struct ViewFrame {
 
 class ViewPipeline {
  public:
-  // A multiresolution store: each view draws a cut of at most `request.budget` tets.
-  ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache);
+  // A multiresolution store: each view draws a cut of at most `request.budget` tets. With the
+  // store's vertex hierarchy (vertices.bin, shared between pipelines; null: none) the cut
+  // refines by single vertex splits (lod/vertex/vertex_front.h), else through the DAG.
+  ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache,
+               std::shared_ptr<const lod::VertexHierarchy> vertices = nullptr);
   // A whole mesh (a mesh file): no cut, no budget.
   explicit ViewPipeline(storage::TetMesh mesh);
   ~ViewPipeline();
@@ -87,6 +91,7 @@ class ViewPipeline {
   // The scene before the clip, with every point attribute (the probe's values_at).
   const SceneMesh& unclipped_scene() const { return *scene_; }
   const lod::Cut* cut() const { return cut_.get(); }   // null for a whole mesh
+  const lod::VertexFront* front() const { return front_.get(); }  // null without a vertex hierarchy
   // The lines traced for the last request with lines (null: none yet), and the error of the
   // cut they were traced on (stores only).
   std::shared_ptr<const LineSet> lines() const { return lines_; }
@@ -97,12 +102,17 @@ class ViewPipeline {
   void rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute);
   void trace_lines(const storage::TetMesh& mesh, const LineRequest& request);
   void apply_lines(const LineRequest& request, RenderSettings& s);
+  // update() on the vertex front (stores with vertices.bin)
+  void update_front(const ViewRequest& request, RenderSettings& s, ViewTimings& t, bool trace);
 
   const storage::Store* store_ = nullptr;
   const lod::Dag* dag_ = nullptr;
   storage::SegmentCache* cache_ = nullptr;
   std::unique_ptr<lod::Variants> variants_;  // the store's, null when none (declared before cut_, which points to it)
   std::unique_ptr<lod::Cut> cut_;
+  std::shared_ptr<const lod::VertexHierarchy> vertices_;
+  std::unique_ptr<lod::VertexFront> front_;
+  bool scene_from_front_ = false;  // the scene is the front's mesh (not the DAG cut's)
   std::optional<storage::TetMesh> mesh_;  // the whole mesh, without a store
   storage::Bounds bounds_;
   std::optional<double> cut_estimated_error_;

@@ -70,6 +70,9 @@ struct ViewRequest : DrawOptions {
   bool lines = false;
   LineRequest line;
   uint64_t budget = 0;                 // tets of the cut (stores only)
+  // stores with a vertex hierarchy (vertices.bin): the cut by single vertex splits (the
+  // default) or through the segments' DAG
+  bool segment_cut = false;
   ClipSpec clip;                       // applied to the scene and to the cut (criteria, assembly)
 };
 

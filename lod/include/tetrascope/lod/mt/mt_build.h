@@ -62,6 +62,11 @@ struct PreprocessOptions {
   // share of every level's segments, and rank 0 alone writes the store, the same bytes as a
   // build on one rank.
   Ranks* ranks = nullptr;
+  // The binary vertex hierarchy of §5.2.1 (vertices.bin, lod/vertex/): the cut then refines by
+  // single vertex splits. Built in memory from the whole mesh, so only for inputs of at most
+  // this many tets whose build fits memory_mb (about 600 bytes a tet); 0: never.
+  uint64_t vertex_hierarchy_max_tets = 8000000;
+  bool vertex_hierarchy_independent = false;  // independent edges (§5.2.1): shallower, but its collapses out of cost order
 };
 
 // The segment size --segment-tets auto picks for a mesh of this grading (the 90th over the 10th
@@ -97,6 +102,10 @@ struct PreprocessReport {
   uint32_t segments = 0, patches = 0;
   uint64_t store_bytes = 0, dag_bytes = 0;
   uint64_t variants_bytes = 0, variant_tets = 0;  // variants.bin (--variants)
+  uint64_t vertices_bytes = 0, vertex_collapses = 0, vertex_base_tets = 0;  // vertices.bin (0: not built)
+  uint32_t vertex_depth = 0;
+  double vertex_seconds = 0;
+  std::string vertex_hierarchy_skipped;  // why vertices.bin was not built, when it was not
   uint64_t spilled_bytes = 0;  // the largest the spill files grew (--memory-mb), input and levels
   // --simplifier sample: segments TetGen failed or crashed on (it runs in a child process),
   // simplified by quadric collapses instead; this rank's under MPI

@@ -33,10 +33,14 @@ struct SimplifyOptions {
   double vertex_weight = 1e-3;             // vertex distribution quadrics (conditioning)
   double min_quality = 0.02;               // a collapse may not push a tet's quality below this unless it keeps half its old quality
   bool independent = false;                // independent edge collapses in runs (§4.1.1) instead of one global queue
+  // with independent: a collapse also freezes every vertex of its star for the rest of the run,
+  // so that no two collapses of a run share a tet (the independent edges of §5.2.1)
+  bool independent_stars = false;
   uint32_t threads = 1;                    // global queue only: up to this many regions simplified at once
   uint64_t min_tets_per_thread = 100000;   // ... each holding at least this many tets (fewer: fewer threads)
   uint32_t seed = 1;
   bool trace_costs = false;                // fill SimplifyReport::cost_trace (one global queue on one thread only)
+  bool record_collapses = false;           // fill SimplifyReport::collapse_log (kQem; the binary vertex hierarchy of §5.2.1 is built from it)
   // Meshes kept on the way: for each of these tet counts, the mesh as a one-thread run with
   // target_tets = that count (and the same other options) would leave it, in
   // SimplifyReport::snapshots. Counts at or under target_tets give the final mesh. With
@@ -61,6 +65,15 @@ struct SimplifyOptions {
 };
 
 constexpr uint32_t kMaxSimplifyAttributeChannels = 16;
+
+// One edge collapse as the simplifier made it (SimplifyOptions::record_collapses), in input
+// vertex indices: `gone` merged into `keep`, which moved to `position` and took `values`
+// (SimplifyReport::collapse_values, one row of every attribute's components a collapse).
+struct SimplifyCollapse {
+  uint32_t keep = 0, gone = 0;
+  float cost = 0;  // its quadric error (normalised units)
+  std::array<float, 3> position{};
+};
 
 // A mesh kept on the way (SimplifyOptions::snapshot_tets), with its source_vertex.
 struct SimplifySnapshot {
@@ -89,6 +102,10 @@ struct SimplifyReport {
   // Re-running with target_tets = one of these counts stops at the same mesh (deterministic).
   std::vector<std::pair<uint64_t, double>> cost_trace;
   std::vector<SimplifySnapshot> snapshots;  // one per SimplifyOptions::snapshot_tets, in its order
+  // With record_collapses: every collapse in an order that replays it (collapses of the two
+  // regions touch disjoint tets, so each region's come whole), and their vertices' values.
+  std::vector<SimplifyCollapse> collapse_log;
+  std::vector<float> collapse_values;
 };
 
 // Simplifies `mesh` in place (vertices compacted, tets positively oriented). Vertices with

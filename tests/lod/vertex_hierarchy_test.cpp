@@ -1,0 +1,247 @@
+// The binary vertex hierarchy (§5.2.1) and its vertex front (§5.2.2–5.2.3): every front
+// conforms, splits and collapses round-trip to the exact mesh, the budget is spent, the view
+// steers the splits, and vertices.bin refuses damage.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <set>
+
+#include "mt_fixture.h"
+#include "tetrascope/lod/simplify/simplify.h"
+#include "tetrascope/lod/vertex/vertex_front.h"
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
+#include "mesh_checks.h"
+#include "test_paths.h"
+
+namespace tetrascope::testing {
+namespace {
+
+storage::TetMesh box_mesh() {
+  return kuhn_box(16, 0.3, [](double x, double y, double z) { return std::sin(6 * x) * std::cos(4 * y) + z * z; });
+}
+
+const lod::VertexHierarchy& hierarchy() {
+  static const lod::VertexHierarchy h = lod::build_vertex_hierarchy(box_mesh(), {.base_tets = 300});
+  return h;
+}
+
+// The front's tets as sorted hierarchy vertex ids.
+std::multiset<Tet> front_tets(const lod::VertexFront& front) {
+  std::vector<uint32_t> ids;
+  const storage::TetMesh m = front.mesh(&ids);
+  std::multiset<Tet> out;
+  for (size_t t = 0; t < m.tet_count(); ++t) {
+    Tet tet{ids[m.tets[4 * t]], ids[m.tets[4 * t + 1]], ids[m.tets[4 * t + 2]], ids[m.tets[4 * t + 3]]};
+    std::sort(tet.begin(), tet.end());
+    out.insert(tet);
+  }
+  return out;
+}
+
+// Every applied collapse has the collapses that made its tets applied (the front is closed).
+void expect_closed(const lod::VertexFront& front) {
+  const auto& h = front.hierarchy();
+  size_t open = 0;
+  for (uint32_t i = 0; i < h.collapse_count(); ++i)
+    if (front.applied(i))
+      for (uint32_t k = h.before_offsets[i]; k < h.before_offsets[i + 1]; ++k) open += !front.applied(h.before[k]);
+  EXPECT_EQ(open, 0u);
+}
+
+TEST(VertexHierarchy, RecordsEveryCollapseOfTheSimplification) {
+  const storage::TetMesh input = box_mesh();
+  const auto& h = hierarchy();
+  storage::TetMesh simplified = input;
+  lod::SimplifyOptions options;
+  options.target_tets = 300;
+  const lod::SimplifyReport report = lod::simplify(simplified, options);
+  EXPECT_EQ(h.collapse_count(), report.collapses);
+  EXPECT_EQ(h.base_tets(), simplified.tet_count());
+  EXPECT_EQ(h.input_tets(), input.tet_count());
+  uint64_t fans = 0;
+  for (const auto& n : h.nodes) fans += n.fan;
+  EXPECT_EQ(fans + h.base_tets(), input.tet_count());
+  EXPECT_GT(h.depth(), 1u);
+  // the base mesh is the simplifier's output, vertex for vertex
+  lod::VertexFront front(h);
+  const storage::TetMesh base = front.mesh();
+  EXPECT_EQ(base.vertex_count(), simplified.vertex_count());
+  expect_conforming(base, "the base mesh");
+}
+
+TEST(VertexHierarchy, SplittingEverythingGivesTheInputExactly) {
+  const storage::TetMesh input = box_mesh();
+  lod::VertexFront front(hierarchy());
+  front.split_all();
+  EXPECT_EQ(front.tet_count(), input.tet_count());
+  std::multiset<Tet> expected;
+  for (size_t t = 0; t < input.tet_count(); ++t) {
+    Tet tet{input.tets[4 * t], input.tets[4 * t + 1], input.tets[4 * t + 2], input.tets[4 * t + 3]};
+    std::sort(tet.begin(), tet.end());
+    expected.insert(tet);
+  }
+  EXPECT_EQ(front_tets(front), expected);
+  const storage::TetMesh mesh = front.mesh();
+  ASSERT_EQ(mesh.vertex_count(), input.vertex_count());
+  EXPECT_EQ(mesh.attributes.at(0).values, input.attributes.at(0).values);
+}
+
+TEST(VertexHierarchy, EveryFrontOfRandomSplitsAndCollapsesConforms) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  std::mt19937 rng(7);
+  for (int round = 0; round < 12; ++round) {
+    for (int k = 0; k < 40; ++k) front.split(rng() % h.collapse_count());
+    for (int k = 0; k < 60; ++k) front.collapse(rng() % h.collapse_count());
+    expect_closed(front);
+    const storage::TetMesh mesh = front.mesh();
+    EXPECT_EQ(mesh.tet_count(), front.tet_count()) << "round " << round;
+    expect_conforming(mesh, "round " + std::to_string(round));
+  }
+}
+
+TEST(VertexHierarchy, ASplitAndItsCollapsesRestoreTheExactMesh) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  std::mt19937 rng(11);
+  for (int k = 0; k < 30; ++k) front.split(rng() % h.collapse_count());
+  for (int trial = 0; trial < 20; ++trial) {
+    const std::multiset<Tet> before = front_tets(front);
+    std::vector<uint8_t> was(h.collapse_count());
+    for (uint32_t i = 0; i < h.collapse_count(); ++i) was[i] = front.applied(i);
+    front.split(rng() % h.collapse_count());
+    // collapse back what the split (and those it forced) undid, earliest collapse first
+    for (uint32_t i = 0; i < h.collapse_count(); ++i)
+      if (was[i] && !front.applied(i)) {
+        ASSERT_TRUE(front.collapse(i)) << "collapse " << i;
+      }
+    EXPECT_EQ(front_tets(front), before) << "trial " << trial;
+  }
+}
+
+TEST(VertexFront, SpendsItsBudgetAndNeverPassesIt) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  const lod::FrontCriteria criteria;  // no view: the simplifier's order, reversed
+  uint32_t max_fan = 0;
+  for (const auto& n : h.nodes) max_fan = std::max(max_fan, n.fan);
+  double last_error = INFINITY;
+  for (uint64_t budget : {600, 1200, 2400, 4800, 9600, 30000}) {
+    const lod::FrontChanges changes = front.update(criteria, budget);
+    EXPECT_LE(changes.tets, budget);
+    EXPECT_GE(changes.tets + max_fan, std::min<uint64_t>(budget, h.input_tets())) << "budget " << budget;
+    EXPECT_EQ(front.mesh().tet_count(), changes.tets);
+    EXPECT_LE(changes.estimated_error, last_error);
+    last_error = changes.estimated_error;
+  }
+  const lod::FrontChanges small = front.update(criteria, 10);
+  EXPECT_TRUE(small.over_budget);
+  EXPECT_EQ(small.tets, h.base_tets());
+}
+
+TEST(VertexFront, RefinesWhatTheViewShowsFirst) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  lod::FrontCriteria criteria;
+  view::Camera camera;
+  camera.eye = {0.1, 0.1, 0.1};  // inside the box, in one corner, looking at it
+  camera.target = {0, 0, 0};
+  camera.up = {0, 0, 1};
+  camera.fov_degrees = 40;
+  criteria.camera = camera;
+  // tets near the eye's corner, with the view and without (the simplifier's order)
+  auto near_tets = [&](const lod::FrontCriteria& c) {
+    front.update(c, 8000);
+    const storage::TetMesh mesh = front.mesh();
+    size_t near = 0;
+    for (size_t t = 0; t < mesh.tet_count(); ++t) {
+      double sum = 0;
+      for (int k = 0; k < 4; ++k) sum += mesh.x[mesh.tets[4 * t + k]] + mesh.y[mesh.tets[4 * t + k]] + mesh.z[mesh.tets[4 * t + k]];
+      near += sum / 4 < 0.6;
+    }
+    return near;
+  };
+  const size_t uniform = near_tets({}), viewed = near_tets(criteria);
+  EXPECT_GT(viewed, 1.3 * double(uniform)) << "near the eye: " << viewed << " tets with the view, " << uniform << " without";
+  expect_conforming(front.mesh(), "the view's front");
+}
+
+TEST(VertexFront, LeavesWhatNoOpacityShowsCoarse) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  view::TransferFunction tf;
+  tf.attribute = "f";
+  tf.range = {{-1, 2}};
+  tf.opacity = {{-1, 0}, {1.5, 0}, {1.6, 1}, {2, 1}};  // shows only the top of the field
+  // tets with some vertex over 1.2 (near z = 1, where z² lifts f), with the transfer function
+  // and without (the simplifier's order)
+  auto shown_tets = [&](const lod::FrontCriteria& c) {
+    front.update(c, 8000);
+    const storage::TetMesh mesh = front.mesh();
+    size_t shown = 0;
+    for (size_t t = 0; t < mesh.tet_count(); ++t) {
+      float top = -INFINITY;
+      for (int k = 0; k < 4; ++k) top = std::max(top, mesh.attributes[0].values[mesh.tets[4 * t + k]]);
+      shown += top > 1.2f;
+    }
+    return shown;
+  };
+  const size_t uniform = shown_tets({}), classified = shown_tets(lod::front_criteria(h, tf));
+  EXPECT_GT(classified, 1.05 * double(uniform)) << "where the opacity is: " << classified << " tets with the transfer function, " << uniform << " without";
+}
+
+TEST(VertexHierarchyFile, RoundTripsExactly) {
+  const auto& h = hierarchy();
+  const auto path = scratch_dir("vertex_hierarchy") / "vertices.bin";
+  lod::write_vertex_hierarchy(path, h);
+  const lod::VertexHierarchy back = lod::read_vertex_hierarchy(path);
+  EXPECT_EQ(back.positions, h.positions);
+  EXPECT_EQ(back.values, h.values);
+  EXPECT_EQ(back.tets, h.tets);
+  EXPECT_EQ(back.killer, h.killer);
+  EXPECT_EQ(back.after, h.after);
+  EXPECT_EQ(back.before, h.before);
+  ASSERT_EQ(back.attributes.size(), 1u);
+  EXPECT_EQ(back.attributes[0].name, "f");
+  lod::VertexFront a(h), b(back);
+  a.split_all();
+  b.split_all();
+  EXPECT_EQ(front_tets(a), front_tets(b));
+}
+
+TEST(VertexHierarchyFile, ATruncatedVerticesFileIsRefusedWithAClearError) {
+  const auto path = scratch_dir("vertex_hierarchy_truncated") / "vertices.bin";
+  lod::write_vertex_hierarchy(path, hierarchy());
+  const auto size = std::filesystem::file_size(path);
+  for (uintmax_t keep : {uintmax_t{0}, uintmax_t{20}, size / 2, size - 1}) {
+    std::filesystem::resize_file(path, keep);
+    EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError) << keep << " bytes";
+    lod::write_vertex_hierarchy(path, hierarchy());
+  }
+}
+
+TEST(VertexHierarchyFile, AFlippedBitFailsItsChecksum) {
+  const auto path = scratch_dir("vertex_hierarchy_flipped") / "vertices.bin";
+  lod::write_vertex_hierarchy(path, hierarchy());
+  const auto size = std::filesystem::file_size(path);
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 8; ++trial) {
+    lod::write_vertex_hierarchy(path, hierarchy());
+    const uintmax_t at = rng() % size;
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(static_cast<std::streamoff>(at));
+    char c = 0;
+    f.read(&c, 1);
+    c = static_cast<char>(c ^ (1 << (rng() % 8)));
+    f.seekp(static_cast<std::streamoff>(at));
+    f.write(&c, 1);
+    f.close();
+    EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError) << "byte " << at;
+  }
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
