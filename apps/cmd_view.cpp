@@ -368,7 +368,7 @@ int run_render(const Arguments& all) {
   if (std::filesystem::is_directory(input)) {
     opened = open_multires(input, "; render the mesh file or preprocess it");
     cache = std::make_unique<storage::SegmentCache>(*opened.store, kCutCacheBytes);
-    pipeline = std::make_unique<r::ViewPipeline>(*opened.store, *opened.dag, *cache, lod::open_vertex_hierarchy(opened.store->path()));
+    pipeline = std::make_unique<r::ViewPipeline>(*opened.store, *opened.dag, *cache, o.view.segment_cut ? nullptr : lod::open_vertex_hierarchy(opened.store->path()));
     o.view.budget = args.number("--budget", kDefaultRenderBudget);
   } else {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");

@@ -76,6 +76,7 @@ std::optional<VertexHierarchy> vertex_hierarchy(const std::filesystem::path& mes
   storage::drop_unused_vertices(mesh);
   VertexHierarchyOptions vo;
   vo.independent = options.vertex_hierarchy_independent;
+  vo.threads = options.threads;  // the two regions of `tetrascope simplify` (their collapses touch disjoint tets)
   VertexHierarchyReport built;
   VertexHierarchy h = build_vertex_hierarchy(mesh, vo, &built);
   report.vertex_collapses = built.collapses;

@@ -155,17 +155,38 @@ float VertexFront::grid_at(const std::vector<float>& grid, const double* p, floa
 }
 
 // Per cell centre, exp(-∫σ) from the eye: σ = -ln(1 - α) / unit distance of the transfer
-// function's opacity at the base mesh's value there. Empty without a perspective camera, an
-// opacity table or an attribute, and for isosurfaces.
+// function's opacity at the base mesh's value there; with isovalues, σ of 4 a cell where the
+// base mesh crosses one (opaque surfaces). Empty without a perspective camera or an attribute.
 std::vector<float> VertexFront::transmittance(const FrontCriteria& c) const {
-  if (!c.camera || c.camera->orthographic || c.attribute < 0 || c.opacity.empty() || !c.isovalues.empty() || h_.attributes.empty()) return {};
+  if (!c.camera || c.camera->orthographic || c.attribute < 0 || (c.opacity.empty() && c.isovalues.empty()) || h_.attributes.empty()) return {};
   const size_t A = h_.attributes.size(), cells = size_t{kGrid} * kGrid * kGrid;
   const double unit = c.unit_distance > 0 ? c.unit_distance : diagonal_ / 100;
   std::vector<float> sigma(cells);
-  for (size_t cell = 0; cell < cells; ++cell) {
-    const float v = grid_values_[cell * A + static_cast<size_t>(c.attribute)];
-    const double alpha = std::isnan(v) ? 0.0 : std::min(max_opacity(c, v, v), 0.999);
-    sigma[cell] = static_cast<float>(-std::log1p(-alpha) / unit);
+  const size_t a = static_cast<size_t>(c.attribute);
+  if (!c.isovalues.empty()) {
+    // isosurfaces are opaque: a cell whose value and a neighbour's straddle an isovalue holds one
+    const double opaque = 4 / std::min({grid_step_[0], grid_step_[1], grid_step_[2]});
+    for (int z = 0; z < kGrid; ++z)
+      for (int y = 0; y < kGrid; ++y)
+        for (int x = 0; x < kGrid; ++x) {
+          const size_t cell = (size_t{static_cast<uint32_t>(z)} * kGrid + y) * kGrid + x;
+          const float v = grid_values_[cell * A + a];
+          bool crossed = false;
+          const size_t steps[3] = {1, kGrid, size_t{kGrid} * kGrid};
+          const bool inside[3] = {x + 1 < kGrid, y + 1 < kGrid, z + 1 < kGrid};
+          for (int k = 0; k < 3 && !std::isnan(v); ++k) {
+            if (!inside[k]) continue;
+            const float w = grid_values_[(cell + steps[k]) * A + a];
+            for (double iso : c.isovalues) crossed |= !std::isnan(w) && (v - iso) * (w - iso) <= 0;
+          }
+          sigma[cell] = crossed ? static_cast<float>(opaque) : 0.0f;
+        }
+  } else {
+    for (size_t cell = 0; cell < cells; ++cell) {
+      const float v = grid_values_[cell * A + a];
+      const double alpha = std::isnan(v) ? 0.0 : std::min(max_opacity(c, v, v), 0.999);
+      sigma[cell] = static_cast<float>(-std::log1p(-alpha) / unit);
+    }
   }
   const double eye[3] = {c.camera->eye[0], c.camera->eye[1], c.camera->eye[2]};
   const double h = 0.5 * std::min({grid_step_[0], grid_step_[1], grid_step_[2]});

@@ -126,6 +126,31 @@ TEST_F(DamagedDatasetTest, ATruncatedVariantsFileNeverCrashesTheServer) {
   expect_still_serving("good");
 }
 
+// A store whose vertices.bin (the vertex hierarchy the cut refines by) was cut short, and one
+// with a flipped byte in it: dataset.open answers dataset_damaged naming the file, and the
+// server goes on serving the sample, whose frames come from its own vertex front.
+TEST_F(DamagedDatasetTest, ADamagedVerticesFileNeverCrashesTheServer) {
+  add_sample("cut-short");
+  add_sample("flipped");
+  add_sample("good");
+  ASSERT_TRUE(fs::exists(data_dir() / "good" / "vertices.bin"));
+  std::vector<char> bytes = read_bytes(data_dir() / "cut-short" / "vertices.bin");
+  bytes.resize(bytes.size() / 3);
+  write_bytes(data_dir() / "cut-short" / "vertices.bin", bytes);
+  bytes = read_bytes(data_dir() / "flipped" / "vertices.bin");
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x04);
+  write_bytes(data_dir() / "flipped" / "vertices.bin", bytes);
+  start();
+  for (const std::string name : {"cut-short", "flipped"}) {
+    auto c = session();
+    c->send("dataset.open", {{"name", name}});
+    const auto refused = next_text(*c, "error");
+    EXPECT_EQ(refused["code"], "dataset_damaged") << name << ": " << refused.dump();
+    EXPECT_NE(refused["message"].get<std::string>().find("vertices.bin"), std::string::npos) << refused.dump();
+  }
+  expect_still_serving("good");
+}
+
 // A frame maker whose pipeline could not be made never draws with the pipeline missing: the
 // same damaged store opened by two sessions one after the other, with frames asked of both.
 TEST_F(DamagedDatasetTest, ADatasetThatFailsToOpenTwiceNeverReachesTheRenderer) {

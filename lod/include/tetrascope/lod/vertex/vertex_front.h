@@ -29,8 +29,8 @@ namespace tetrascope::lod {
 // diagonal and z the distance from the eye to the collapse's sphere (at least D / 100): the
 // share of the view a unit of error covers; V = 1 when the sphere meets the frustum, else
 // kOutsideWeight; T the transmittance from the eye to the sphere's nearest point through the
-// base mesh classified by the transfer function (occlusion; volume rendering only), at least
-// kOccludedWeight; C the opacity of a slab as thick as the sphere's radius at the largest
+// base mesh classified by the transfer function (isosurfaces: opaque where the base mesh
+// crosses an isovalue), at least kOccludedWeight; C the opacity of a slab as thick as the sphere's radius at the largest
 // opacity the transfer function gives over the values below the collapse (with isovalues: 1
 // where one lies in them), plus kTransparentWeight, so that what no opacity shows is refined
 // last; a sphere wholly clipped away has E = 0 and one a
