@@ -45,6 +45,9 @@ def run(args, **kw):
     return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True, **kw).stdout
 
 
+TIMEOUT = None  # seconds a render may take (--timeout); a view one of whose renders passes it is skipped
+
+
 def info(binary, path):
     return json.loads(run([binary, "info", "--json", path]))
 
@@ -136,7 +139,7 @@ def render(binary, source, image, view, size, budget=None, extra=()):
         args += ["--tf", tf_file, "--reference"]
     if budget is not None:
         args += ["--budget", budget]
-    return json.loads(run(args).strip().splitlines()[-1])
+    return json.loads(run(args, timeout=TIMEOUT).strip().splitlines()[-1])
 
 
 def compared(full, other, view):
@@ -203,6 +206,28 @@ def resummarise(a):
     results.write_text(json.dumps(old, indent=1))
 
 
+def measure_view(binary, mesh, store, name, view, v, a, budgets, decimated):
+    """The full mesh's image of one view and a cell a budget: the cut against the decimation."""
+    render(binary, mesh, f"{name}.full", view, a.size)
+    shown = coverage(f"{name}.full", view)
+    cells = []
+    for pct in budgets:
+        tets, path = decimated[pct]
+        cut = render(binary, store, f"{name}.cut{pct:g}", view, a.size, budget=tets, extra=a.render_args.split())
+        render(binary, path, f"{name}.dec{pct:g}", view, a.size)
+        cut_db = compared(f"{name}.full", f"{name}.cut{pct:g}", view)
+        dec_db = compared(f"{name}.full", f"{name}.dec{pct:g}", view)
+        gain = None if not (math.isfinite(cut_db) and math.isfinite(dec_db)) else cut_db - dec_db
+        cell = {"mesh": mesh.name, "view": v, "inside": view["inside"], "kind": view["kind"], "camera": view["camera"], "tf": view["tf"],
+                "coverage": shown, "budget_pct": pct, "budget_tets": tets, "cut_tets": cut["tets"], "budget_used": cut["tets"] / tets,
+                "cut_by": cut.get("cut", {}).get("by"), "over_budget": cut.get("cut", {}).get("over_budget"),
+                "cut_db": cut_db if math.isfinite(cut_db) else None, "decimated_db": dec_db if math.isfinite(dec_db) else None,
+                "gain_db": gain, "cut_estimated_error": cut.get("cut_estimated_error")}
+        cells.append(cell)
+        print(json.dumps({k: cell[k] for k in ("mesh", "view", "kind", "inside", "budget_pct", "cut_tets", "cut_db", "decimated_db", "gain_db")}), flush=True)
+    return cells
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seed", type=int, required=True, help="draws the views; use a new one for each record")
@@ -215,11 +240,15 @@ def main():
     parser.add_argument("--output", default=str(RESULTS), help="the results file (records by seed)")
     parser.add_argument("--work", default=str(OUT), help="where stores, decimations and images are kept (a store there is reused)")
     parser.add_argument("--render-args", default="", help="extra options for tetrascope render of the cut (e.g. --lod segments)")
+    parser.add_argument("--timeout", type=float, default=0, help="skip a view (counted in the record) when one of its renders takes longer (s; 0: no limit)")
     parser.add_argument("--summarise", action="store_true", help="only recompute the record of --seed from its cells and images")
     a = parser.parse_args()
     if a.summarise:
         return resummarise(a)
+    global TIMEOUT
+    TIMEOUT = a.timeout or None
     binary = a.tetrascope
+    skipped = []
     budgets = [float(b) for b in a.budgets.split(",")]
     out = Path(a.work)
     out.mkdir(parents=True, exist_ok=True)
@@ -250,22 +279,14 @@ def main():
             tf_attribute = {"name": attribute["name"], "min": attribute["min"], "max": attribute["max"], "histogram": attribute.get("histogram")}
             view = draw_view(rng, store_info["bounds"], tf_attribute, v)
             name = out / f"{mesh.stem}.s{a.seed}.v{v}"
-            render(binary, mesh, f"{name}.full", view, a.size)
-            shown = coverage(f"{name}.full", view)
-            for pct in budgets:
-                tets, path = decimated[pct]
-                cut = render(binary, store, f"{name}.cut{pct:g}", view, a.size, budget=tets, extra=a.render_args.split())
-                render(binary, path, f"{name}.dec{pct:g}", view, a.size)
-                cut_db = compared(f"{name}.full", f"{name}.cut{pct:g}", view)
-                dec_db = compared(f"{name}.full", f"{name}.dec{pct:g}", view)
-                gain = None if not (math.isfinite(cut_db) and math.isfinite(dec_db)) else cut_db - dec_db
-                cell = {"mesh": mesh.name, "view": v, "inside": view["inside"], "kind": view["kind"], "camera": view["camera"], "tf": view["tf"],
-                        "coverage": shown, "budget_pct": pct, "budget_tets": tets, "cut_tets": cut["tets"], "budget_used": cut["tets"] / tets,
-                        "cut_db": cut_db if math.isfinite(cut_db) else None, "decimated_db": dec_db if math.isfinite(dec_db) else None,
-                        "gain_db": gain, "cut_estimated_error": cut.get("cut_estimated_error")}
-                cells.append(cell)
-                print(json.dumps({k: cell[k] for k in ("mesh", "view", "kind", "inside", "budget_pct", "cut_tets", "cut_db", "decimated_db", "gain_db")}), flush=True)
-    record = {"seed": a.seed, "date": datetime.date.today().isoformat(), "views_per_mesh": a.views, "budgets_pct": budgets, "size": a.size,
+            try:
+                view_cells = measure_view(binary, mesh, store, name, view, v, a, budgets, decimated)
+            except subprocess.TimeoutExpired:
+                skipped.append({"mesh": mesh.name, "view": v, "camera": view["camera"], "kind": view["kind"], "reason": f"a render took over {a.timeout:g} s"})
+                print(json.dumps(skipped[-1]), flush=True)
+                continue
+            cells += view_cells
+    record = {"seed": a.seed, "skipped_views": skipped, "date": datetime.date.today().isoformat(), "views_per_mesh": a.views, "budgets_pct": budgets, "size": a.size,
               "commit": run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip(), "preprocess_args": a.preprocess_args, "render_args": a.render_args,
               "method": "PSNR against the full mesh by the exact CPU integrator (float colours; isosurfaces: GL, 8 bits); the decimation by tetrascope simplify --tets to the budget; gain = cut - decimation",
               "cells": cells}

@@ -201,10 +201,10 @@ std::vector<float> VertexFront::transmittance(const FrontCriteria& c) const {
         double t0 = 0, t1 = std::max(0.0, 1 - h / std::max(length, 1e-300));
         for (int k = 0; k < 3 && t0 < t1; ++k) {
           if (std::fabs(d[k]) < 1e-300) continue;
-          double a = (grid_lo_[k] - eye[k]) / d[k], b = (grid_lo_[k] + kGrid * grid_step_[k] - eye[k]) / d[k];
-          if (a > b) std::swap(a, b);
-          t0 = std::max(t0, a);
-          t1 = std::min(t1, b);
+          double enter = (grid_lo_[k] - eye[k]) / d[k], leave = (grid_lo_[k] + kGrid * grid_step_[k] - eye[k]) / d[k];
+          if (enter > leave) std::swap(enter, leave);
+          t0 = std::max(t0, enter);
+          t1 = std::min(t1, leave);
         }
         double tau = 0;
         if (t1 > t0) {
@@ -309,7 +309,10 @@ std::vector<double> VertexFront::errors(const FrontCriteria& c) const {
       e[i] = 0;
       continue;
     }
-    if (!frustum.meets(p, r)) weight *= kOutsideWeight;
+    if (!frustum.meets(p, r)) {  // out of view: never worth a tet (forced splits aside)
+      e[i] = 0;
+      continue;
+    }
     if (perspective) {
       const double dx = p[0] - eye[0], dy = p[1] - eye[1], dz = p[2] - eye[2];
       const double z = std::max(std::sqrt(dx * dx + dy * dy + dz * dz) - r, nearest);
@@ -362,7 +365,10 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
   changes.over_budget = tets_ > budget;
   while (!ready.empty()) {
     const uint32_t i = ready.top().second;
-    if (own[i] <= 0 && e[i] <= 0) break;  // clipped away: never worth a tet
+    if (e[i] <= 0) {  // out of view or clipped away: the view is complete
+      changes.complete = true;
+      break;
+    }
     if (tets_ + h_.nodes[i].fan > budget) {
       changes.budget_limited = true;
       break;

@@ -83,6 +83,7 @@ class ViewPipeline {
   struct CutBudget {
     uint64_t budget = 0, tets = 0;
     bool budget_limited = false, over_budget = false;
+    bool complete = false;  // vertex front: all the view shows is at full resolution under the budget
   };
   std::optional<CutBudget> cut_budget() const { return cut_budget_; }
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)

@@ -64,7 +64,7 @@ struct PreprocessOptions {
   Ranks* ranks = nullptr;
   // The binary vertex hierarchy of §5.2.1 (vertices.bin, lod/vertex/): the cut then refines by
   // single vertex splits. Built in memory from the whole mesh, so only for inputs of at most
-  // this many tets whose build fits memory_mb (about 600 bytes a tet); 0: never.
+  // this many tets whose build fits memory_mb (about 256 bytes a tet); 0: never.
   uint64_t vertex_hierarchy_max_tets = 8000000;
   bool vertex_hierarchy_independent = false;  // independent edges (§5.2.1): shallower, but its collapses out of cost order
 };

@@ -27,8 +27,8 @@ namespace tetrascope::lod {
 //   E = V · S · T · C · e
 // e the collapse's quadric error (monotone up the hierarchy); S = (D / z)², D the mesh's
 // diagonal and z the distance from the eye to the collapse's sphere (at least D / 100): the
-// share of the view a unit of error covers; V = 1 when the sphere meets the frustum, else
-// kOutsideWeight; T the transmittance from the eye to the sphere's nearest point through the
+// share of the view a unit of error covers; V = 1 when the sphere meets the frustum, else 0
+// (split only when a split in view forces it); T the transmittance from the eye to the sphere's nearest point through the
 // base mesh classified by the transfer function (isosurfaces: opaque where the base mesh
 // crosses an isovalue), at least kOccludedWeight; C the opacity of a slab as thick as the sphere's radius at the largest
 // opacity the transfer function gives over the values below the collapse (with isovalues: 1
@@ -45,7 +45,6 @@ struct FrontCriteria {
   std::vector<view::Plane> slices;
   double unit_distance = 0;  // the transfer function's opacity is that of a slab this thick (0: D / 100)
 };
-constexpr double kOutsideWeight = 1e-4;
 constexpr double kOccludedWeight = 1e-3;
 constexpr double kTransparentWeight = 1e-3;
 constexpr double kFrontSliceWeight = 1e6;
@@ -62,6 +61,7 @@ struct FrontChanges {
   bool changed = false;         // the front differs from the one before the update
   bool budget_limited = false;  // a wanted split did not fit
   bool over_budget = false;     // the base mesh alone has more tets than the budget
+  bool complete = false;        // every split left is out of view or clipped away: more tets would not change the picture
   double estimated_error = 0;   // Σ E over the collapses left applied
 };
 

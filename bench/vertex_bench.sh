@@ -1,0 +1,52 @@
+#!/bin/sh
+# The vertex hierarchy's cost and speed, mesh by mesh: `tetrascope preprocess` with the
+# defaults (vertices.bin built) REPEAT times, the median total time and the time of its
+# vertices stage against the rest (the same build without it), the store's bytes with and
+# without vertices.bin, peak RSS; then bench/vertex_bench on the store (bytes an update,
+# splits and collapses a second on one core, front updates on an orbit).
+#   bench/vertex_bench.sh [MESH ...]   (REPEAT=3 by default; default meshes: the shared
+#   datasets onera_m6_potential, nasa_oxygen_post, fea_bracket, nasa_bluntfin)
+# Writes bench/results/vertex_bench.json.
+set -eu
+root=$(cd "$(dirname "$0")/.." && pwd)
+data="$root/../shared/data"
+bin="$root/build/release/apps/tetrascope"
+bench="$root/build/release/bench/vertex_bench"
+out="$root/bench/out/vertex_bench"
+repeat=${REPEAT:-3}
+mkdir -p "$out"
+[ $# -gt 0 ] || set -- "$data/onera_m6_potential.vtk" "$data/nasa_oxygen_post.vtk" "$data/fea_bracket.vtk" "$data/nasa_bluntfin.vtk"
+rows="$out/rows.jsonl"
+: > "$rows"
+for mesh in "$@"; do
+  [ -f "$mesh" ] || { echo "skip $mesh: not present" >&2; continue; }
+  name=$(basename "$mesh" .vtk)
+  i=0
+  while [ "$i" -lt "$repeat" ]; do
+    /usr/bin/time -f '%M' -o "$out/$name.rss" "$bin" preprocess "$mesh" -o "$out/$name.store" --force --progress none --json > "$out/$name.$i.json"
+    echo "{\"run\": $i, \"rss_kb\": $(cat "$out/$name.rss"), \"report\": $(cat "$out/$name.$i.json")}" > "$out/$name.$i.run.json"
+    i=$((i + 1))
+  done
+  "$bench" "$out/$name.store" > "$out/$name.bench.json"
+  python3 - "$out" "$name" "$repeat" "$(cat /proc/loadavg)" >> "$rows" <<'EOF'
+import json, statistics, sys
+out, name, repeat, load = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
+runs = [json.load(open(f"{out}/{name}.{i}.run.json")) for i in range(repeat)]
+total = statistics.median(r["report"]["seconds"] for r in runs)
+vertices = statistics.median(r["report"]["stage_seconds"]["vertices"] for r in runs)
+report = runs[0]["report"]
+bench = json.load(open(f"{out}/{name}.bench.json"))
+store = report["store_bytes"]
+vbytes = report["vertices"].get("bytes", 0)
+print(json.dumps({"mesh": name, "input_tets": report["input_tets"], "runs": repeat, "load": load,
+                  "preprocess_seconds": total, "vertices_seconds": vertices, "time_over_without": total / (total - vertices) - 1,
+                  "store_bytes": store, "vertices_bytes": vbytes, "size_over_without": store / (store - vbytes) - 1,
+                  "peak_rss_kb": statistics.median(r["rss_kb"] for r in runs), "hierarchy": bench}))
+EOF
+done
+python3 - "$rows" "$root/bench/results/vertex_bench.json" <<'EOF'
+import datetime, json, sys
+rows = [json.loads(l) for l in open(sys.argv[1])]
+json.dump({"date": datetime.date.today().isoformat(), "method": "preprocess defaults, medians of the runs; vertex_bench one core, medians of 5 passes", "rows": rows}, open(sys.argv[2], "w"), indent=1)
+EOF
+cat "$root/bench/results/vertex_bench.json"
