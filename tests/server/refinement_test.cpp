@@ -283,9 +283,11 @@ TEST_F(RefinementTest, StepsArriveInIncreasingDetailAndEndInAStill) {
     }
   }
   EXPECT_GT(steps.back().header.tets, steps.front().header.tets);
-  // more detail, less estimated error; the still holds the whole sample (it fits the budget)
+  // more detail, less estimated error; the still holds the sample at full resolution where
+  // the view shows it (the budget holds it all), coarse only beyond the view's frustum
   EXPECT_LT(steps.back().header.estimated_error, steps.front().header.estimated_error);
-  EXPECT_EQ(steps.back().header.tets, 44832u);
+  EXPECT_LE(steps.back().header.tets, 44832u);
+  EXPECT_GE(steps.back().header.tets, 44832u * 95 / 100);
 }
 
 // The still is the cut at the still budget, whatever steps led to it: small steps and one
