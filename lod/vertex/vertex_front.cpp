@@ -3,15 +3,17 @@
 #include "tetrascope/lod/vertex/vertex_front.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <queue>
 #include <stdexcept>
 
 namespace tetrascope::lod {
 namespace {
 
-// The largest opacity over [lo, hi] of the table over [table_lo, table_hi] (the end values
-// hold outside it).
+// The largest opacity over the values [lo, hi] of the criteria's table (which spans
+// [c.lo, c.hi]; its end bins hold outside it).
 double max_opacity(const FrontCriteria& c, double lo, double hi) {
   const size_t n = c.opacity.size();
   const double span = c.hi > c.lo ? c.hi - c.lo : 1;
@@ -52,14 +54,15 @@ FrontCriteria front_criteria(const VertexHierarchy& h, const view::TransferFunct
     c.lo = (*tf.range)[0];
     c.hi = (*tf.range)[1];
   } else {
-    // the attribute's range over the hierarchy's leaves
+    // the attribute's range over the hierarchy's leaves (0..1 for a hierarchy of no collapse)
     c.lo = std::numeric_limits<double>::infinity();
     c.hi = -c.lo;
     for (uint32_t i = 0; i < h.collapse_count(); ++i) {
       c.lo = std::min(c.lo, double(h.range_lo(i, a)));
       c.hi = std::max(c.hi, double(h.range_hi(i, a)));
     }
-    if (!(c.hi > c.lo)) c.hi = c.lo + 1;
+    if (!std::isfinite(c.lo)) c.lo = 0;
+    if (!(c.hi > c.lo) || !std::isfinite(c.hi)) c.hi = c.lo + 1;
   }
   c.opacity.resize(kOpacityBins);
   for (uint32_t b = 0; b < kOpacityBins; ++b) c.opacity[b] = static_cast<float>(tf.alpha(c.lo + (b + 0.5) / kOpacityBins * (c.hi - c.lo)));
