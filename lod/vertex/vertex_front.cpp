@@ -242,7 +242,6 @@ void VertexFront::apply_split(uint32_t i) {
   tets_ += h_.nodes[i].fan;
   for (uint32_t k = h_.before_offsets[i]; k < h_.before_offsets[i + 1]; ++k) --applied_after_[h_.before[k]];
   for (uint32_t k = h_.after_offsets[i]; k < h_.after_offsets[i + 1]; ++k) ++split_before_[h_.after[k]];
-  ++split_count_;
 }
 
 void VertexFront::apply_collapse(uint32_t i) {

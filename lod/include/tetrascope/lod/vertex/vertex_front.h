@@ -81,7 +81,6 @@ class VertexFront {
   void split_all();     // the input mesh
   void collapse_all();  // the base mesh
   uint64_t tet_count() const { return tets_; }
-  uint64_t splits_applied() const { return split_count_; }
 
   // The front's mesh: its vertices (those its tets use, in vertex-id order) with their
   // attributes, and per vertex its id in the hierarchy.
@@ -109,7 +108,6 @@ class VertexFront {
   std::vector<uint32_t> split_before_;   // per collapse: split collapses among its `before`
   std::vector<uint32_t> parent_;         // per vertex: the collapse that consumes it, or kNoCollapse
   uint64_t tets_ = 0;
-  uint64_t split_count_ = 0;
   bool updated_ = false;
 };
 
