@@ -12,12 +12,7 @@ namespace tetrascope::lod {
 namespace {
 
 float value_of(const VertexHierarchy& h, uint32_t vertex, uint32_t attribute, const std::vector<uint32_t>& first) {
-  const float* v = &h.values[size_t{vertex} * h.value_floats + first[attribute]];
-  const uint32_t n = h.attributes[attribute].components;
-  if (n == 1) return v[0];
-  double sum = 0;
-  for (uint32_t k = 0; k < n; ++k) sum += double(v[k]) * v[k];
-  return static_cast<float>(std::sqrt(sum));
+  return attribute_scalar(&h.values[size_t{vertex} * h.value_floats + first[attribute]], h.attributes[attribute].components);
 }
 
 // The replay's state: per input vertex slot its vertex now and the tets around it; per tet
@@ -68,7 +63,7 @@ void replay_collapse(VertexHierarchy& h, Replay& r, uint32_t i, uint32_t keep, u
   for (uint32_t t : r.star[keep]) visit(t);
   for (uint32_t t : r.star[gone]) visit(t);
   node.radius = static_cast<float>(std::sqrt(radius2));
-  for (uint32_t t : std::vector<uint32_t>(r.star[gone])) {
+  for (uint32_t t : r.star[gone]) {  // only other vertices' stars change in this loop
     uint32_t* s = &r.slots[4 * size_t{t}];
     const bool fan = std::count(s, s + 4, keep) != 0;
     if (fan) {

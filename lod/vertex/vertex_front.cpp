@@ -98,9 +98,7 @@ void VertexFront::sample_base_grid() {
   for (size_t a = 0; a < A; ++a) {
     const uint32_t n = base.attributes[a].info.components;
     for (size_t v = 0; v < base.vertex_count(); ++v) {
-      double sum = 0;
-      for (uint32_t k = 0; k < n; ++k) sum += double(base.attributes[a].values[v * n + k]) * base.attributes[a].values[v * n + k];
-      scalar[v * A + a] = static_cast<float>(n == 1 ? base.attributes[a].values[v] : std::sqrt(sum));
+      scalar[v * A + a] = attribute_scalar(&base.attributes[a].values[v * n], n);
     }
   }
   for (size_t t = 0; t < base.tet_count(); ++t) {

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -32,6 +33,15 @@ struct VertexNode {
   float radius = 0;  // the sphere around the new vertex that holds every tet the collapse changed
   uint32_t fan = 0;  // tets the collapse removes (its split adds them back)
 };
+
+// The value a vertex's attribute ranges and the occlusion grid use: a scalar itself, a vector
+// (components > 1) its length.
+inline float attribute_scalar(const float* values, uint32_t components) {
+  if (components == 1) return values[0];
+  double sum = 0;
+  for (uint32_t k = 0; k < components; ++k) sum += double(values[k]) * values[k];
+  return static_cast<float>(std::sqrt(sum));
+}
 
 struct VertexHierarchy {
   uint32_t input_vertices = 0;                  // V, the leaves
