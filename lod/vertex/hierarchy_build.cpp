@@ -39,12 +39,12 @@ void replay_collapse(VertexHierarchy& h, Replay& r, uint32_t i, uint32_t keep, u
   VertexNode& node = h.nodes[i];
   node.child = {r.current[keep], r.current[gone]};
   const float* centre = &h.positions[3 * size_t{made}];
-  float* range = &h.ranges[2 * size_t{i} * attributes];
+  float* range = h.ranges.data() + 2 * size_t{i} * attributes;
   for (uint32_t a = 0; a < attributes; ++a) {
     range[2 * a] = std::min(r.subtree[2 * (size_t{node.child[0]} * attributes + a)], r.subtree[2 * (size_t{node.child[1]} * attributes + a)]);
     range[2 * a + 1] = std::max(r.subtree[2 * (size_t{node.child[0]} * attributes + a) + 1], r.subtree[2 * (size_t{node.child[1]} * attributes + a) + 1]);
   }
-  float* own = &r.subtree[2 * size_t{made} * attributes];
+  float* own = r.subtree.data() + 2 * size_t{made} * attributes;
   std::copy(range, range + 2 * attributes, own);  // the new vertex's subtree: its children's leaves
   double radius2 = 0;
   before.clear();
