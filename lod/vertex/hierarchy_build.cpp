@@ -141,7 +141,8 @@ VertexHierarchy build_vertex_hierarchy(const storage::TetMesh& mesh, const Verte
   }
   for (uint32_t i = 0; i < C; ++i) {
     std::copy(simplified.collapse_log[i].position.begin(), simplified.collapse_log[i].position.end(), &h.positions[3 * (size_t{V} + i)]);
-    std::copy(&simplified.collapse_values[size_t{i} * F], &simplified.collapse_values[size_t{i} * F] + F, &h.values[(size_t{V} + i) * F]);
+    const float* values = simplified.collapse_values.data() + size_t{i} * F;  // F may be 0
+    std::copy(values, values + F, h.values.data() + (size_t{V} + i) * F);
   }
   h.tets = mesh.tets;
   h.killer.assign(mesh.tet_count(), kNoCollapse);
