@@ -299,7 +299,9 @@ std::vector<double> VertexFront::errors(const FrontCriteria& c) const {
   for (uint32_t i = 0; i < C; ++i) {
     const float* p = &h_.positions[3 * (size_t{V} + i)];
     const double r = h_.nodes[i].radius;
-    double weight = h_.nodes[i].error;
+    // the quadric error grows with the volume a collapse changes, the image error of a
+    // shaded slab with its area times its thickness: one more factor of the radius
+    double weight = h_.nodes[i].error * (r / diagonal_);
     bool clipped = false;
     for (const view::Plane& plane : c.clip) {
       const double n = std::sqrt(plane.normal[0] * plane.normal[0] + plane.normal[1] * plane.normal[1] + plane.normal[2] * plane.normal[2]);
@@ -354,8 +356,10 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
   collapse_all();
   const uint32_t C = h_.collapse_count();
   const std::vector<double> own = errors(criteria);
-  // a split forces the later collapses that consumed its tets: they are split no later than it
-  std::vector<double> e = own;
+  // splits are ranked by the error they remove per tet they add; a split forces the later
+  // collapses that consumed its tets: they are split no later than it
+  std::vector<double> e(C);
+  for (uint32_t i = 0; i < C; ++i) e[i] = own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1);
   for (uint32_t i = 0; i < C; ++i)
     for (uint32_t k = h_.after_offsets[i]; k < h_.after_offsets[i + 1]; ++k) e[h_.after[k]] = std::max(e[h_.after[k]], e[i]);
   using Entry = std::pair<double, uint32_t>;  // ties: the later collapse first (the simplifier's order, reversed)
