@@ -180,6 +180,11 @@ def summary(cells):
             "beating_by_3_db": sum(g >= 3 for g in gains) / len(gains) if gains else None,
             "budget_used": quartiles([c["budget_used"] for c in at]),
         }
+        # the vertex front's tets split only for other splits, and of them those out of view
+        forced = [c for c in at if c.get("forced_tets") is not None and c["cut_tets"]]
+        if forced:
+            out[str(key)]["forced_share"] = quartiles([c["forced_tets"] / c["cut_tets"] for c in forced])
+            out[str(key)]["unseen_share"] = quartiles([c["unseen_tets"] / c["cut_tets"] for c in forced])
     return out
 
 
@@ -221,6 +226,7 @@ def measure_view(binary, mesh, store, name, view, v, a, budgets, decimated):
         cell = {"mesh": mesh.name, "view": v, "inside": view["inside"], "kind": view["kind"], "camera": view["camera"], "tf": view["tf"],
                 "coverage": shown, "budget_pct": pct, "budget_tets": tets, "cut_tets": cut["tets"], "budget_used": cut["tets"] / tets,
                 "cut_by": cut.get("cut", {}).get("by"), "over_budget": cut.get("cut", {}).get("over_budget"),
+                "forced_tets": cut.get("cut", {}).get("forced_tets"), "unseen_tets": cut.get("cut", {}).get("unseen_tets"),
                 "cut_db": cut_db if math.isfinite(cut_db) else None, "decimated_db": dec_db if math.isfinite(dec_db) else None,
                 "gain_db": gain, "cut_estimated_error": cut.get("cut_estimated_error")}
         cells.append(cell)

@@ -380,6 +380,9 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
     ready.pop();
     apply_split(i);
     ++changes.splits;
+    const double rank = own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1);
+    if (rank < e[i]) changes.forced_tets += h_.nodes[i].fan;
+    if (own[i] <= 0) changes.unseen_tets += h_.nodes[i].fan;
     for (uint32_t k = h_.before_offsets[i]; k < h_.before_offsets[i + 1]; ++k) {
       const uint32_t j = h_.before[k];
       if (applied_after_[j] == 0) ready.push({e[j], j});

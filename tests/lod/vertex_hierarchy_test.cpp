@@ -125,7 +125,7 @@ TEST(VertexHierarchy, ASplitAndItsCollapsesRestoreTheExactMesh) {
 TEST(VertexFront, SpendsItsBudgetAndNeverPassesIt) {
   const auto& h = hierarchy();
   lod::VertexFront front(h);
-  const lod::FrontCriteria criteria;  // no view: the simplifier's order, reversed
+  const lod::FrontCriteria criteria;  // no view: the hierarchy's errors alone
   uint32_t max_fan = 0;
   for (const auto& n : h.nodes) max_fan = std::max(max_fan, n.fan);
   double last_error = INFINITY;
@@ -167,6 +167,28 @@ TEST(VertexFront, RefinesWhatTheViewShowsFirst) {
   const size_t uniform = near_tets({}), viewed = near_tets(criteria);
   EXPECT_GT(viewed, 1.3 * double(uniform)) << "near the eye: " << viewed << " tets with the view, " << uniform << " without";
   expect_conforming(front.mesh(), "the view's front");
+}
+
+// The splits a view forces: an eye inside the box needs the later collapses around it split,
+// some of them behind it; the front counts their tets (forced, and of them unseen) within
+// the tets it added. Without a view nothing is unseen.
+TEST(VertexFront, CountsTheTetsItsSplitsForcedOutOfView) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  lod::FrontCriteria criteria;
+  view::Camera camera;
+  camera.eye = {0.1, 0.1, 0.1};
+  camera.target = {0, 0, 0};
+  camera.up = {0, 0, 1};
+  camera.fov_degrees = 40;
+  criteria.camera = camera;
+  const lod::FrontChanges viewed = front.update(criteria, 8000);
+  EXPECT_GT(viewed.unseen_tets, 0u);
+  EXPECT_LE(viewed.unseen_tets, viewed.forced_tets);
+  EXPECT_LE(viewed.forced_tets, viewed.tets - h.base_tets());
+  const lod::FrontChanges uniform = front.update({}, 8000);
+  EXPECT_EQ(uniform.unseen_tets, 0u);
+  EXPECT_LE(uniform.forced_tets, uniform.tets - h.base_tets());
 }
 
 TEST(VertexFront, LeavesWhatNoOpacityShowsCoarse) {

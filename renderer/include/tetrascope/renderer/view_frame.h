@@ -84,6 +84,7 @@ class ViewPipeline {
     uint64_t budget = 0, tets = 0;
     bool budget_limited = false, over_budget = false;
     bool complete = false;  // vertex front: all the view shows is at full resolution under the budget
+    uint64_t forced_tets = 0, unseen_tets = 0;  // vertex front: see lod::FrontChanges
   };
   std::optional<CutBudget> cut_budget() const { return cut_budget_; }
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)

@@ -63,6 +63,10 @@ struct FrontChanges {
   bool over_budget = false;     // the base mesh alone has more tets than the budget
   bool complete = false;        // every split left is out of view or clipped away: more tets would not change the picture
   double estimated_error = 0;   // Σ E over the collapses left applied
+  // Of the tets the splits added: those of splits made only because a split of larger E
+  // needed them (their own E a tet below the rank they were split at), and of them those
+  // whose own E is 0 (out of view or clipped away).
+  uint64_t forced_tets = 0, unseen_tets = 0;
 };
 
 class VertexFront {
