@@ -9,6 +9,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <thread>
 
 #include "args.h"
 #include "commands.h"
@@ -19,6 +20,7 @@
 #include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/clip.h"
+#include "tetrascope/renderer/ray_caster.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/renderer/view_frame.h"
 #include "tetrascope/storage/mesh.h"
@@ -350,9 +352,9 @@ int run_render(const Arguments& all) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
-             "--point-target", "--compare", "--volume", "--lod"});
+             "--point-target", "--compare", "--volume", "--lod", "--backend"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
@@ -381,7 +383,19 @@ int run_render(const Arguments& all) {
   // The context stays up to exit, on every path: Mesa's driver, unloaded by eglTerminate,
   // would leave allocations behind that leak checkers report against us.
   static r::Renderer* renderer = nullptr;  // reachable from here: not a leak
-  renderer = r::Renderer::create().release();
+  // the backend: the GL renderer, the CPU ray caster, or (auto) the caster where the only
+  // EGL device is software and the caster draws everything asked for
+  const std::string backend = args.get("--backend", "gl");
+  if (backend != "gl" && backend != "cpu" && backend != "auto") throw std::invalid_argument("--backend: gl, cpu or auto");
+  const std::string cpu_lacks = r::RayCaster::unsupported(settings);
+  if (backend == "cpu" && !cpu_lacks.empty()) throw std::invalid_argument("--backend cpu: the CPU ray caster does not draw " + cpu_lacks);
+  bool cpu = backend == "cpu";
+  if (!cpu) {
+    renderer = r::Renderer::create().release();
+    cpu = backend == "auto" && cpu_lacks.empty() && r::software_renderer(renderer->description());
+  }
+  std::unique_ptr<r::RayCaster> caster;
+  if (cpu) caster = std::make_unique<r::RayCaster>(pipeline->scene());
   uint64_t held_scene = 0;
   const std::string extension = std::filesystem::path(o.output).extension().string();
   const bool jpeg = extension == ".jpg" || extension == ".jpeg";  // timing only: write_image picks the codec
@@ -391,7 +405,8 @@ int run_render(const Arguments& all) {
   for (uint32_t f = 0; f < std::max(1u, o.orbit); ++f) {
     if (o.orbit) frame.camera = orbit_camera(f, o.orbit, pipeline->bounds(), settings.camera.aspect);
     r::ViewTimings t;
-    image = pipeline->draw(frame, *renderer, held_scene, &t);
+    if (caster) image = caster->render(frame, &t.draw);
+    else image = pipeline->draw(frame, *renderer, held_scene, &t);
     const auto encode_start = Clock::now();
     const auto bytes = jpeg ? r::encode_jpeg(image, o.quality) : r::encode_png(image);
     t.draw.encode_ms = ms_since(encode_start);
@@ -403,7 +418,9 @@ int run_render(const Arguments& all) {
   }
   r::write_image(o.output, image, o.quality);
   const double reference_db = o.reference ? write_reference(o, pipeline->scene(), frame, image) : -1;
-  nlohmann::json j = render_report(o, settings, pipeline->scene(), renderer->description(), frames, reference_db);
+  const std::string description = caster ? "tetrascope CPU ray caster (" + std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " threads)" : renderer->description();
+  nlohmann::json j = render_report(o, settings, pipeline->scene(), description, frames, reference_db);
+  j["backend"] = caster ? "cpu" : "gl";
   if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
   if (const auto budget = pipeline->cut_budget()) {
     j["cut"] = {{"budget", budget->budget}, {"tets", budget->tets}, {"budget_used", budget->budget ? double(budget->tets) / double(budget->budget) : 0.0},
