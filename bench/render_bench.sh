@@ -7,7 +7,8 @@
 # the triangles each DVR method emits for each orbit frame, at their mean pixel area, drawn
 # with a constant-colour shader into the same float target with the same blending), in one
 # run. Writes OUT (default bench/results/render.json).
-# DVR runs twice: --volume projected (rows "dvr") and --volume exact, the default ("dvr_exact"). Each row also
+# DVR runs three times: --volume projected (rows "dvr"), --volume exact, the default ("dvr_exact"),
+# and the CPU ray caster, --backend cpu ("dvr_cpu"). Each row also
 # has the process CPU time per frame (every thread, llvmpipe's included), which a shared
 # machine disturbs less than wall time.
 #   bench/render_bench.sh [FRAMES] [MESHES] [OUT]   (default 36, "disk_out_ref fea_bracket 100k 1m 5m";
@@ -42,6 +43,7 @@ for n in $meshes; do
   printf '{"attribute": "%s", "colormap": "viridis", "opacity": [[%s, 0], [%s, 0.4]]}\n' "$attribute" "$lo" "$hi" > bench/out/render-tf.json
   dvr=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume projected --json | tail -1)
   exact=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-exact-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume exact --json | tail -1)
+  cpu=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-cpu-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --backend cpu --json | tail -1)
   iso=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-iso-$n.jpg --mode iso --attribute "$attribute" --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
   pv_frames=$frames
   [[ $n == 5m ]] && pv_frames=$(( frames < 6 ? frames : 6 ))
@@ -59,14 +61,16 @@ for n in $meshes; do
     echo "ParaView failed on $mesh three times (bench/out/paraview-$n.log); left out" >&2
     continue
   fi
-  rows+=("$(python3 - "$(mesh_name "$n")" "$dvr" "$iso" "$pv" "$exact" "$ceiling" <<'PY'
+  rows+=("$(python3 - "$(mesh_name "$n")" "$dvr" "$iso" "$pv" "$exact" "$ceiling" "$cpu" <<'PY'
 import json, sys
-n, dvr, iso, pv, exact, ceiling = sys.argv[1], *map(json.loads, sys.argv[2:7])
+n, dvr, iso, pv, exact, ceiling, cpu = sys.argv[1], *map(json.loads, sys.argv[2:8])
 # the ceiling draws every tet's triangles; the DVR skips the tets the transfer function leaves transparent
 ce = ceiling["exact"]["median_ms"] * exact["tets_drawn"] / exact["tets"]
 cp = ceiling["projected"]["median_ms"] * dvr["tets_drawn"] / dvr["tets"]
 print(json.dumps({"mesh": n, "tets": dvr["tets"], "dvr": dvr, "dvr_exact": exact, "iso": iso, "paraview_projected_tetra": pv, "triangle_ceiling": ceiling,
                   "dvr_speedup_vs_paraview": pv["median_ms"] / dvr["median_ms"], "exact_speedup_vs_paraview": pv["median_ms"] / exact["median_ms"],
+                  # the CPU ray caster (render --backend cpu) on the same frames
+                  "dvr_cpu": cpu, "cpu_speedup_vs_paraview": pv["median_ms"] / cpu["median_ms"], "cpu_speedup_vs_gl_exact": exact["median_ms"] / cpu["median_ms"],
                   "exact_draw_vs_ceiling": exact["median_draw_ms"] / ce, "projected_draw_vs_ceiling": dvr["median_draw_ms"] / cp,
                   "exact_frame_vs_ceiling": exact["median_ms"] / ce, "projected_frame_vs_ceiling": dvr["median_ms"] / cp,
                   # process CPU a frame (the whole frame) against the ceiling's CPU for its draw
@@ -85,11 +89,11 @@ rows = [json.loads(r) for r in sys.argv[5:]]
 json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, 24 GB, Debian 12, Mesa llvmpipe, shared with other builds",
            "load_average_before": load_before, "load_average_after": load_after,
            "size": "1024x768", "frames": int(frames), "runs": rows}, open(out, "w"), indent=2)
-print(f"{'mesh':10} {'tets':>9} | {'exact':>7} {'cpu':>7} | {'DVR ms':>7} {'cpu':>7} {'sort':>6} {'draw':>7} {'read':>5} {'enc':>5} {'drawn':>8} | {'iso ms':>7} {'tris':>8} | {'PV ms':>7} {'PV 1st':>7} | {'x PV':>5} {'exPV':>5} | {'ceilE':>7} {'ceilP':>7} {'E/ce':>5} {'P/ce':>5}")
+print(f"{'mesh':10} {'tets':>9} | {'raycast':>7} {'xPV':>5} {'xGL':>5} | {'exact':>7} {'cpu':>7} | {'DVR ms':>7} {'cpu':>7} {'sort':>6} {'draw':>7} {'read':>5} {'enc':>5} {'drawn':>8} | {'iso ms':>7} {'tris':>8} | {'PV ms':>7} {'PV 1st':>7} | {'x PV':>5} {'exPV':>5} | {'ceilE':>7} {'ceilP':>7} {'E/ce':>5} {'P/ce':>5}")
 for r in rows:
     d, i, p = r["dvr"], r["iso"], r["paraview_projected_tetra"]
     e = r["dvr_exact"]
-    print(f"{r['mesh']:10} {r['tets']:9} | {e['median_ms']:7.1f} {e['median_cpu_ms']:7.1f} | {d['median_ms']:7.1f} {d['median_cpu_ms']:7.1f} {d['median_sort_ms']:6.1f} {d['median_draw_ms']:7.1f} {d['median_readback_ms']:5.1f} {d['median_encode_ms']:5.1f} {d['tets_drawn']:8} | "
+    print(f"{r['mesh']:10} {r['tets']:9} | {r['dvr_cpu']['median_ms']:7.1f} {r['cpu_speedup_vs_paraview']:5.2f} {r['cpu_speedup_vs_gl_exact']:5.2f} | {e['median_ms']:7.1f} {e['median_cpu_ms']:7.1f} | {d['median_ms']:7.1f} {d['median_cpu_ms']:7.1f} {d['median_sort_ms']:6.1f} {d['median_draw_ms']:7.1f} {d['median_readback_ms']:5.1f} {d['median_encode_ms']:5.1f} {d['tets_drawn']:8} | "
           f"{i['median_ms']:7.1f} {i['iso_triangles']:8} | {p['median_ms']:7.1f} {p['first_frame_ms']:7.1f} | {r['dvr_speedup_vs_paraview']:5.2f} {r['exact_speedup_vs_paraview']:5.2f} | "
           f"{r['triangle_ceiling']['exact']['median_ms']:7.1f} {r['triangle_ceiling']['projected']['median_ms']:7.1f} {r['exact_draw_vs_ceiling']:5.2f} {r['projected_draw_vs_ceiling']:5.2f}")
 PY

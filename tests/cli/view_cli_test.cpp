@@ -23,6 +23,35 @@ nlohmann::json last_json_line(const std::string& out) {
 }
 
 
+// --backend cpu: the CPU ray caster draws the volume (reported as the backend), close to the
+// exact integrator; what it does not draw is refused naming it, and an unknown backend too.
+// --backend auto takes it where the only EGL device is software.
+TEST(RenderCli, TheCpuBackendRendersTheVolumeAndRefusesWhatItDoesNotDraw) {
+  const auto dir = scratch_dir("render-cli-cpu");
+  const std::string out = (dir / "cpu.png").string();
+  Result cpu = run("render " + sample_mesh().string() + " -o " + out + " --size 96x64 --attribute Temp --backend cpu --reference --json");
+  ASSERT_EQ(cpu.status, 0) << cpu.out;
+  auto j = last_json_line(cpu.out);
+  EXPECT_EQ(j["backend"], "cpu");
+  EXPECT_NE(j["renderer"].get<std::string>().find("ray caster"), std::string::npos) << j["renderer"];
+  EXPECT_GT(j["reference_psnr_db"].get<double>(), 50);
+  EXPECT_GT(j["tets_drawn"].get<uint64_t>(), 0u);
+  Result surface = run("render " + sample_mesh().string() + " -o " + out + " --size 32x32 --mode surface --backend cpu");
+  EXPECT_EQ(surface.status, 2) << surface.out;
+  EXPECT_NE(surface.out.find("surfaces"), std::string::npos) << surface.out;
+  Result bogus = run("render " + sample_mesh().string() + " -o " + out + " --size 32x32 --backend vulkan");
+  EXPECT_EQ(bogus.status, 2) << bogus.out;
+  EXPECT_NE(bogus.out.find("gl, cpu or auto"), std::string::npos) << bogus.out;
+  Result automatic = run("render " + sample_mesh().string() + " -o " + out + " --size 32x32 --backend auto --json");
+  ASSERT_EQ(automatic.status, 0) << automatic.out;
+  const auto a = last_json_line(automatic.out);
+  // llvmpipe here takes the caster; a hardware GL device keeps the GL renderer
+  EXPECT_EQ(a["backend"], a["renderer"].get<std::string>().find("ray caster") != std::string::npos ? "cpu" : "gl");
+  Result surface_auto = run("render " + sample_mesh().string() + " -o " + out + " --size 32x32 --mode surface --backend auto --json");
+  ASSERT_EQ(surface_auto.status, 0) << surface_auto.out;
+  EXPECT_EQ(last_json_line(surface_auto.out)["backend"], "gl");
+}
+
 TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
   const auto dir = scratch_dir("render-cli");
   const std::string out = (dir / "frame.png").string();
