@@ -25,7 +25,7 @@ constexpr uint32_t kDefaultRenderWorkers = 2;
 int run_serve(const Arguments& raw) {
   Args args(raw, {"--read-only"}, {"--data", "--port", "--bind", "--token", "--threads", "--workers", "--cache-mb", "--max-sessions", "--max-message-bytes",
                       "--max-messages-per-second", "--max-image-side", "--max-upload-mb", "--max-jobs", "--max-queued-jobs", "--job-memory-mb", "--job-cpu-seconds", "--max-connections", "--max-connections-per-ip", "--hello-timeout", "--worker-idle-release", "--min-upload-rate", "--max-fps", "--budget", "--interaction-budget",
-                      "--interaction-scale", "--frame-ms", "--refine-growth", "--web", "--memory-mb"});
+                      "--interaction-scale", "--frame-ms", "--refine-growth", "--web", "--memory-mb", "--backend"});
   if (!args.has("--data") || !args.positionals().empty()) {
     std::fprintf(stderr, "usage: tetrascope serve --data DIR [--port 8080] [--bind ADDR] [--token T] [--threads N] ... (tetrascope --help)\n");
     return 2;
@@ -68,6 +68,8 @@ int run_serve(const Arguments& raw) {
   if (o.refine_growth < 1.5 || o.refine_growth > 16) throw std::invalid_argument("--refine-growth must be 1.5 to 16 (how much longer each refinement step may take than the one before)");
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   o.read_only = args.has("--read-only");
+  o.backend = args.get("--backend", o.backend);
+  if (o.backend != "gl" && o.backend != "cpu" && o.backend != "auto") throw std::invalid_argument("--backend: gl, cpu or auto");
   // inside a memory limit (the process's cgroup, or --memory-mb, the smaller): a still budget
   // and a segment cache that fit it, or a clear refusal when nothing would (memory_fit.h)
   std::optional<server::MemoryLimit> limit = server::process_memory_limit();

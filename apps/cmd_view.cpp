@@ -394,8 +394,6 @@ int run_render(const Arguments& all) {
     renderer = r::Renderer::create().release();
     cpu = backend == "auto" && cpu_lacks.empty() && r::software_renderer(renderer->description());
   }
-  std::unique_ptr<r::RayCaster> caster;
-  if (cpu) caster = std::make_unique<r::RayCaster>(pipeline->scene());
   uint64_t held_scene = 0;
   const std::string extension = std::filesystem::path(o.output).extension().string();
   const bool jpeg = extension == ".jpg" || extension == ".jpeg";  // timing only: write_image picks the codec
@@ -405,8 +403,7 @@ int run_render(const Arguments& all) {
   for (uint32_t f = 0; f < std::max(1u, o.orbit); ++f) {
     if (o.orbit) frame.camera = orbit_camera(f, o.orbit, pipeline->bounds(), settings.camera.aspect);
     r::ViewTimings t;
-    if (caster) image = caster->render(frame, &t.draw);
-    else image = pipeline->draw(frame, *renderer, held_scene, &t);
+    image = cpu ? pipeline->cast(frame, &t) : pipeline->draw(frame, *renderer, held_scene, &t);
     const auto encode_start = Clock::now();
     const auto bytes = jpeg ? r::encode_jpeg(image, o.quality) : r::encode_png(image);
     t.draw.encode_ms = ms_since(encode_start);
@@ -418,9 +415,9 @@ int run_render(const Arguments& all) {
   }
   r::write_image(o.output, image, o.quality);
   const double reference_db = o.reference ? write_reference(o, pipeline->scene(), frame, image) : -1;
-  const std::string description = caster ? "tetrascope CPU ray caster (" + std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " threads)" : renderer->description();
+  const std::string description = cpu ? "tetrascope CPU ray caster (" + std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " threads)" : renderer->description();
   nlohmann::json j = render_report(o, settings, pipeline->scene(), description, frames, reference_db);
-  j["backend"] = caster ? "cpu" : "gl";
+  j["backend"] = cpu ? "cpu" : "gl";
   if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
   if (const auto budget = pipeline->cut_budget()) {
     j["cut"] = {{"budget", budget->budget}, {"tets", budget->tets}, {"budget_used", budget->budget ? double(budget->tets) / double(budget->budget) : 0.0},

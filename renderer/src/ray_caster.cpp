@@ -300,9 +300,15 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   std::atomic<uint32_t> next{0};
   std::atomic<uint64_t> visited{0};
   const bool volume = settings.dvr;
-  auto work = [&] {
+  // should_stop is asked by the calling thread between its tiles; the others stop with it
+  std::atomic<bool> stopped{false};
+  auto work = [&](bool asks) {
     uint64_t steps = 0;
-    for (uint32_t tile; (tile = next.fetch_add(1)) < tiles;) {
+    for (uint32_t tile; !stopped.load(std::memory_order_relaxed) && (tile = next.fetch_add(1)) < tiles;) {
+      if (asks && settings.should_stop && settings.should_stop()) {
+        stopped = true;
+        break;
+      }
       const uint32_t x0 = tile % tiles_x * kTile, y0 = tile / tiles_x * kTile;
       for (uint32_t y = y0; y < std::min(H, y0 + kTile); ++y)
         for (uint32_t x = x0; x < std::min(W, x0 + kTile); ++x) {
@@ -413,10 +419,11 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   threads = std::min(threads, std::max(1u, tiles));
   std::vector<std::thread> pool;
-  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(work);
-  work();
+  for (unsigned i = 1; i < threads; ++i) pool.emplace_back(work, false);
+  work(true);
   for (auto& t : pool) t.join();
   if (timings) {
+    timings->interrupted = stopped.load();
     timings->draw_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     timings->total_ms = timings->draw_ms;
     timings->tets_drawn = visited.load();  // tet visits by rays

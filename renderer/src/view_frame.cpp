@@ -9,6 +9,7 @@
 #include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/renderer/clip.h"
+#include "tetrascope/renderer/ray_caster.h"
 
 namespace tetrascope::renderer {
 namespace {
@@ -234,6 +235,23 @@ Image ViewPipeline::draw(const RenderSettings& settings, Renderer& renderer, uin
   t.upload_ms = ms_since(start);
   start = Clock::now();
   Image image = renderer.render(settings, &t.draw);
+  t.draw_ms = ms_since(start);
+  return image;
+}
+
+Image ViewPipeline::cast(const RenderSettings& settings, ViewTimings* timings) {
+  ViewTimings local;
+  ViewTimings& t = timings ? *timings : local;
+  if (const std::string what = RayCaster::unsupported(settings); !what.empty()) throw std::invalid_argument("the CPU ray caster does not draw " + what);
+  auto start = Clock::now();
+  if (!caster_ || caster_generation_ != drawn_generation_) {
+    caster_.reset();
+    caster_ = std::make_unique<RayCaster>(scene());
+    caster_generation_ = drawn_generation_;
+  }
+  t.upload_ms = ms_since(start);
+  start = Clock::now();
+  Image image = caster_->render(settings, &t.draw);
   t.draw_ms = ms_since(start);
   return image;
 }

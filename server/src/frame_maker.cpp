@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "tetrascope/renderer/ray_caster.h"
+
 namespace tetrascope::server {
 namespace {
 
@@ -143,7 +145,8 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     frame.interrupted = true;
     return frame;
   }
-  const renderer::Image image = pipeline_->draw(settings, *worker.renderer, worker.scene_generation, &frame.timings);
+  const bool cast = worker.cpu && renderer::RayCaster::unsupported(settings).empty();
+  const renderer::Image image = cast ? pipeline_->cast(settings, &frame.timings) : pipeline_->draw(settings, *worker.renderer, worker.scene_generation, &frame.timings);
   if (frame.timings.draw.interrupted) {
     frame.interrupted = true;
     return frame;

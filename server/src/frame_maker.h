@@ -33,6 +33,7 @@ struct ViewState {
 struct Worker {
   std::unique_ptr<renderer::Renderer> renderer;
   uint64_t scene_generation = 0;
+  bool cpu = false;  // volumes by the CPU ray caster (RenderPool's backend), the rest by renderer
 };
 
 // Warms a render worker's new renderer up: one tet drawn into an 8x8 view, so that Mesa

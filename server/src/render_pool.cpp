@@ -1,11 +1,16 @@
 #include "render_pool.h"
 
-#include <cstdio>
 #include <malloc.h>
+
+#include <cstdio>
+#include <stdexcept>
+
+#include "tetrascope/renderer/ray_caster.h"
 
 namespace tetrascope::server {
 
-RenderPool::RenderPool(unsigned workers, std::chrono::milliseconds idle_release) : idle_release_(idle_release) {
+RenderPool::RenderPool(unsigned workers, std::chrono::milliseconds idle_release, const std::string& backend) : idle_release_(idle_release), backend_(backend) {
+  if (backend != "gl" && backend != "cpu" && backend != "auto") throw std::invalid_argument("backend: gl, cpu or auto");
   for (unsigned i = 0; i < std::max(1u, workers); ++i) threads_.emplace_back([this, i] { run(i); });
   std::unique_lock lock(mutex_);
   ready_.wait(lock, [&] { return started_ == threads_.size(); });
@@ -63,7 +68,11 @@ void RenderPool::run(size_t index) {
   }
   {
     std::lock_guard lock(mutex_);
-    if (worker.renderer && description_.empty()) description_ = worker.renderer->description();
+    if (worker.renderer && description_.empty()) {
+      description_ = worker.renderer->description();
+      cpu_ = backend_ == "cpu" || (backend_ == "auto" && renderer::software_renderer(description_));
+    }
+    worker.cpu = cpu_;
     ++started_;
   }
   ready_.notify_all();

@@ -25,7 +25,9 @@ class RenderPool {
   // Starts `workers` threads and waits until each has its context; throws
   // renderer::RenderError when one cannot be made. A worker that has drawn and then gets no
   // task for `idle_release` releases its renderer's memory (Renderer::release_memory).
-  explicit RenderPool(unsigned workers, std::chrono::milliseconds idle_release = std::chrono::seconds(5));
+  // `backend`: "gl", "cpu" (the CPU ray caster draws what it can, the GL renderer the rest)
+  // or "auto" (cpu where the GL renderer is software).
+  explicit RenderPool(unsigned workers, std::chrono::milliseconds idle_release = std::chrono::seconds(5), const std::string& backend = "gl");
   ~RenderPool();
   // Stops the workers after their current task and joins them; tasks submitted from then on
   // (a worker's task pacing the session's next frame, say) are dropped. The pool must stay
@@ -33,6 +35,7 @@ class RenderPool {
   void shutdown();
   void submit(Task task, Priority priority = Priority::kInteraction);
   const std::string& description() const { return description_; }
+  bool cpu() const { return cpu_; }  // the workers draw volumes with the CPU ray caster
   size_t queued() const;
   // Workers that released their memory after going idle, in all (tests, /metrics).
   uint64_t idle_releases() const { return idle_releases_.load(std::memory_order_relaxed); }
@@ -55,6 +58,8 @@ class RenderPool {
   bool stopping_ = false;
   size_t started_ = 0;
   std::string error_, description_;
+  std::string backend_;
+  bool cpu_ = false;
 };
 
 }  // namespace tetrascope::server

@@ -21,7 +21,7 @@ Response get_health(const RestRequest& r) {
   const Server::Impl& s = r.server;
   const double uptime = std::chrono::duration<double>(std::chrono::steady_clock::now() - s.started).count();
   return json_response(r.request, http::status::ok,
-                       {{"status", "ok"}, {"version", "0.1.0"}, {"protocol", protocol::kVersion}, {"renderer", s.pool->description()},
+                       {{"status", "ok"}, {"version", "0.1.0"}, {"protocol", protocol::kVersion}, {"renderer", s.pool->description()}, {"backend", s.pool->cpu() ? "cpu" : "gl"},
                         {"uptime_s", uptime}, {"sessions", s.metrics.sessions_active.load()}, {"render_workers", s.options.render_workers},
                         {"read_only", s.options.read_only}, {"rss_bytes", memory_bytes("VmRSS:")}, {"peak_rss_bytes", memory_bytes("VmHWM:")}});
 }

@@ -37,7 +37,7 @@ Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>()) {
     sweep_stale_uploads(s.options.data_dir);   // no upload runs yet: every .part is a leftover
     sweep_data_leftovers(s.options.data_dir);  // DATA/*.tmp and .trash-*: stores half written, deletes cut off
   }
-  s.pool = std::make_unique<RenderPool>(s.options.render_workers, s.options.worker_idle_release);
+  s.pool = std::make_unique<RenderPool>(s.options.render_workers, s.options.worker_idle_release, s.options.backend);
   s.acceptor = std::make_unique<net::ip::tcp::acceptor>(s.io);
   s.accept_pause = std::make_unique<net::steady_timer>(s.io);
   const net::ip::tcp::endpoint endpoint(address, s.options.port);

@@ -52,11 +52,12 @@ struct View {
   std::optional<nlohmann::json> camera;  // camera.set's fields; none: the default view
   uint64_t budget = 0;
   uint32_t width = 0, height = 0;
+  std::string backend = "gl";    // render --backend, ServerOptions::backend
 };
 
 renderer::Image render_with_cli(const fs::path& store, const View& v, const fs::path& dir) {
   std::string arguments = "render " + store.string() + " -o " + (dir / "cli.png").string() + " --mode " + v.mode + " --budget " + std::to_string(v.budget) +
-                          " --size " + std::to_string(v.width) + "x" + std::to_string(v.height);
+                          " --size " + std::to_string(v.width) + "x" + std::to_string(v.height) + " --backend " + v.backend;
   if (!v.isovalues.empty()) {
     std::string list;
     for (double value : v.isovalues) {
@@ -131,7 +132,11 @@ class SameImage : public ::testing::Test {
     o.port = 0;
     o.render_workers = 1;
     o.cache_bytes = 256ull << 20;
+    o.backend = view.backend;
     Server server(o);
+    // the health says who draws volumes
+    const HttpResult health = http_request("http://127.0.0.1:" + std::to_string(server.port()) + "/api/v1/health", "GET");
+    EXPECT_EQ(nlohmann::json::parse(health.body)["backend"], view.backend) << health.body;
     const renderer::Image session = render_with_session("ws://127.0.0.1:" + std::to_string(server.port()) + "/api/v1/session", view);
     const renderer::Image cli = render_with_cli(*data_ / "disk", view, scratch_dir(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     ASSERT_EQ(cli.width, view.width);
@@ -161,6 +166,13 @@ TEST_F(SameImage, ServerSessionAndCliRenderAGivenCameraAndTransferFunctionAlike)
   const nlohmann::json tf = {{"attribute", "Temp"}, {"colormap", "plasma"}, {"range", {300, 900}}, {"opacity", {{300, 0}, {900, 0.8}}}};
   const nlohmann::json camera = {{"eye", {20.0, -25.0, 15.0}}, {"target", {0.0, 0.0, 5.0}}, {"up", {0.0, 0.0, 1.0}}, {"fov", 35}};
   expect_same_image({.mode = "dvr+iso", .isovalues = {450, 700}, .tf = tf, .camera = camera, .budget = 100000, .width = 160, .height = 160});
+}
+
+// The CPU ray caster draws the session's frames as it draws render --backend cpu's.
+TEST_F(SameImage, ServerSessionAndCliRenderAlikeWithTheCpuRayCaster) {
+  const nlohmann::json tf = {{"attribute", "Temp"}, {"colormap", "viridis"}, {"range", {300, 900}}, {"opacity", {{300, 0.05}, {900, 0.7}}}};
+  const nlohmann::json camera = {{"eye", {18.0, -22.0, 12.0}}, {"target", {0.0, 0.0, 5.0}}, {"up", {0.0, 0.0, 1.0}}, {"fov", 40}};
+  expect_same_image({.mode = "dvr+iso", .isovalues = {500}, .tf = tf, .camera = camera, .budget = 100000, .width = 160, .height = 120, .backend = "cpu"});
 }
 
 }  // namespace

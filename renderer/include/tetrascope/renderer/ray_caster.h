@@ -33,8 +33,9 @@ class RayCaster {
   // the projected-tetrahedra volume stay with the GL renderer.
   static std::string unsupported(const RenderSettings& settings);
   // One frame over `threads` threads (0: every core). Throws std::invalid_argument for what
-  // unsupported names and for bad image sides. FrameTimings: draw_ms, and tets_drawn counts
-  // the tets the rays visited.
+  // unsupported names and for bad image sides. FrameTimings: draw_ms, tets_drawn counts the
+  // tets the rays visited, and interrupted says settings.should_stop stopped the frame
+  // (asked between tiles; the image is partial).
   Image render(const RenderSettings& settings, FrameTimings* timings = nullptr, unsigned threads = 0) const;
 
   size_t memory_bytes() const { return cells_.size() * sizeof(Cell) + opposite_.size() * sizeof(uint32_t); }

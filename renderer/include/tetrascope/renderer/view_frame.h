@@ -28,6 +28,8 @@
 
 namespace tetrascope::renderer {
 
+class RayCaster;
+
 // The request a view draws (view/view_request.h).
 using view::LineRequest;
 using view::ViewRequest;
@@ -72,6 +74,10 @@ class ViewPipeline {
   // first unless `renderer` holds it already: `held_generation` says which scene it holds
   // (0: none) and is updated.
   Image draw(const RenderSettings& settings, Renderer& renderer, uint64_t& held_generation, ViewTimings* timings = nullptr);
+  // Draws `settings` with the CPU ray caster (ray_caster.h) of scene(), made anew when the
+  // scene changed (its cost in upload_ms). Throws std::invalid_argument for what the caster
+  // does not draw (RayCaster::unsupported).
+  Image cast(const RenderSettings& settings, ViewTimings* timings = nullptr);
   // update, then draw.
   ViewFrame render(const ViewRequest& request, Renderer& renderer, uint64_t& held_generation);
 
@@ -135,6 +141,8 @@ class ViewPipeline {
   bool scene_stale_ = false;              // a reassembly was stopped: scene_ is not the cut's
   uint64_t clipped_from_ = 0;             // the scene generation clipped_ was cut from
   uint64_t drawn_generation_ = 0;         // of scene(): clipped_'s own or scene_generation_
+  std::unique_ptr<RayCaster> caster_;     // of the scene of caster_generation_
+  uint64_t caster_generation_ = 0;
 };
 
 }  // namespace tetrascope::renderer

@@ -54,6 +54,9 @@ struct ServerOptions {
   // tets (and, where even the coarsest cut is over, their pixels) come from a cost model
   // fitted to the frames just drawn (tetrascope/server/frame_cost.h). Default: bench/server_bench.sh.
   double frame_ms = 60;
+  // Who draws volumes: "gl" (the GL renderer), "cpu" (the CPU ray caster, renderer/ray_caster.h;
+  // the GL renderer draws what it does not) or "auto" (cpu where the GL renderer is software).
+  std::string backend = "gl";
   // Refinement after input stops: step k aims at frame_ms * refine_growth^(k+1) ms (at least
   // twice the tets of the step before), up to still_budget (or the error bound); each step a
   // frame flagged refining, the last flagged still. Input stops a step between chunks.
