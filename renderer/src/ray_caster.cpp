@@ -1,8 +1,10 @@
 // The CPU ray caster: one ray a pixel, in tiles over the cores. A ray enters the mesh through
 // a boundary face (found in a bounding volume hierarchy of the boundary) or starts in the
 // tet that holds the eye, then walks from tet to tet through the face it leaves by, with
-// exact segment lengths and the pre-integrated transfer function of the GL path, until it
-// is opaque or leaves the mesh (and finds where it enters again, for meshes with holes).
+// exact segment lengths, integrating the transfer function along each segment in steps that
+// follow its change of value (as the exact integrator does; one step where the value is nearly
+// constant, however long the segment, where a pre-integrated table's interpolation between
+// values veils thin opacity over long paths), until it is opaque or leaves the mesh (and finds where it enters again, for meshes with holes).
 // Isosurfaces and slices are composed in the walk as the reference integrator does.
 #include "tetrascope/renderer/ray_caster.h"
 
@@ -25,6 +27,8 @@ namespace {
 constexpr uint32_t kNone = 0xFFFFFFFFu;
 constexpr uint32_t kTile = 16;
 constexpr double kOpaque = 0.995;  // a ray stops here (the reference: 0.9999)
+constexpr uint32_t kClassified = 4096;       // intervals of the classified transfer function
+constexpr double kStepsPerRange = 1024;      // integration steps a segment spanning the colour range takes
 
 struct Box {
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -255,13 +259,20 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   const double unit = settings.unit_distance > 0 ? settings.unit_distance : mesh_.diagonal / 100;
   const std::string key = settings.tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(unit);
   {
+    // the transfer function's colour on a fine grid of the colour range, kClassified
+    // intervals (its opacity is evaluated exactly at every step)
     std::lock_guard lock(table_mutex_);
     if (key != table_key_) {
-      table_ = preintegrate(settings.tf, lo, hi, unit, std::exp2(std::ceil(std::log2(std::max(mesh_.max_edge, 1e-30)))));
+      table_.resize(kClassified + 1);
+      for (uint32_t k = 0; k <= kClassified; ++k) {
+        const double value = lo + (hi - lo) * k / kClassified;
+        const auto color = settings.tf.colors.empty() ? colormap(settings.tf.colormap, double(k) / kClassified) : settings.tf.user_color(value);
+        table_[k] = {0, color[0], color[1], color[2]};
+      }
       table_key_ = key;
     }
   }
-  const PreintegrationTable& table = table_;
+  const std::vector<std::array<double, 4>>& classified = table_;
   std::vector<double> isos;
   if (settings.iso)
     for (double v : settings.isovalues) isos.push_back((v - lo) * scale);
@@ -278,21 +289,32 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   // an eye inside the mesh: every ray of a perspective view starts in its tet
   const uint32_t eye_tet = frame.ortho ? kNone : locate(frame.eye);
 
-  const double log_range = std::log1p(table.max_length / table.length_scale);
-  const uint32_t n = table.n, L = table.lengths;
-  auto lookup = [&](double sf, double sb, double length, double out[4]) {
-    const double u = std::clamp(sf, 0.0, 1.0) * (n - 1), v = std::clamp(sb, 0.0, 1.0) * (n - 1);
-    const double w = std::clamp(std::log1p(std::max(length, 0.0) / table.length_scale) / log_range, 0.0, 1.0) * (L - 1);
-    const uint32_t i0 = std::min(static_cast<uint32_t>(u), n - 2), j0 = std::min(static_cast<uint32_t>(v), n - 2), m0 = std::min(static_cast<uint32_t>(w), L - 2);
-    const double fu = u - i0, fv = v - j0, fw = w - m0;
-    for (int k = 0; k < 4; ++k) out[k] = 0;
-    for (int dm = 0; dm < 2; ++dm)
-      for (int dj = 0; dj < 2; ++dj)
-        for (int di = 0; di < 2; ++di) {
-          const double weight = (dm ? fw : 1 - fw) * (dj ? fv : 1 - fv) * (di ? fu : 1 - fu);
-          const float* c = &table.rgba[((size_t{m0 + dm} * n + j0 + dj) * n + i0 + di) * 4];
-          for (int k = 0; k < 4; ++k) out[k] += weight * c[k];
-        }
+  // The colour and opacity of a segment from value sf to sb (normalised) of `length`: the
+  // transfer function integrated in steps of at most 1/kStepsPerRange of the range (one step
+  // for a segment of nearly constant value, exact whatever its length), front to back.
+  auto integrate = [&](double sf, double sb, double length, double out[4]) {
+    const int steps = std::clamp(static_cast<int>(std::ceil(std::fabs(sb - sf) * kStepsPerRange)), 1, static_cast<int>(kStepsPerRange));
+    const double dt = length / steps;
+    double r = 0, g = 0, b = 0, a = 0;
+    for (int k = 0; k < steps && a < kOpaque; ++k) {
+      const double u = std::clamp(sf + (sb - sf) * (k + 0.5) / steps, 0.0, 1.0) * kClassified;
+      const uint32_t i = std::min(static_cast<uint32_t>(u), kClassified - 1);
+      const double f = u - i;
+      const auto& c0 = classified[i];
+      const auto& c1 = classified[i + 1];
+      // the opacity from the transfer function itself: over a long path a thin opacity near a
+      // kink (a minimum at 0) decides the picture, and no interpolation of a table keeps it
+      const double alpha = std::clamp(settings.tf.alpha(lo + u / kClassified * (hi - lo)), 0.0, 0.999999);
+      const double w = (1 - a) * -std::expm1(std::log1p(-alpha) * dt / unit);
+      r += w * (c0[1] + f * (c1[1] - c0[1]));
+      g += w * (c0[2] + f * (c1[2] - c0[2]));
+      b += w * (c0[3] + f * (c1[3] - c0[3]));
+      a += w;
+    }
+    out[0] = r;
+    out[1] = g;
+    out[2] = b;
+    out[3] = a;
   };
 
   Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4), std::vector<float>(size_t{W} * H * 3)};
@@ -377,7 +399,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
                 if ((s0 < iv) == (s_out < iv)) continue;
                 const double li = length * (iv - s_in) / (s_out - s_in);
                 if (volume) {
-                  lookup(s0, iv, li - l0, c);
+                  integrate(s0, iv, li - l0, c);
                   over(c);
                 }
                 const double surface[4] = {iso_rgb[at][0] * light * iso_opacity, iso_rgb[at][1] * light * iso_opacity, iso_rgb[at][2] * light * iso_opacity, iso_opacity};
@@ -387,7 +409,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
               }
             }
             if (volume) {
-              lookup(s0, s_out, length - l0, c);
+              integrate(s0, s_out, length - l0, c);
               over(c);
             }
             if (t_end >= stop) break;

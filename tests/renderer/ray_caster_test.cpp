@@ -72,7 +72,9 @@ TEST(RayCaster, MatchesTheExactIntegratorFromOutsideAndInside) {
 }
 
 // A faint transfer function through a long path: opacity 0.002 a unit distance over the
-// whole box (the GL path keeps its table in 16-bit floats).
+// whole box; and a field of values within 0.01 of a transfer function's kink (opacity 0.5
+// at both ends of the range, 0 at 0) seen through a path 200 unit distances long, where an
+// interpolated table between values turns the nearly clear volume into a veil.
 TEST(RayCaster, ThinOpacityOverALongPathMatchesTheExactIntegrator) {
   const storage::TetMesh box = wavy_box(10);
   const auto scene = renderer::SceneMesh::from(box, "f");
@@ -80,6 +82,13 @@ TEST(RayCaster, ThinOpacityOverALongPathMatchesTheExactIntegrator) {
   s.tf.opacity = {{scene.value_min, 0.002}, {scene.value_max, 0.004}};
   s.unit_distance = 0.01;
   EXPECT_GE(caster_db(scene, s, "thin opacity"), 55.0);
+  const storage::TetMesh near_kink = kuhn_box(10, 0.25, [](double x, double y, double) { return 0.01 * std::sin(5 * x) * std::cos(3 * y); });
+  const auto kink_scene = renderer::SceneMesh::from(near_kink, "f");
+  auto k = settings_for(kink_scene, 96);
+  k.tf.range = {{-1, 1}};
+  k.tf.opacity = {{-1, 0.5}, {0, 0}, {1, 0.5}};
+  k.unit_distance = 0.005;
+  EXPECT_GE(caster_db(kink_scene, k, "values near the transfer function's kink"), 55.0);
 }
 
 TEST(RayCaster, IsosurfacesAndSlicesMatchTheExactIntegrator) {

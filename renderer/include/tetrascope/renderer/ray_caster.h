@@ -1,6 +1,6 @@
 // The CPU ray caster: volume rendering of a tet mesh without a sort, for hosts whose only
 // EGL device is software. A ray walks the tets through their shared faces front to back,
-// composing the GL path's pre-integrated transfer function over exact segment lengths, and
+// integrating the transfer function over exact segments in steps that follow the value, and
 // stops when opaque; isosurfaces and slices are composed in the walk.
 #pragma once
 
@@ -55,7 +55,7 @@ class RayCaster {
   std::vector<Cell> cells_;
   std::unique_ptr<Bvh> bvh_;
   mutable std::mutex table_mutex_;
-  mutable PreintegrationTable table_;
+  mutable std::vector<std::array<double, 4>> table_;  // extinction and colour over the colour range
   mutable std::string table_key_;
 };
 
