@@ -1,10 +1,10 @@
 // The CPU ray caster: one ray a pixel, in tiles over the cores. A ray enters the mesh through
 // a boundary face (found in a bounding volume hierarchy of the boundary) or starts in the
 // tet that holds the eye, then walks from tet to tet through the face it leaves by, with
-// exact segment lengths, integrating the transfer function along each segment in steps that
-// follow its change of value (as the exact integrator does; one step where the value is nearly
-// constant, however long the segment, where a pre-integrated table's interpolation between
-// values veils thin opacity over long paths), until it is opaque or leaves the mesh (and finds where it enters again, for meshes with holes).
+// exact segment lengths, composing the GL path's pre-integrated table where a segment's value
+// spans one of its bins and integrating the transfer function's finely tabulated extinction
+// where the value is nearly constant (there, however long the segment, the table's
+// interpolation between bins would veil thin opacity), until it is opaque or leaves the mesh (and finds where it enters again, for meshes with holes).
 // Isosurfaces and slices are composed in the walk as the reference integrator does.
 #include "tetrascope/renderer/ray_caster.h"
 
@@ -27,8 +27,10 @@ namespace {
 constexpr uint32_t kNone = 0xFFFFFFFFu;
 constexpr uint32_t kTile = 16;
 constexpr double kOpaque = 0.995;  // a ray stops here (the reference: 0.9999)
-constexpr uint32_t kClassified = 4096;       // intervals of the classified transfer function
-constexpr double kStepsPerRange = 1024;      // integration steps a segment spanning the colour range takes
+constexpr uint32_t kClassified = 65536;  // intervals of the transfer function's extinction (its opacity: kinks matter)
+constexpr uint32_t kColors = 4096;       // intervals of its colour
+constexpr double kStepsPerRange = 1024;  // fine steps a segment spanning the colour range would take
+constexpr int kMaxFineSteps = 8;         // = kStepsPerRange / the pre-integrated table's 128 bins
 
 struct Box {
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -176,6 +178,7 @@ std::string RayCaster::unsupported(const RenderSettings& s) {
   if (s.points) return "point-based isosurfaces";
   if (s.lines) return "stream lines";
   if (s.use_iso_color_attribute) return "isosurfaces coloured by another attribute";
+  if (!s.dvr) return "isosurfaces or slices without the volume";
   if (s.volume == view::VolumeMethod::projected) return "--volume projected";
   return "";
 }
@@ -259,20 +262,28 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   const double unit = settings.unit_distance > 0 ? settings.unit_distance : mesh_.diagonal / 100;
   const std::string key = settings.tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(unit);
   {
-    // the transfer function's colour on a fine grid of the colour range, kClassified
-    // intervals (its opacity is evaluated exactly at every step)
+    // the pre-integrated table of the GL path, and the transfer function classified on a
+    // fine grid of the colour range: extinction per unit length (from its own opacity at
+    // every grid value) and colour
     std::lock_guard lock(table_mutex_);
     if (key != table_key_) {
-      table_.resize(kClassified + 1);
+      table_ = preintegrate(settings.tf, lo, hi, unit, std::exp2(std::ceil(std::log2(std::max(mesh_.max_edge, 1e-30)))));
+      extinction_.resize(kClassified + 1);
       for (uint32_t k = 0; k <= kClassified; ++k) {
-        const double value = lo + (hi - lo) * k / kClassified;
-        const auto color = settings.tf.colors.empty() ? colormap(settings.tf.colormap, double(k) / kClassified) : settings.tf.user_color(value);
-        table_[k] = {0, color[0], color[1], color[2]};
+        const double alpha = std::clamp(settings.tf.alpha(lo + (hi - lo) * k / kClassified), 0.0, 0.999999);
+        extinction_[k] = static_cast<float>(-std::log1p(-alpha) / unit);
+      }
+      colors_.resize(kColors + 1);
+      for (uint32_t k = 0; k <= kColors; ++k) {
+        const auto color = settings.tf.colors.empty() ? colormap(settings.tf.colormap, double(k) / kColors) : settings.tf.user_color(lo + (hi - lo) * k / kColors);
+        colors_[k] = {color[0], color[1], color[2]};
       }
       table_key_ = key;
     }
   }
-  const std::vector<std::array<double, 4>>& classified = table_;
+  const PreintegrationTable& table = table_;
+  const std::vector<float>& extinction = extinction_;
+  const std::vector<std::array<float, 3>>& colors = colors_;
   std::vector<double> isos;
   if (settings.iso)
     for (double v : settings.isovalues) isos.push_back((v - lo) * scale);
@@ -289,39 +300,61 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   // an eye inside the mesh: every ray of a perspective view starts in its tet
   const uint32_t eye_tet = frame.ortho ? kNone : locate(frame.eye);
 
-  // The colour and opacity of a segment from value sf to sb (normalised) of `length`: the
-  // transfer function integrated in steps of at most 1/kStepsPerRange of the range (one step
-  // for a segment of nearly constant value, exact whatever its length), front to back.
+  // The colour and opacity of a segment from value sf to sb (normalised) of `length`. A
+  // segment whose value spans a bin of the pre-integrated table or more reads the table (as
+  // the GL path does); a nearly constant one (most of them, in fine meshes and over long
+  // paths) is integrated in up to kMaxFineSteps steps over the fine classification, where a
+  // table interpolated between its bins would veil thin opacity near a kink.
+  const double table_bins = table.n - 1;
+  const double log_range = std::log1p(table.max_length / table.length_scale);
   auto integrate = [&](double sf, double sb, double length, double out[4]) {
-    const int steps = std::clamp(static_cast<int>(std::ceil(std::fabs(sb - sf) * kStepsPerRange)), 1, static_cast<int>(kStepsPerRange));
+    const double span = std::fabs(sb - sf);
+    if (span * table_bins >= 1) {
+      const uint32_t n = table.n, L = table.lengths;
+      const double u = std::clamp(sf, 0.0, 1.0) * (n - 1), v = std::clamp(sb, 0.0, 1.0) * (n - 1);
+      const double w = std::clamp(std::log1p(static_cast<float>(std::max(length, 0.0) / table.length_scale)) / log_range, 0.0, 1.0) * (L - 1);
+      const uint32_t i0 = std::min(static_cast<uint32_t>(u), n - 2), j0 = std::min(static_cast<uint32_t>(v), n - 2), m0 = std::min(static_cast<uint32_t>(w), L - 2);
+      const double fu = u - i0, fv = v - j0, fw = w - m0;
+      for (int k = 0; k < 4; ++k) out[k] = 0;
+      for (int dm = 0; dm < 2; ++dm)
+        for (int dj = 0; dj < 2; ++dj) {
+          const float* c = &table.rgba[((size_t{m0 + dm} * n + j0 + dj) * n + i0) * 4];
+          const double weight = (dm ? fw : 1 - fw) * (dj ? fv : 1 - fv);
+          for (int k = 0; k < 4; ++k) out[k] += weight * ((1 - fu) * c[k] + fu * c[4 + k]);
+        }
+      return;
+    }
+    const int steps = std::clamp(static_cast<int>(std::ceil(span * kStepsPerRange)), 1, kMaxFineSteps);
     const double dt = length / steps;
-    double r = 0, g = 0, b = 0, a = 0;
-    for (int k = 0; k < steps && a < kOpaque; ++k) {
-      const double u = std::clamp(sf + (sb - sf) * (k + 0.5) / steps, 0.0, 1.0) * kClassified;
-      const uint32_t i = std::min(static_cast<uint32_t>(u), kClassified - 1);
-      const double f = u - i;
-      const auto& c0 = classified[i];
-      const auto& c1 = classified[i + 1];
-      // the opacity from the transfer function itself: over a long path a thin opacity near a
-      // kink (a minimum at 0) decides the picture, and no interpolation of a table keeps it
-      const double alpha = std::clamp(settings.tf.alpha(lo + u / kClassified * (hi - lo)), 0.0, 0.999999);
-      const double w = (1 - a) * -std::expm1(std::log1p(-alpha) * dt / unit);
-      r += w * (c0[1] + f * (c1[1] - c0[1]));
-      g += w * (c0[2] + f * (c1[2] - c0[2]));
-      b += w * (c0[3] + f * (c1[3] - c0[3]));
-      a += w;
+    double r = 0, g = 0, b = 0, keep = 1;  // keep: the transmittance so far
+    for (int k = 0; k < steps; ++k) {
+      const double s = std::clamp(sf + (sb - sf) * (k + 0.5) / steps, 0.0, 1.0);
+      const double x = s * kClassified;
+      const uint32_t i = std::min(static_cast<uint32_t>(x), kClassified - 1);
+      const double depth = (extinction[i] + (x - i) * (extinction[i + 1] - extinction[i])) * dt;
+      // 1 - exp(-depth): a series where it is small (most steps), else the library's
+      const double alpha = depth < 0.03 ? depth * (1 - depth * (0.5 - depth * (1.0 / 6 - depth * (1.0 / 24)))) : -std::expm1(-depth);
+      const double weight = keep * alpha;
+      const double y = s * kColors;
+      const uint32_t j = std::min(static_cast<uint32_t>(y), kColors - 1);
+      const float f = static_cast<float>(y - j);
+      const auto& c0 = colors[j];
+      const auto& c1 = colors[j + 1];
+      r += weight * (c0[0] + f * (c1[0] - c0[0]));
+      g += weight * (c0[1] + f * (c1[1] - c0[1]));
+      b += weight * (c0[2] + f * (c1[2] - c0[2]));
+      keep *= 1 - alpha;
     }
     out[0] = r;
     out[1] = g;
     out[2] = b;
-    out[3] = a;
+    out[3] = 1 - keep;
   };
 
   Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4), std::vector<float>(size_t{W} * H * 3)};
   const uint32_t tiles_x = (W + kTile - 1) / kTile, tiles = tiles_x * ((H + kTile - 1) / kTile);
   std::atomic<uint32_t> next{0};
   std::atomic<uint64_t> visited{0};
-  const bool volume = settings.dvr;
   // should_stop is asked by the calling thread between its tiles; the others stop with it
   std::atomic<bool> stopped{false};
   auto work = [&](bool asks) {
@@ -337,6 +370,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
           const size_t pixel = size_t{y} * W + x;
           Vec3 o, d;
           frame.ray(static_cast<int>(x), static_cast<int>(y), &o, &d);
+          const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
           double acc[4] = {0, 0, 0, 0};
           auto over = [&](const double c[4]) {
             const double keep = 1 - acc[3];
@@ -386,7 +420,6 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
             const auto& g = cell.gradient;
             auto value_at = [&](double t) { return ((g[0] * (o[0] + t * d[0]) + g[1] * (o[1] + t * d[1]) + g[2] * (o[2] + t * d[2]) + g[3]) - lo) * scale; };
             const double s_in = value_at(t_in), s_out = value_at(t_end);
-            const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
             const double length = (t_end - t_in) * dl;
             double s0 = s_in, l0 = 0, c[4];
             if (!isos.empty() && s_out != s_in) {
@@ -398,20 +431,16 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
                 const double iv = isos[at];
                 if ((s0 < iv) == (s_out < iv)) continue;
                 const double li = length * (iv - s_in) / (s_out - s_in);
-                if (volume) {
-                  integrate(s0, iv, li - l0, c);
-                  over(c);
-                }
+                integrate(s0, iv, li - l0, c);
+                over(c);
                 const double surface[4] = {iso_rgb[at][0] * light * iso_opacity, iso_rgb[at][1] * light * iso_opacity, iso_rgb[at][2] * light * iso_opacity, iso_opacity};
                 over(surface);
                 s0 = iv;
                 l0 = li;
               }
             }
-            if (volume) {
-              integrate(s0, s_out, length - l0, c);
-              over(c);
-            }
+            integrate(s0, s_out, length - l0, c);
+            over(c);
             if (t_end >= stop) break;
             const uint32_t across = opposite_[4 * size_t{tet} + exit];
             t_in = t_out;

@@ -1,7 +1,7 @@
 // The CPU ray caster: volume rendering of a tet mesh without a sort, for hosts whose only
 // EGL device is software. A ray walks the tets through their shared faces front to back,
-// integrating the transfer function over exact segments in steps that follow the value, and
-// stops when opaque; isosurfaces and slices are composed in the walk.
+// composing the pre-integrated transfer function over exact segments (finely integrated
+// where the value is nearly constant), and stops when opaque; isosurfaces and slices are composed in the walk.
 #pragma once
 
 #include <array>
@@ -29,8 +29,8 @@ class RayCaster {
   RayCaster& operator=(const RayCaster&) = delete;
 
   // What of `settings` the caster does not draw (empty: it draws all of it): surfaces,
-  // wireframes, boxes, points, stream lines, isosurfaces coloured by another attribute and
-  // the projected-tetrahedra volume stay with the GL renderer.
+  // wireframes, boxes, points, stream lines, isosurfaces coloured by another attribute,
+  // frames without the volume and the projected-tetrahedra volume stay with the GL renderer.
   static std::string unsupported(const RenderSettings& settings);
   // One frame over `threads` threads (0: every core). Throws std::invalid_argument for what
   // unsupported names and for bad image sides. FrameTimings: draw_ms, tets_drawn counts the
@@ -55,7 +55,9 @@ class RayCaster {
   std::vector<Cell> cells_;
   std::unique_ptr<Bvh> bvh_;
   mutable std::mutex table_mutex_;
-  mutable std::vector<std::array<double, 4>> table_;  // extinction and colour over the colour range
+  mutable PreintegrationTable table_;                      // the GL path's
+  mutable std::vector<float> extinction_;                 // per unit length, over the colour range
+  mutable std::vector<std::array<float, 3>> colors_;      // over the colour range
   mutable std::string table_key_;
 };
 
