@@ -26,7 +26,7 @@ namespace {
 
 constexpr uint32_t kNone = 0xFFFFFFFFu;
 constexpr uint32_t kTile = 16;
-constexpr double kOpaque = 0.995;  // a ray stops here (the reference: 0.9999)
+constexpr double kOpaque = 0.999;  // a ray stops here (the reference: 0.9999)
 constexpr uint32_t kClassified = 65536;  // intervals of the transfer function's extinction (its opacity: kinks matter)
 constexpr uint32_t kColors = 4096;       // intervals of its colour
 constexpr double kStepsPerRange = 1024;  // fine steps a segment spanning the colour range would take
@@ -67,10 +67,10 @@ double hit_triangle(const Vec3& o, const Vec3& d, const Vec3& a, const Vec3& b, 
   const double inv = 1 / det;
   const Vec3 s = o - a;
   const double u = dot(s, p) * inv;
-  if (u < -1e-12 || u > 1 + 1e-12) return NAN;
+  if (u < -1e-9 || u > 1 + 1e-9) return NAN;
   const Vec3 q = cross(s, e1);
   const double v = dot(d, q) * inv;
-  if (v < -1e-12 || u + v > 1 + 1e-12) return NAN;
+  if (v < -1e-9 || u + v > 1 + 1e-9) return NAN;
   return dot(e2, q) * inv;
 }
 
@@ -220,6 +220,38 @@ uint32_t RayCaster::enter(const Vec3& o, const Vec3& d, double after, double* t_
   }
   *t_hit = best;
   return found;
+}
+
+// Near tets `from` and `also`, the tet that holds the point o + t d: a search across the
+// interior faces whose planes the point is outside of, nearest tets first (at most 48); kNone
+// when none holds it (the point is outside the mesh, or farther than that).
+uint32_t RayCaster::walk_to(uint32_t from, uint32_t also, const Vec3& o, const Vec3& d, double t) const {
+  const Vec3 p{o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
+  uint32_t queue[48];
+  size_t head = 0, tail = 0;
+  auto push = [&](uint32_t tet) {
+    if (tet == kNone || tail == 48) return;
+    for (size_t i = 0; i < tail; ++i)
+      if (queue[i] == tet) return;
+    queue[tail++] = tet;
+  };
+  push(from);
+  push(also);
+  while (head < tail) {
+    const uint32_t tet = queue[head++];
+    const Cell& c = cells_[tet];
+    bool outside = false;
+    for (int f = 0; f < 4; ++f) {
+      const auto& q = c.plane[f];
+      const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+      if (!((q[0] * p[0] + q[1] * p[1] + q[2] * p[2] + q[3]) / std::max(n, 1e-300) > 0)) continue;
+      outside = true;
+      const uint32_t across = opposite_[4 * size_t{tet} + f];
+      if (across != kNoOppositeFace) push(across / 4);
+    }
+    if (!outside && !c.flat) return tet;
+  }
+  return kNone;
 }
 
 // The tet that holds `p`, or kNone (every tet's planes; once a frame, for an eye inside).
@@ -377,7 +409,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
             for (int k = 0; k < 4; ++k) acc[k] += keep * c[k];
           };
           const double stop = slices.distance[pixel];
-          uint32_t tet = kNone, entry = 4;
+          uint32_t tet = kNone, entry = 4, previous = kNone;
           double t_in = 0;
           if (eye_tet != kNone) {
             tet = eye_tet;
@@ -407,7 +439,22 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
                 exit = f;
               }
             }
-            if (exit < 0) {  // a flat tet, or rounding: look for the boundary past this point
+            if (exit < 0 && !cell.flat) {
+              // a ray along a face or through an edge (rounding left no face ahead): it leaves
+              // where it is by the face it runs least into, rather than skipping to the boundary
+              double most = -INFINITY;
+              for (int f = 0; f < 4; ++f) {
+                if (f == static_cast<int>(entry)) continue;
+                const auto& q = cell.plane[f];
+                const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
+                if (dn > most) {
+                  most = dn;
+                  exit = f;
+                }
+              }
+              t_out = t_in;
+            }
+            if (exit < 0) {  // a flat tet: look for the boundary past this point
               double t_hit;
               const uint32_t face = enter(o, d, t_in + 1e-6 * mesh_.diagonal / std::sqrt(dot(d, d)), &t_hit, kNone);
               tet = face == kNone ? kNone : face / 4;
@@ -445,8 +492,15 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
             const uint32_t across = opposite_[4 * size_t{tet} + exit];
             t_in = t_out;
             if (across != kNoOppositeFace) {
+              previous = tet;
               tet = across / 4;
               entry = across % 4;
+            } else if (const uint32_t ahead = walk_to(tet, previous, o, d, t_out + 1e-6 * mesh_.diagonal / dl); ahead != kNone) {
+              // a ray through an edge took the face of a tet it only grazed, and that face is
+              // on the boundary: it is still inside, in the tet that holds a point just ahead
+              previous = tet;
+              tet = ahead;
+              entry = 4;
             } else {  // out of the mesh: where does it come back in?
               double t_hit;
               const uint32_t face = enter(o, d, t_out, &t_hit, 4 * tet + static_cast<uint32_t>(exit));

@@ -49,6 +49,7 @@ class RayCaster {
   struct Bvh;
   uint32_t enter(const Vec3& origin, const Vec3& direction, double after, double* t_hit, uint32_t left) const;
   uint32_t locate(const Vec3& p) const;
+  uint32_t walk_to(uint32_t from, uint32_t also, const Vec3& origin, const Vec3& direction, double t) const;
 
   const SceneMesh& mesh_;
   std::vector<uint32_t> opposite_;
