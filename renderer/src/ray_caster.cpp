@@ -277,33 +277,101 @@ uint32_t RayCaster::locate(const Vec3& p) const {
   return best_margin > -1e-9 * mesh_.diagonal ? best : kNone;
 }
 
-Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, unsigned threads) const {
-  if (const std::string what = unsupported(settings); !what.empty()) throw std::invalid_argument("the CPU ray caster does not draw " + what + "; use the GL renderer");
-  if (settings.width < 1 || settings.height < 1 || settings.width > kMaxImageSide || settings.height > kMaxImageSide)
-    throw std::invalid_argument("image sides must be 1.." + std::to_string(kMaxImageSide));
-  const auto start = std::chrono::steady_clock::now();
-  const uint32_t W = settings.width, H = settings.height;
-  const Frame frame = camera_frame(settings.camera, W, H);
-  double lo = mesh_.value_min, hi = mesh_.value_max;
-  if (settings.tf.range) {
-    lo = (*settings.tf.range)[0];
-    hi = (*settings.tf.range)[1];
+// What a frame's rays compose: the colour range, the tables of the transfer function and the
+// isosurfaces.
+struct RayCaster::Shading {
+  double lo = 0, hi = 1, scale = 1, unit = 1;
+  const PreintegrationTable* table = nullptr;
+  const std::vector<float>* extinction = nullptr;
+  const std::vector<std::array<float, 3>>* colors = nullptr;
+  double table_bins = 1, log_range = 1;
+  std::vector<double> isos;  // normalised, ascending, distinct
+  std::vector<std::array<double, 3>> iso_rgb;
+  double iso_opacity = 1;
+};
+
+namespace {
+
+// The colour and opacity of a segment from value sf to sb (normalised) of `length`. A segment
+// whose value spans a bin of the pre-integrated table or more reads the table (as the GL path
+// does); a nearly constant one (most of them, in fine meshes and over long paths) is integrated
+// in up to kMaxFineSteps steps over the fine extinction, where a table interpolated between its
+// bins would veil thin opacity near a kink.
+template <class Shading>
+void integrate(const Shading& sh, double sf, double sb, double length, double out[4]) {
+  const double span = std::fabs(sb - sf);
+  if (span * sh.table_bins >= 1) {
+    const PreintegrationTable& table = *sh.table;
+    const uint32_t n = table.n, L = table.lengths;
+    const double u = std::clamp(sf, 0.0, 1.0) * (n - 1), v = std::clamp(sb, 0.0, 1.0) * (n - 1);
+    const double w = std::clamp(std::log1p(static_cast<float>(std::max(length, 0.0) / table.length_scale)) / sh.log_range, 0.0, 1.0) * (L - 1);
+    const uint32_t i0 = std::min(static_cast<uint32_t>(u), n - 2), j0 = std::min(static_cast<uint32_t>(v), n - 2), m0 = std::min(static_cast<uint32_t>(w), L - 2);
+    const double fu = u - i0, fv = v - j0, fw = w - m0;
+    for (int k = 0; k < 4; ++k) out[k] = 0;
+    for (int dm = 0; dm < 2; ++dm)
+      for (int dj = 0; dj < 2; ++dj) {
+        const float* c = &table.rgba[((size_t{m0 + dm} * n + j0 + dj) * n + i0) * 4];
+        const double weight = (dm ? fw : 1 - fw) * (dj ? fv : 1 - fv);
+        for (int k = 0; k < 4; ++k) out[k] += weight * ((1 - fu) * c[k] + fu * c[4 + k]);
+      }
+    return;
   }
-  if (!(hi > lo)) hi = lo + 1;
-  const double scale = 1 / (hi - lo);
-  const double unit = settings.unit_distance > 0 ? settings.unit_distance : mesh_.diagonal / 100;
-  const std::string key = settings.tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(unit);
+  const std::vector<float>& extinction = *sh.extinction;
+  const std::vector<std::array<float, 3>>& colors = *sh.colors;
+  const int steps = std::clamp(static_cast<int>(std::ceil(span * kStepsPerRange)), 1, kMaxFineSteps);
+  const double dt = length / steps;
+  double r = 0, g = 0, b = 0, keep = 1;  // keep: the transmittance so far
+  for (int k = 0; k < steps; ++k) {
+    const double s = std::clamp(sf + (sb - sf) * (k + 0.5) / steps, 0.0, 1.0);
+    const double x = s * kClassified;
+    const uint32_t i = std::min(static_cast<uint32_t>(x), kClassified - 1);
+    const double depth = (extinction[i] + (x - i) * (extinction[i + 1] - extinction[i])) * dt;
+    // 1 - exp(-depth): a series where it is small (most steps), else the library's
+    const double alpha = depth < 0.03 ? depth * (1 - depth * (0.5 - depth * (1.0 / 6 - depth * (1.0 / 24)))) : -std::expm1(-depth);
+    const double weight = keep * alpha;
+    const double y = s * kColors;
+    const uint32_t j = std::min(static_cast<uint32_t>(y), kColors - 1);
+    const float f = static_cast<float>(y - j);
+    const auto& c0 = colors[j];
+    const auto& c1 = colors[j + 1];
+    r += weight * (c0[0] + f * (c1[0] - c0[0]));
+    g += weight * (c0[1] + f * (c1[1] - c0[1]));
+    b += weight * (c0[2] + f * (c1[2] - c0[2]));
+    keep *= 1 - alpha;
+  }
+  out[0] = r;
+  out[1] = g;
+  out[2] = b;
+  out[3] = 1 - keep;
+}
+
+}  // namespace
+
+// The frame's shading: the colour range, the tables (remade when the transfer function, its
+// range or the unit distance change) and the isosurfaces.
+void RayCaster::shading(const RenderSettings& settings, Shading& sh) const {
+  sh.lo = mesh_.value_min;
+  sh.hi = mesh_.value_max;
+  if (settings.tf.range) {
+    sh.lo = (*settings.tf.range)[0];
+    sh.hi = (*settings.tf.range)[1];
+  }
+  if (!(sh.hi > sh.lo)) sh.hi = sh.lo + 1;
+  const double lo = sh.lo, hi = sh.hi;
+  sh.scale = 1 / (hi - lo);
+  sh.unit = settings.unit_distance > 0 ? settings.unit_distance : mesh_.diagonal / 100;
+  const std::string key = settings.tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(sh.unit);
   {
-    // the pre-integrated table of the GL path, and the transfer function classified on a
-    // fine grid of the colour range: extinction per unit length (from its own opacity at
-    // every grid value) and colour
+    // the pre-integrated table of the GL path, and the transfer function on a fine grid of
+    // the colour range: extinction per unit length (from its own opacity at every grid value)
+    // and colour
     std::lock_guard lock(table_mutex_);
     if (key != table_key_) {
-      table_ = preintegrate(settings.tf, lo, hi, unit, std::exp2(std::ceil(std::log2(std::max(mesh_.max_edge, 1e-30)))));
+      table_ = preintegrate(settings.tf, lo, hi, sh.unit, std::exp2(std::ceil(std::log2(std::max(mesh_.max_edge, 1e-30)))));
       extinction_.resize(kClassified + 1);
       for (uint32_t k = 0; k <= kClassified; ++k) {
         const double alpha = std::clamp(settings.tf.alpha(lo + (hi - lo) * k / kClassified), 0.0, 0.999999);
-        extinction_[k] = static_cast<float>(-std::log1p(-alpha) / unit);
+        extinction_[k] = static_cast<float>(-std::log1p(-alpha) / sh.unit);
       }
       colors_.resize(kColors + 1);
       for (uint32_t k = 0; k <= kColors; ++k) {
@@ -313,76 +381,137 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
       table_key_ = key;
     }
   }
-  const PreintegrationTable& table = table_;
-  const std::vector<float>& extinction = extinction_;
-  const std::vector<std::array<float, 3>>& colors = colors_;
-  std::vector<double> isos;
+  sh.table = &table_;
+  sh.extinction = &extinction_;
+  sh.colors = &colors_;
+  sh.table_bins = table_.n - 1;
+  sh.log_range = std::log1p(table_.max_length / table_.length_scale);
   if (settings.iso)
-    for (double v : settings.isovalues) isos.push_back((v - lo) * scale);
-  std::sort(isos.begin(), isos.end());
-  isos.erase(std::unique(isos.begin(), isos.end()), isos.end());
-  const double iso_opacity = std::clamp(settings.iso_opacity, 0.0, 1.0);
-  std::vector<std::array<double, 3>> iso_rgb;
-  for (double iv : isos) {
-    const double value = lo + std::clamp(iv, 0.0, 1.0) * (hi - lo);
-    const auto c = settings.tf.colors.empty() ? colormap(settings.tf.colormap, std::clamp(iv, 0.0, 1.0)) : settings.tf.user_color(value);
-    iso_rgb.push_back({c[0], c[1], c[2]});
+    for (double v : settings.isovalues) sh.isos.push_back((v - lo) * sh.scale);
+  std::sort(sh.isos.begin(), sh.isos.end());
+  sh.isos.erase(std::unique(sh.isos.begin(), sh.isos.end()), sh.isos.end());
+  sh.iso_opacity = std::clamp(settings.iso_opacity, 0.0, 1.0);
+  for (double iv : sh.isos) {
+    const auto c = settings.tf.colors.empty() ? colormap(settings.tf.colormap, std::clamp(iv, 0.0, 1.0)) : settings.tf.user_color(lo + std::clamp(iv, 0.0, 1.0) * (hi - lo));
+    sh.iso_rgb.push_back({c[0], c[1], c[2]});
   }
-  const SliceHits slices = slice_hits(mesh_, settings, lo, hi);
+}
+
+// One ray from o along d, up to `stop` (a slice; +inf: none), starting in `eye_tet` (kNone: at
+// the boundary face it enters by): the colour and opacity composed into acc, the tets visited
+// added to `visits`.
+void RayCaster::trace(const Shading& sh, const Vec3& o, const Vec3& d, double stop, uint32_t eye_tet, double acc[4], uint64_t& visits) const {
+  const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  auto over = [&](const double c[4]) {
+    const double keep = 1 - acc[3];
+    for (int k = 0; k < 4; ++k) acc[k] += keep * c[k];
+  };
+  uint32_t tet = eye_tet, entry = 4, previous = kNone;
+  double t_in = 0;
+  if (tet == kNone) {
+    const uint32_t face = enter(o, d, 0, &t_in, kNone);
+    if (face == kNone) return;
+    tet = face / 4;
+    entry = face % 4;
+  }
+  uint64_t guard = 4 * cells_.size() + 16;
+  while (tet != kNone && acc[3] < kOpaque && t_in < stop && guard-- > 0) {
+    ++visits;
+    const Cell& cell = cells_[tet];
+    double t_out = INFINITY;
+    int exit = -1;
+    for (int f = 0; f < 4; ++f) {
+      if (f == static_cast<int>(entry)) continue;
+      const auto& q = cell.plane[f];
+      const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
+      if (dn <= 0) continue;
+      const double t = -(q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3]) / dn;
+      if (t < t_out) {
+        t_out = t;
+        exit = f;
+      }
+    }
+    if (exit < 0 && !cell.flat) {
+      // a ray along a face or through an edge (rounding left no face ahead): it leaves where
+      // it is by the face it runs least into, rather than skipping to the boundary
+      double most = -INFINITY;
+      for (int f = 0; f < 4; ++f) {
+        if (f == static_cast<int>(entry)) continue;
+        const auto& q = cell.plane[f];
+        const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
+        if (dn > most) {
+          most = dn;
+          exit = f;
+        }
+      }
+      t_out = t_in;
+    }
+    if (exit < 0) {  // a flat tet: look for the boundary past this point
+      const uint32_t face = enter(o, d, t_in + 1e-6 * mesh_.diagonal / dl, &t_in, kNone);
+      tet = face == kNone ? kNone : face / 4;
+      entry = face == kNone ? 4 : face % 4;
+      continue;
+    }
+    t_out = std::max(t_out, t_in);
+    const double t_end = std::min(t_out, stop);
+    const auto& g = cell.gradient;
+    auto value_at = [&](double t) { return ((g[0] * (o[0] + t * d[0]) + g[1] * (o[1] + t * d[1]) + g[2] * (o[2] + t * d[2]) + g[3]) - sh.lo) * sh.scale; };
+    const double s_in = value_at(t_in), s_out = value_at(t_end);
+    const double length = (t_end - t_in) * dl;
+    double s0 = s_in, l0 = 0, c[4];
+    if (!sh.isos.empty() && s_out != s_in) {
+      const bool rising = s_out > s_in;
+      const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+      const double light = 0.25 + 0.75 * (gn > 0 ? std::fabs(g[0] * d[0] + g[1] * d[1] + g[2] * d[2]) / (gn * dl) : 1.0);
+      for (size_t k = 0; k < sh.isos.size(); ++k) {
+        const size_t at = rising ? k : sh.isos.size() - 1 - k;
+        const double iv = sh.isos[at];
+        if ((s0 < iv) == (s_out < iv)) continue;
+        const double li = length * (iv - s_in) / (s_out - s_in);
+        integrate(sh, s0, iv, li - l0, c);
+        over(c);
+        const double a = sh.iso_opacity;
+        const double surface[4] = {sh.iso_rgb[at][0] * light * a, sh.iso_rgb[at][1] * light * a, sh.iso_rgb[at][2] * light * a, a};
+        over(surface);
+        s0 = iv;
+        l0 = li;
+      }
+    }
+    integrate(sh, s0, s_out, length - l0, c);
+    over(c);
+    if (t_end >= stop) break;
+    const uint32_t across = opposite_[4 * size_t{tet} + exit];
+    t_in = t_out;
+    if (across != kNoOppositeFace) {
+      previous = tet;
+      tet = across / 4;
+      entry = across % 4;
+    } else if (const uint32_t ahead = walk_to(tet, previous, o, d, t_out + 1e-6 * mesh_.diagonal / dl); ahead != kNone) {
+      // a ray through an edge took the face of a tet it only grazed, and that face is on the
+      // boundary: it is still inside, in the tet that holds a point just ahead
+      previous = tet;
+      tet = ahead;
+      entry = 4;
+    } else {  // out of the mesh: where does it come back in?
+      const uint32_t face = enter(o, d, t_out, &t_in, 4 * tet + static_cast<uint32_t>(exit));
+      tet = face == kNone ? kNone : face / 4;
+      entry = face == kNone ? 4 : face % 4;
+    }
+  }
+}
+
+Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, unsigned threads) const {
+  if (const std::string what = unsupported(settings); !what.empty()) throw std::invalid_argument("the CPU ray caster does not draw " + what + "; use the GL renderer");
+  if (settings.width < 1 || settings.height < 1 || settings.width > kMaxImageSide || settings.height > kMaxImageSide)
+    throw std::invalid_argument("image sides must be 1.." + std::to_string(kMaxImageSide));
+  const auto start = std::chrono::steady_clock::now();
+  const uint32_t W = settings.width, H = settings.height;
+  const Frame frame = camera_frame(settings.camera, W, H);
+  Shading sh;
+  shading(settings, sh);
+  const SliceHits slices = slice_hits(mesh_, settings, sh.lo, sh.hi);
   // an eye inside the mesh: every ray of a perspective view starts in its tet
   const uint32_t eye_tet = frame.ortho ? kNone : locate(frame.eye);
-
-  // The colour and opacity of a segment from value sf to sb (normalised) of `length`. A
-  // segment whose value spans a bin of the pre-integrated table or more reads the table (as
-  // the GL path does); a nearly constant one (most of them, in fine meshes and over long
-  // paths) is integrated in up to kMaxFineSteps steps over the fine classification, where a
-  // table interpolated between its bins would veil thin opacity near a kink.
-  const double table_bins = table.n - 1;
-  const double log_range = std::log1p(table.max_length / table.length_scale);
-  auto integrate = [&](double sf, double sb, double length, double out[4]) {
-    const double span = std::fabs(sb - sf);
-    if (span * table_bins >= 1) {
-      const uint32_t n = table.n, L = table.lengths;
-      const double u = std::clamp(sf, 0.0, 1.0) * (n - 1), v = std::clamp(sb, 0.0, 1.0) * (n - 1);
-      const double w = std::clamp(std::log1p(static_cast<float>(std::max(length, 0.0) / table.length_scale)) / log_range, 0.0, 1.0) * (L - 1);
-      const uint32_t i0 = std::min(static_cast<uint32_t>(u), n - 2), j0 = std::min(static_cast<uint32_t>(v), n - 2), m0 = std::min(static_cast<uint32_t>(w), L - 2);
-      const double fu = u - i0, fv = v - j0, fw = w - m0;
-      for (int k = 0; k < 4; ++k) out[k] = 0;
-      for (int dm = 0; dm < 2; ++dm)
-        for (int dj = 0; dj < 2; ++dj) {
-          const float* c = &table.rgba[((size_t{m0 + dm} * n + j0 + dj) * n + i0) * 4];
-          const double weight = (dm ? fw : 1 - fw) * (dj ? fv : 1 - fv);
-          for (int k = 0; k < 4; ++k) out[k] += weight * ((1 - fu) * c[k] + fu * c[4 + k]);
-        }
-      return;
-    }
-    const int steps = std::clamp(static_cast<int>(std::ceil(span * kStepsPerRange)), 1, kMaxFineSteps);
-    const double dt = length / steps;
-    double r = 0, g = 0, b = 0, keep = 1;  // keep: the transmittance so far
-    for (int k = 0; k < steps; ++k) {
-      const double s = std::clamp(sf + (sb - sf) * (k + 0.5) / steps, 0.0, 1.0);
-      const double x = s * kClassified;
-      const uint32_t i = std::min(static_cast<uint32_t>(x), kClassified - 1);
-      const double depth = (extinction[i] + (x - i) * (extinction[i + 1] - extinction[i])) * dt;
-      // 1 - exp(-depth): a series where it is small (most steps), else the library's
-      const double alpha = depth < 0.03 ? depth * (1 - depth * (0.5 - depth * (1.0 / 6 - depth * (1.0 / 24)))) : -std::expm1(-depth);
-      const double weight = keep * alpha;
-      const double y = s * kColors;
-      const uint32_t j = std::min(static_cast<uint32_t>(y), kColors - 1);
-      const float f = static_cast<float>(y - j);
-      const auto& c0 = colors[j];
-      const auto& c1 = colors[j + 1];
-      r += weight * (c0[0] + f * (c1[0] - c0[0]));
-      g += weight * (c0[1] + f * (c1[1] - c0[1]));
-      b += weight * (c0[2] + f * (c1[2] - c0[2]));
-      keep *= 1 - alpha;
-    }
-    out[0] = r;
-    out[1] = g;
-    out[2] = b;
-    out[3] = 1 - keep;
-  };
-
   Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4), std::vector<float>(size_t{W} * H * 3)};
   const uint32_t tiles_x = (W + kTile - 1) / kTile, tiles = tiles_x * ((H + kTile - 1) / kTile);
   std::atomic<uint32_t> next{0};
@@ -390,7 +519,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   // should_stop is asked by the calling thread between its tiles; the others stop with it
   std::atomic<bool> stopped{false};
   auto work = [&](bool asks) {
-    uint64_t steps = 0;
+    uint64_t visits = 0;
     for (uint32_t tile; !stopped.load(std::memory_order_relaxed) && (tile = next.fetch_add(1)) < tiles;) {
       if (asks && settings.should_stop && settings.should_stop()) {
         stopped = true;
@@ -402,115 +531,9 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
           const size_t pixel = size_t{y} * W + x;
           Vec3 o, d;
           frame.ray(static_cast<int>(x), static_cast<int>(y), &o, &d);
-          const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
           double acc[4] = {0, 0, 0, 0};
-          auto over = [&](const double c[4]) {
-            const double keep = 1 - acc[3];
-            for (int k = 0; k < 4; ++k) acc[k] += keep * c[k];
-          };
-          const double stop = slices.distance[pixel];
-          uint32_t tet = kNone, entry = 4, previous = kNone;
-          double t_in = 0;
-          if (eye_tet != kNone) {
-            tet = eye_tet;
-          } else {
-            double t_hit;
-            const uint32_t face = enter(o, d, 0, &t_hit, kNone);
-            if (face != kNone) {
-              tet = face / 4;
-              entry = face % 4;
-              t_in = t_hit;
-            }
-          }
-          uint64_t guard = 4 * cells_.size() + 16;
-          while (tet != kNone && acc[3] < kOpaque && t_in < stop && guard-- > 0) {
-            ++steps;
-            const Cell& cell = cells_[tet];
-            double t_out = INFINITY;
-            int exit = -1;
-            for (int f = 0; f < 4; ++f) {
-              if (f == static_cast<int>(entry)) continue;
-              const auto& q = cell.plane[f];
-              const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
-              if (dn <= 0) continue;
-              const double t = -(q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3]) / dn;
-              if (t < t_out) {
-                t_out = t;
-                exit = f;
-              }
-            }
-            if (exit < 0 && !cell.flat) {
-              // a ray along a face or through an edge (rounding left no face ahead): it leaves
-              // where it is by the face it runs least into, rather than skipping to the boundary
-              double most = -INFINITY;
-              for (int f = 0; f < 4; ++f) {
-                if (f == static_cast<int>(entry)) continue;
-                const auto& q = cell.plane[f];
-                const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
-                if (dn > most) {
-                  most = dn;
-                  exit = f;
-                }
-              }
-              t_out = t_in;
-            }
-            if (exit < 0) {  // a flat tet: look for the boundary past this point
-              double t_hit;
-              const uint32_t face = enter(o, d, t_in + 1e-6 * mesh_.diagonal / std::sqrt(dot(d, d)), &t_hit, kNone);
-              tet = face == kNone ? kNone : face / 4;
-              entry = face == kNone ? 4 : face % 4;
-              t_in = t_hit;
-              continue;
-            }
-            t_out = std::max(t_out, t_in);
-            const double t_end = std::min(t_out, stop);
-            const auto& g = cell.gradient;
-            auto value_at = [&](double t) { return ((g[0] * (o[0] + t * d[0]) + g[1] * (o[1] + t * d[1]) + g[2] * (o[2] + t * d[2]) + g[3]) - lo) * scale; };
-            const double s_in = value_at(t_in), s_out = value_at(t_end);
-            const double length = (t_end - t_in) * dl;
-            double s0 = s_in, l0 = 0, c[4];
-            if (!isos.empty() && s_out != s_in) {
-              const bool rising = s_out > s_in;
-              const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-              const double light = 0.25 + 0.75 * (gn > 0 ? std::fabs(g[0] * d[0] + g[1] * d[1] + g[2] * d[2]) / (gn * dl) : 1.0);
-              for (size_t k = 0; k < isos.size(); ++k) {
-                const size_t at = rising ? k : isos.size() - 1 - k;
-                const double iv = isos[at];
-                if ((s0 < iv) == (s_out < iv)) continue;
-                const double li = length * (iv - s_in) / (s_out - s_in);
-                integrate(s0, iv, li - l0, c);
-                over(c);
-                const double surface[4] = {iso_rgb[at][0] * light * iso_opacity, iso_rgb[at][1] * light * iso_opacity, iso_rgb[at][2] * light * iso_opacity, iso_opacity};
-                over(surface);
-                s0 = iv;
-                l0 = li;
-              }
-            }
-            integrate(s0, s_out, length - l0, c);
-            over(c);
-            if (t_end >= stop) break;
-            const uint32_t across = opposite_[4 * size_t{tet} + exit];
-            t_in = t_out;
-            if (across != kNoOppositeFace) {
-              previous = tet;
-              tet = across / 4;
-              entry = across % 4;
-            } else if (const uint32_t ahead = walk_to(tet, previous, o, d, t_out + 1e-6 * mesh_.diagonal / dl); ahead != kNone) {
-              // a ray through an edge took the face of a tet it only grazed, and that face is
-              // on the boundary: it is still inside, in the tet that holds a point just ahead
-              previous = tet;
-              tet = ahead;
-              entry = 4;
-            } else {  // out of the mesh: where does it come back in?
-              double t_hit;
-              const uint32_t face = enter(o, d, t_out, &t_hit, 4 * tet + static_cast<uint32_t>(exit));
-              tet = face == kNone ? kNone : face / 4;
-              entry = face == kNone ? 4 : face % 4;
-              t_in = t_hit;
-            }
-          }
-          const bool slice = std::isfinite(stop);
-          const std::array<float, 3> behind = slice ? slices.rgb[pixel] : settings.background;
+          trace(sh, o, d, slices.distance[pixel], eye_tet, acc, visits);
+          const std::array<float, 3> behind = std::isfinite(slices.distance[pixel]) ? slices.rgb[pixel] : settings.background;
           for (int k = 0; k < 3; ++k) {
             const double value = std::clamp(acc[k] + (1 - acc[3]) * behind[k], 0.0, 1.0);
             image.rgba[4 * pixel + k] = static_cast<uint8_t>(std::lround(value * 255));
@@ -519,7 +542,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
           image.rgba[4 * pixel + 3] = 255;
         }
     }
-    visited += steps;
+    visited += visits;
   };
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   threads = std::min(threads, std::max(1u, tiles));

@@ -47,6 +47,9 @@ class RayCaster {
     bool flat = false;                           // no volume: no gradient, never holds a point
   };
   struct Bvh;
+  struct Shading;
+  void shading(const RenderSettings& settings, Shading& out) const;
+  void trace(const Shading& shading, const Vec3& origin, const Vec3& direction, double stop, uint32_t eye_tet, double acc[4], uint64_t& visits) const;
   uint32_t enter(const Vec3& origin, const Vec3& direction, double after, double* t_hit, uint32_t left) const;
   uint32_t locate(const Vec3& p) const;
   uint32_t walk_to(uint32_t from, uint32_t also, const Vec3& origin, const Vec3& direction, double t) const;
