@@ -65,13 +65,9 @@ FrameSetup frame_setup(const SceneMesh& mesh, const RenderSettings& s) {
   const double far_plane = distance + mesh.diagonal;
   out.near_depth = out.frame.ortho ? std::max(0.0, distance - mesh.diagonal) : std::max(far_plane * 1e-5, distance - mesh.diagonal);
   out.mvp = view_projection(out.frame, out.near_depth, far_plane);
-  out.lo = mesh.value_min;
-  out.hi = mesh.value_max;
-  if (s.tf.range) {
-    out.lo = (*s.tf.range)[0];
-    out.hi = (*s.tf.range)[1];
-  }
-  if (!(out.hi > out.lo)) out.hi = out.lo + 1;
+  const auto [lo, hi] = colour_range(mesh, s.tf);
+  out.lo = lo;
+  out.hi = hi;
   return out;
 }
 

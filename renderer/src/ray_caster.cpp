@@ -350,14 +350,9 @@ void integrate(const Shading& sh, double sf, double sb, double length, double ou
 // The frame's shading: the colour range, the tables (remade when the transfer function, its
 // range or the unit distance change) and the isosurfaces.
 void RayCaster::shading(const RenderSettings& settings, Shading& sh) const {
-  sh.lo = mesh_.value_min;
-  sh.hi = mesh_.value_max;
-  if (settings.tf.range) {
-    sh.lo = (*settings.tf.range)[0];
-    sh.hi = (*settings.tf.range)[1];
-  }
-  if (!(sh.hi > sh.lo)) sh.hi = sh.lo + 1;
-  const double lo = sh.lo, hi = sh.hi;
+  const auto [lo, hi] = colour_range(mesh_, settings.tf);
+  sh.lo = lo;
+  sh.hi = hi;
   sh.scale = 1 / (hi - lo);
   sh.unit = settings.unit_distance > 0 ? settings.unit_distance : mesh_.diagonal / 100;
   const std::string key = settings.tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(sh.unit);

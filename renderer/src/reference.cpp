@@ -18,12 +18,7 @@ namespace tetrascope::renderer {
 Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
   const uint32_t W = settings.width, H = settings.height;
   const Frame frame = camera_frame(settings.camera, W, H);
-  double lo = mesh.value_min, hi = mesh.value_max;
-  if (settings.tf.range) {
-    lo = (*settings.tf.range)[0];
-    hi = (*settings.tf.range)[1];
-  }
-  if (!(hi > lo)) hi = lo + 1;
+  const auto [lo, hi] = colour_range(mesh, settings.tf);
   const double unit = settings.unit_distance > 0 ? settings.unit_distance : mesh.diagonal / 100;
   struct Segment {
     float t_in, t_out, s_in, s_out, light;

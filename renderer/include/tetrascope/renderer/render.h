@@ -163,6 +163,15 @@ struct SceneMesh {
   static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute = "");  // throws std::invalid_argument
 };
 
+// The values the transfer function's colours and opacity span: its range, else the scene's
+// values; never empty (lo + 1 when they meet).
+inline std::array<double, 2> colour_range(const SceneMesh& mesh, const view::TransferFunction& tf) {
+  std::array<double, 2> r{mesh.value_min, mesh.value_max};
+  if (tf.range) r = {(*tf.range)[0], (*tf.range)[1]};
+  if (!(r[1] > r[0])) r[1] = r[0] + 1;
+  return r;
+}
+
 // Colormaps: viridis, plasma, cool-warm, grayscale; `colors` of the transfer function JSON
 // ([[value, r, g, b], ...], 0..1) overrides them.
 std::array<float, 3> colormap(const std::string& name, double t);
