@@ -10,6 +10,7 @@
 #include <cstdlib>
 
 #include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/ray_caster.h"
 #include "tetrascope/renderer/view_frame.h"
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/memory_fit.h"
@@ -69,7 +70,7 @@ int run_serve(const Arguments& raw) {
   if (o.interaction_scale < protocol::kMinInteractionScale || o.interaction_scale > 1) throw std::invalid_argument("--interaction-scale must be 0.25 to 1");
   o.read_only = args.has("--read-only");
   o.backend = args.get("--backend", o.backend);
-  if (o.backend != "gl" && o.backend != "cpu" && o.backend != "auto") throw std::invalid_argument("--backend: gl, cpu or auto");
+  if (!renderer::known_backend(o.backend)) throw std::invalid_argument("--backend: gl, cpu or auto");
   // inside a memory limit (the process's cgroup, or --memory-mb, the smaller): a still budget
   // and a segment cache that fit it, or a clear refusal when nothing would (memory_fit.h)
   std::optional<server::MemoryLimit> limit = server::process_memory_limit();

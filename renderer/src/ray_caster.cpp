@@ -4,20 +4,21 @@
 // exact segment lengths, composing the GL path's pre-integrated table where a segment's value
 // spans one of its bins and integrating the transfer function's finely tabulated extinction
 // where the value is nearly constant (there, however long the segment, the table's
-// interpolation between bins would veil thin opacity), until it is opaque or leaves the mesh (and finds where it enters again, for meshes with holes).
-// Isosurfaces and slices are composed in the walk as the reference integrator does.
+// interpolation between bins would veil thin opacity), until it is opaque or leaves the mesh
+// (and finds where it enters again, for meshes with holes). Isosurfaces and slices are
+// composed in the walk as the reference integrator does.
 #include "tetrascope/renderer/ray_caster.h"
 
 #include <algorithm>
 #include <atomic>
-#include <cmath>
-#include <limits>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <thread>
 
 #include "camera_math.h"
 #include "slice_hits.h"
+#include "tet_field.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/core/vec3.h"
 
@@ -82,6 +83,8 @@ bool software_renderer(const std::string& description) {
   return false;
 }
 
+bool known_backend(const std::string& name) { return name == "gl" || name == "cpu" || name == "auto"; }
+
 struct RayCaster::Bvh {
   struct Node {
     Box box;
@@ -100,25 +103,18 @@ RayCaster::RayCaster(const SceneMesh& mesh) : mesh_(mesh), bvh_(std::make_unique
     Cell& cell = cells_[t];
     Vec3 p[4];
     for (int k = 0; k < 4; ++k) p[k] = point(mesh.tets[4 * t + k]);
-    const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0], e3 = p[3] - p[0];
-    const double det = dot(e1, cross(e2, e3));
     for (int f = 0; f < 4; ++f) {
       const Vec3& a = p[kTetFace[f][0]];
       Vec3 n = cross(p[kTetFace[f][1]] - a, p[kTetFace[f][2]] - a);
       if (dot(n, p[f] - a) > 0) n = n * -1.0;  // outward whatever the tet's orientation
       cell.plane[f] = {n[0], n[1], n[2], -dot(n, a)};
     }
-    if (!(std::fabs(det) > 0)) {
-      cell.gradient = {0, 0, 0, 0};
-      cell.flat = true;
-      continue;
-    }
     double s[4];
     for (int k = 0; k < 4; ++k) s[k] = mesh.value[mesh.tets[4 * t + k]];
-    const Vec3 c23 = cross(e2, e3), c31 = cross(e3, e1), c12 = cross(e1, e2);
     Vec3 g;
-    for (int k = 0; k < 3; ++k) g[k] = ((s[1] - s[0]) * c23[k] + (s[2] - s[0]) * c31[k] + (s[3] - s[0]) * c12[k]) / det;
-    cell.gradient = {g[0], g[1], g[2], s[0] - dot(g, p[0])};
+    double c;
+    cell.flat = !linear_field(p, s, &g, &c);
+    cell.gradient = cell.flat ? std::array<double, 4>{0, 0, 0, 0} : std::array<double, 4>{g[0], g[1], g[2], c};
   }
   // the boundary faces in a binary hierarchy of boxes, split at the median of the longest axis
   std::vector<uint32_t>& faces = bvh_->faces;
@@ -254,8 +250,12 @@ uint32_t RayCaster::walk_to(uint32_t from, uint32_t also, const Vec3& o, const V
   return kNone;
 }
 
-// The tet that holds `p`, or kNone (every tet's planes; once a frame, for an eye inside).
+// The tet that holds `p`, or kNone (every tet's planes, once a frame, for an eye inside the
+// mesh's box).
 uint32_t RayCaster::locate(const Vec3& p) const {
+  const double margin_of_box = 1e-9 * mesh_.diagonal;
+  for (int k = 0; k < 3; ++k)
+    if (p[k] < mesh_.bounds.min[k] - margin_of_box || p[k] > mesh_.bounds.max[k] + margin_of_box) return kNone;  // outside every tet
   uint32_t best = kNone;
   double best_margin = -INFINITY;
   for (uint32_t t = 0; t < cells_.size(); ++t) {

@@ -9,6 +9,7 @@
 
 #include "camera_math.h"
 #include "slice_hits.h"
+#include "tet_field.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/core/vec3.h"
@@ -45,14 +46,9 @@ Image reference_render(const SceneMesh& mesh, const RenderSettings& settings) {
       n[f] = cross(p[kTetFace[f][1]] - p[kTetFace[f][0]], p[kTetFace[f][2]] - p[kTetFace[f][0]]);
       d[f] = -dot(n[f], p[kTetFace[f][0]]);
     }
-    const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0], e3 = p[3] - p[0];
-    const double det = dot(e1, cross(e2, e3));
-    if (!(std::fabs(det) > 0)) continue;
-    // gradient: g.e_i = s_i - s_0
-    const Vec3 c23 = cross(e2, e3), c31 = cross(e3, e1), c12 = cross(e1, e2);
     Vec3 g;
-    for (int k = 0; k < 3; ++k) g[k] = ((s[1] - s[0]) * c23[k] + (s[2] - s[0]) * c31[k] + (s[3] - s[0]) * c12[k]) / det;
-    const double c0 = s[0] - dot(g, p[0]);
+    double c0;
+    if (!linear_field(p, s, &g, &c0)) continue;
     // pixel box of the projection
     const PixelBox box = pixel_box(frame, p);
     for (int y = box.y0; y <= box.y1; ++y)

@@ -10,7 +10,7 @@
 namespace tetrascope::server {
 
 RenderPool::RenderPool(unsigned workers, std::chrono::milliseconds idle_release, const std::string& backend) : idle_release_(idle_release), backend_(backend) {
-  if (backend != "gl" && backend != "cpu" && backend != "auto") throw std::invalid_argument("backend: gl, cpu or auto");
+  if (!renderer::known_backend(backend)) throw std::invalid_argument("backend: gl, cpu or auto");
   for (unsigned i = 0; i < std::max(1u, workers); ++i) threads_.emplace_back([this, i] { run(i); });
   std::unique_lock lock(mutex_);
   ready_.wait(lock, [&] { return started_ == threads_.size(); });

@@ -18,6 +18,8 @@ namespace tetrascope::renderer {
 // Whether a GL renderer's description (Renderer::description) names a software rasteriser
 // (Mesa's llvmpipe, softpipe or swrast).
 bool software_renderer(const std::string& description);
+// The backends `render --backend` and `serve --backend` take: gl, cpu or auto.
+bool known_backend(const std::string& name);
 
 class RayCaster {
  public:
@@ -37,8 +39,6 @@ class RayCaster {
   // tets the rays visited, and interrupted says settings.should_stop stopped the frame
   // (asked between tiles; the image is partial).
   Image render(const RenderSettings& settings, FrameTimings* timings = nullptr, unsigned threads = 0) const;
-
-  size_t memory_bytes() const { return cells_.size() * sizeof(Cell) + opposite_.size() * sizeof(uint32_t); }
 
  private:
   struct Cell {
