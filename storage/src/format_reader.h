@@ -75,6 +75,13 @@ class FormatReader {
                              ReadStats& stats) = 0;
   // Appends up to about `max_cells` cells; returns false when no cell is left.
   virtual bool read_cells(CellBatch& batch, size_t max_cells) = 0;
+  // Cell data, for a reader whose header lists cell_attributes: the values of the next `count`
+  // cells in file order (every cell, volume or not: one tuple each), one array per cell
+  // attribute (count * components). Called in step with read_cells.
+  virtual void read_cell_values(size_t /*count*/, std::span<float* const> /*values*/, ReadStats& /*stats*/) {}
+  // Starts the cells and their values again from the first cell (after a pass that converted
+  // cell data to the vertices).
+  virtual void rewind_cells() {}
 };
 
 std::unique_ptr<FormatReader> make_vtk_legacy_reader(std::shared_ptr<InputFile> file);

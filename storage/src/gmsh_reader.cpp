@@ -1,8 +1,10 @@
-// Gmsh MSH 2.2 and 4.1 meshes, ASCII and binary, with $NodeData fields.
+// Gmsh MSH 2.2 and 4.1 meshes, ASCII and binary, with $NodeData and $ElementData fields.
 // Format: Gmsh reference manual, "MSH file format" (versions 4.1 and 2.2).
 // Nodes and fields are read while indexing (memory in proportion to the vertices: tags
 // may be sparse and fields come last); elements are streamed.
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <unordered_map>
 
@@ -62,12 +64,27 @@ struct Field {
   std::vector<float> values;
 };
 
+// $ElementData: values by element tag, sorted by tag.
+struct ElementField {
+  AttributeInfo info;
+  std::vector<int64_t> tags;
+  std::vector<float> values;  // components per tag, in the order of `tags`
+};
+
+// The header of a $NodeData or $ElementData section.
+struct DataHeader {
+  std::string name;
+  int64_t components = 1, count = 0;
+};
+
 class GmshReader final : public FormatReader {
  public:
   explicit GmshReader(std::shared_ptr<InputFile> file) : file_(std::move(file)), cursor_(file_) {}
   MeshHeader index(ReadStats& stats) override;
   void read_vertices(size_t count, float* xyz, std::span<float* const> attributes, ReadStats& stats) override;
   bool read_cells(CellBatch& batch, size_t max_cells) override;
+  void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
+  void rewind_cells() override;
 
  private:
   template <typename T>
@@ -90,7 +107,12 @@ class GmshReader final : public FormatReader {
   void read_nodes();
   void add_node(uint64_t tag, double x, double y, double z);
   uint32_t node_index(int64_t tag, const char* what, uint64_t number);
+  DataHeader read_data_header(const std::string& section, uint64_t most);
+  // The size of an entity tag in a binary data section (MSH 4.1 writers differ: int or size_t):
+  // the one whose payload ends at $End<section>.
+  size_t binary_tag_bytes(const std::string& section, int64_t count, int64_t components);
   void read_node_data(ReadStats& stats);
+  void read_element_data(ReadStats& stats);
   void skip_elements();
   bool next_element(CellBatch& batch);
 
@@ -105,6 +127,8 @@ class GmshReader final : public FormatReader {
   std::unordered_map<uint64_t, uint32_t> sparse_tags_;
   std::vector<uint64_t> node_tags_;
   std::vector<Field> fields_;
+  std::vector<ElementField> element_fields_;
+  std::vector<int64_t> batch_tags_;  // the tags of the elements the last read_cells appended
   uint64_t elements_offset_ = 0, elements_line_ = 0;
   bool have_elements_ = false;
   uint64_t vertices_given_ = 0;
@@ -246,49 +270,58 @@ uint32_t GmshReader::node_index(int64_t tag, const char* context, uint64_t numbe
   return index;
 }
 
-void GmshReader::read_node_data(ReadStats& stats) {
-  if (xyz_.empty()) cursor_.fail("$NodeData before $Nodes");
-  std::string name = "field" + std::to_string(fields_.size());
+DataHeader GmshReader::read_data_header(const std::string& section, uint64_t most) {
+  DataHeader h;
+  h.name = "field" + std::to_string(fields_.size() + element_fields_.size());
   uint32_t strings = cursor_.parse_int<uint32_t>("number of string tags");
   if (strings > 64) cursor_.fail("too many string tags");
   std::string_view text;
   cursor_.skip_to_next_line();
   for (uint32_t s = 0; s < strings; ++s) {
-    if (!cursor_.line_text(text)) cursor_.fail("file ends in $NodeData string tags");
+    if (!cursor_.line_text(text)) cursor_.fail("file ends in $" + section + " string tags");
     std::string tag(text);
     while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\r')) tag.pop_back();
     if (tag.size() >= 2 && tag.front() == '"' && tag.back() == '"') tag = tag.substr(1, tag.size() - 2);
-    if (s == 0 && !tag.empty()) name = tag;
+    if (s == 0 && !tag.empty()) h.name = tag;
   }
   uint32_t reals = cursor_.parse_int<uint32_t>("number of real tags");
   if (reals > 64) cursor_.fail("too many real tags");
   for (uint32_t r = 0; r < reals; ++r) cursor_.parse_double("real tag");
   uint32_t ints = cursor_.parse_int<uint32_t>("number of integer tags");
-  if (ints < 3 || ints > 64) cursor_.fail("$NodeData needs 3 integer tags (time step, components, count)");
+  if (ints < 3 || ints > 64) cursor_.fail("$" + section + " needs 3 integer tags (time step, components, count)");
   int64_t int_tags[64];
   for (uint32_t i = 0; i < ints; ++i) int_tags[i] = cursor_.parse_int<int64_t>("integer tag");
-  int64_t components = int_tags[1], count = int_tags[2];
-  if (components != 1 && components != 3 && components != 9) cursor_.fail("$NodeData '" + name + "' has " + std::to_string(components) + " components, expected 1, 3 or 9");
-  if (count < 0 || static_cast<uint64_t>(count) > node_tags_.size()) cursor_.fail("$NodeData '" + name + "' has " + std::to_string(count) + " values for " + std::to_string(node_tags_.size()) + " nodes");
+  h.components = int_tags[1];
+  h.count = int_tags[2];
+  if (h.components != 1 && h.components != 3 && h.components != 9) cursor_.fail("$" + section + " '" + h.name + "' has " + std::to_string(h.components) + " components, expected 1, 3 or 9");
+  if (h.count < 0 || static_cast<uint64_t>(h.count) > most) cursor_.fail("$" + section + " '" + h.name + "' has " + std::to_string(h.count) + " values for " + std::to_string(most) + (section == "NodeData" ? " nodes" : " elements"));
+  return h;
+}
+
+size_t GmshReader::binary_tag_bytes(const std::string& section, int64_t count, int64_t components) {
+  if (!binary_) return 4;
+  cursor_.skip_to_next_line();
+  const uint64_t start = cursor_.offset(), line = cursor_.line();
+  auto ends_right = [&](size_t bytes) {
+    uint64_t payload = static_cast<uint64_t>(count) * (bytes + 8 * static_cast<uint64_t>(components));
+    if (payload > cursor_.remaining()) return false;
+    cursor_.skip(payload, "$" + section);
+    std::string_view t = cursor_.token();
+    cursor_.seek(start, line);
+    return t == "$End" + section;
+  };
+  return !ends_right(4) && ends_right(8) ? 8 : 4;
+}
+
+void GmshReader::read_node_data(ReadStats& stats) {
+  if (xyz_.empty()) cursor_.fail("$NodeData before $Nodes");
+  const DataHeader h = read_data_header("NodeData", node_tags_.size());
+  const std::string& name = h.name;
+  const int64_t components = h.components, count = h.count;
   Field field{{name, static_cast<uint32_t>(components)}, {}};
   field.values.assign(node_tags_.size() * static_cast<size_t>(components), std::numeric_limits<float>::quiet_NaN());
   std::vector<uint8_t> seen(node_tags_.size(), 0);
-  size_t tag_bytes = 4;
-  if (binary_) {
-    cursor_.skip_to_next_line();
-    // MSH 4.1 writers differ in the size of the node tag here (int or size_t); pick the one
-    // whose payload ends at $EndNodeData.
-    uint64_t start = cursor_.offset(), line = cursor_.line();
-    auto ends_right = [&](size_t bytes) {
-      uint64_t payload = static_cast<uint64_t>(count) * (bytes + 8 * static_cast<uint64_t>(components));
-      if (payload > cursor_.remaining()) return false;
-      cursor_.skip(payload, "$NodeData");
-      std::string_view t = cursor_.token();
-      cursor_.seek(start, line);
-      return t == "$EndNodeData";
-    };
-    if (!ends_right(4) && ends_right(8)) tag_bytes = 8;
-  }
+  const size_t tag_bytes = binary_tag_bytes("NodeData", count, components);
   for (int64_t i = 0; i < count; ++i) {
     int64_t tag = binary_ ? (tag_bytes == 4 ? binary<int32_t>("node tag") : static_cast<int64_t>(binary<uint64_t>("node tag")))
                           : cursor_.parse_int<int64_t>("node tag");
@@ -314,6 +347,43 @@ void GmshReader::read_node_data(ReadStats& stats) {
     }
   }
   fields_.push_back(std::move(field));
+}
+
+void GmshReader::read_element_data(ReadStats& stats) {
+  // the count is checked against the file's size (a value at least 2 bytes), the elements
+  // against it once they are read
+  const DataHeader h = read_data_header("ElementData", cursor_.remaining() / 2);
+  const size_t components = static_cast<size_t>(h.components), count = static_cast<size_t>(h.count);
+  const size_t tag_bytes = binary_tag_bytes("ElementData", h.count, h.components);
+  std::vector<std::pair<int64_t, size_t>> order(count);
+  std::vector<float> raw(count * components);
+  for (size_t i = 0; i < count; ++i) {
+    int64_t tag = binary_ ? (tag_bytes == 4 ? binary<int32_t>("element tag") : static_cast<int64_t>(binary<uint64_t>("element tag")))
+                          : cursor_.parse_int<int64_t>("element tag");
+    order[i] = {tag, i};
+    for (size_t k = 0; k < components; ++k) {
+      double v = binary_ ? binary<double>("field value") : cursor_.parse_double("field value");
+      if (!to_stored_float(v, raw[i * components + k])) ++stats.nonfinite_attribute_values;
+    }
+  }
+  expect_end("ElementData");
+  std::sort(order.begin(), order.end());
+  ElementField field{{h.name, static_cast<uint32_t>(components)}, {}, {}};
+  field.tags.reserve(count);
+  field.values.reserve(count * components);
+  for (size_t i = 0; i < count; ++i) {
+    if (i > 0 && order[i].first == order[i - 1].first) cursor_.fail("$ElementData '" + h.name + "' gives element " + std::to_string(order[i].first) + " twice");
+    field.tags.push_back(order[i].first);
+    field.values.insert(field.values.end(), raw.begin() + static_cast<std::ptrdiff_t>(order[i].second * components), raw.begin() + static_cast<std::ptrdiff_t>((order[i].second + 1) * components));
+  }
+  for (ElementField& f : element_fields_) {
+    if (f.info.name == h.name) {  // a later time step replaces an earlier one
+      stats.warnings.push_back("$ElementData '" + h.name + "' appears more than once; using the last one");
+      f = std::move(field);
+      return;
+    }
+  }
+  element_fields_.push_back(std::move(field));
 }
 
 void GmshReader::skip_elements() {
@@ -393,8 +463,9 @@ MeshHeader GmshReader::index(ReadStats& stats) {
     if (section == "Nodes") read_nodes();
     else if (section == "Elements") skip_elements();
     else if (section == "NodeData") read_node_data(stats);
+    else if (section == "ElementData") read_element_data(stats);
     else {
-      if (section == "ElementData" || section == "ElementNodeData") stats.warnings.push_back("$" + section + " ignored (vertex data drives rendering)");
+      if (section == "ElementNodeData") stats.warnings.push_back("$" + section + " ignored (values per element corner are not read)");
       if (binary_ && section != "PhysicalNames" && section != "ElementData" && section != "ElementNodeData" &&
           section != "Entities" && section != "PartitionedEntities" && section != "Periodic" && section != "GhostElements" &&
           section != "Parametrizations" && section != "InterpolationScheme") {
@@ -406,6 +477,7 @@ MeshHeader GmshReader::index(ReadStats& stats) {
   if (xyz_.empty() && header_.vertex_count == 0) throw MeshError(file_->name() + ": no $Nodes section");
   if (!have_elements_) throw MeshError(file_->name() + ": no $Elements section");
   for (const Field& f : fields_) header_.attributes.push_back(f.info);
+  for (const ElementField& f : element_fields_) header_.cell_attributes.push_back(f.info);
   return header_;
 }
 
@@ -424,6 +496,7 @@ void GmshReader::read_vertices(size_t count, float* xyz, std::span<float* const>
 
 bool GmshReader::next_element(CellBatch& batch) {
   int type;
+  int64_t element_tag = 0;
   if (!version4_) {
     if (elements_left_ == 0) return false;
     if (binary_ && block_left_ == 0) {
@@ -435,11 +508,11 @@ bool GmshReader::next_element(CellBatch& batch) {
     }
     if (binary_) {
       type = block_type_;
-      binary<int32_t>("element tag");
+      element_tag = binary<int32_t>("element number");
       for (int k = 0; k < block_tags_; ++k) binary<int32_t>("element tag");
       --block_left_;
     } else {
-      cursor_.parse_int<int64_t>("element number");
+      element_tag = cursor_.parse_int<int64_t>("element number");
       type = cursor_.parse_int<int32_t>("element type");
       int tags = cursor_.parse_int<int32_t>("number of tags");
       if (tags < 0 || tags > 64) cursor_.fail("element has " + std::to_string(tags) + " tags");
@@ -464,8 +537,7 @@ bool GmshReader::next_element(CellBatch& batch) {
       if (block_left_ > elements_left_) cursor_.fail("element blocks hold more elements than declared");
     }
     type = block_type_;
-    if (binary_) binary<uint64_t>("element tag");
-    else cursor_.parse_int<uint64_t>("element tag");
+    element_tag = binary_ ? static_cast<int64_t>(binary<uint64_t>("element tag")) : static_cast<int64_t>(cursor_.parse_int<uint64_t>("element tag"));
     --block_left_;
     --elements_left_;
   }
@@ -485,6 +557,7 @@ bool GmshReader::next_element(CellBatch& batch) {
   }
   if (g.corners < g.nodes && volume_corner_count(g.vtk_type, g.corners) > 0) ++batch.reduced;
   batch.push(static_cast<uint8_t>(g.vtk_type), cell_nodes_);
+  if (!element_fields_.empty()) batch_tags_.push_back(element_tag);
   ++elements_read_;
   return true;
 }
@@ -506,10 +579,33 @@ bool GmshReader::read_cells(CellBatch& batch, size_t max_cells) {
     check_fits(cursor_, elements_left_, binary_ ? 8 : 4, "$Elements");
     header_.cell_count = elements_left_;
   }
+  batch_tags_.clear();
   size_t added = 0;
   while (added < max_cells && next_element(batch)) ++added;
   if (added == 0 && elements_left_ == 0) return false;
   return added > 0;
+}
+
+void GmshReader::read_cell_values(size_t count, std::span<float* const> values, ReadStats&) {
+  for (size_t a = 0; a < element_fields_.size(); ++a) {
+    const ElementField& f = element_fields_[a];
+    const size_t c = f.info.components;
+    for (size_t i = 0; i < count && i < batch_tags_.size(); ++i) {
+      auto at = std::lower_bound(f.tags.begin(), f.tags.end(), batch_tags_[i]);
+      if (at == f.tags.end() || *at != batch_tags_[i]) {  // an element the field leaves out (often a surface's)
+        std::fill_n(values[a] + i * c, c, std::numeric_limits<float>::quiet_NaN());
+        continue;
+      }
+      std::copy_n(f.values.data() + static_cast<size_t>(at - f.tags.begin()) * c, c, values[a] + i * c);
+    }
+  }
+}
+
+void GmshReader::rewind_cells() {
+  elements_started_ = false;
+  elements_left_ = block_left_ = blocks_left_ = 0;
+  elements_read_ = 0;
+  batch_tags_.clear();
 }
 
 }  // namespace

@@ -100,12 +100,15 @@ nlohmann::json summary_json(const MeshSummary& s) {
                 {"wedges", s.stats.wedges}, {"pyramids", s.stats.pyramids}, {"higher_order", s.stats.quadratic_cells},
                 {"skipped", s.stats.skipped_cells}};
   nlohmann::json attributes = nlohmann::json::array();
-  for (const AttributeSummary& a : s.attributes) {
+  const size_t points = s.header.point_attribute_count();
+  for (size_t k = 0; k < s.attributes.size(); ++k) {
+    const AttributeSummary& a = s.attributes[k];
     nlohmann::json ranges = nlohmann::json::array();
     for (auto r : a.component_ranges) ranges.push_back({number(r[0]), number(r[1])});
     attributes.push_back({{"name", a.info.name}, {"components", a.info.components}, {"min", number(a.min)}, {"max", number(a.max)},
                           {"range_of", a.info.components == 1 ? "value" : "magnitude"}, {"component_ranges", ranges},
-                          {"nonfinite", a.nonfinite}});
+                          {"nonfinite", a.nonfinite}, {"association", k < points ? "point" : "cell"}});
+    if (k >= points) attributes.back()["cell_name"] = s.header.cell_attributes[k - points].name;
   }
   j["attributes"] = attributes;
   j["bounds"] = {{"min", {s.bounds.min[0], s.bounds.min[1], s.bounds.min[2]}}, {"max", {s.bounds.max[0], s.bounds.max[1], s.bounds.max[2]}}};
@@ -141,9 +144,10 @@ std::string summary_text(const MeshSummary& s) {
   if (s.stats.skipped_cells) appendf(out, "skipped     %llu points/lines/surface cells\n", static_cast<unsigned long long>(s.stats.skipped_cells));
   appendf(out, "bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", s.bounds.min[0], s.bounds.max[0], s.bounds.min[1], s.bounds.max[1], s.bounds.min[2], s.bounds.max[2]);
   appendf(out, "attributes  %zu\n", s.attributes.size());
-  for (const AttributeSummary& a : s.attributes) {
-    appendf(out, "  %-24s %s  %g .. %g%s\n", a.info.name.c_str(), a.info.components == 1 ? "scalar" : (std::to_string(a.info.components) + "-vector").c_str(),
-        a.min, a.max, a.info.components == 1 ? "" : " (magnitude)");
+  for (size_t k = 0; k < s.attributes.size(); ++k) {
+    const AttributeSummary& a = s.attributes[k];
+    appendf(out, "  %-24s %s  %g .. %g%s%s\n", a.info.name.c_str(), a.info.components == 1 ? "scalar" : (std::to_string(a.info.components) + "-vector").c_str(),
+        a.min, a.max, a.info.components == 1 ? "" : " (magnitude)", k < s.header.point_attribute_count() ? "" : "  (cell data, volume-weighted at the vertices)");
   }
   appendf(out, "degenerate  %llu tets of zero volume\n", static_cast<unsigned long long>(s.stats.degenerate));
   appendf(out, "inverted    %llu tets re-oriented\n", static_cast<unsigned long long>(s.stats.inverted));

@@ -85,6 +85,15 @@ MeshStream::MeshStream(std::unique_ptr<detail::FormatReader> reader)
   // Counts were checked against the file size by the reader, so this allocation is bounded
   // by the input, not by what a header claims.
   xyz_.reserve(3 * header_.vertex_count);
+  for (AttributeInfo info : header_.cell_attributes) {
+    bool taken = false;
+    for (const AttributeInfo& a : header_.attributes) taken |= a.name == info.name;
+    if (taken) {
+      stats_.warnings.push_back("cell data '" + info.name + "' is named '" + info.name + "_cells' (a point array has its name)");
+      info.name += "_cells";
+    }
+    header_.attributes.push_back(std::move(info));
+  }
   attribute_scratch_.resize(header_.attributes.size());
 }
 
@@ -92,16 +101,26 @@ MeshStream::~MeshStream() = default;
 
 bool MeshStream::next_vertices(VertexChunk& chunk, size_t max_vertices) {
   if (vertices_read_ >= header_.vertex_count) return false;
+  if (!header_.cell_attributes.empty() && !cell_data_converted_) convert_cell_data();
   size_t count = static_cast<size_t>(std::min<uint64_t>(std::max<size_t>(max_vertices, 1), header_.vertex_count - vertices_read_));
-  std::vector<float*> attribute_pointers;
-  for (size_t a = 0; a < header_.attributes.size(); ++a) {
-    attribute_scratch_[a].resize(count * header_.attributes[a].components);
-    attribute_pointers.push_back(attribute_scratch_[a].data());
+  chunk.attributes.clear();
+  const size_t base = 3 * static_cast<size_t>(vertices_read_);
+  if (cell_data_converted_) {  // every vertex was read: serve the held values
+    for (size_t a = 0; a < header_.attributes.size(); ++a) {
+      const size_t c = header_.attributes[a].components;
+      chunk.attributes.emplace_back(held_attributes_[a].data() + vertices_read_ * c, count * c);
+    }
+  } else {
+    std::vector<float*> attribute_pointers;
+    for (size_t a = 0; a < header_.attributes.size(); ++a) {
+      attribute_scratch_[a].resize(count * header_.attributes[a].components);
+      attribute_pointers.push_back(attribute_scratch_[a].data());
+    }
+    // Coordinates stay interleaved: orienting a tet then touches one cache line a vertex.
+    xyz_.resize(base + 3 * count);
+    reader_->read_vertices(count, xyz_.data() + base, attribute_pointers, stats_);
+    for (const auto& a : attribute_scratch_) chunk.attributes.emplace_back(a);
   }
-  // Coordinates stay interleaved: orienting a tet then touches one cache line a vertex.
-  size_t base = xyz_.size();
-  xyz_.resize(base + 3 * count);
-  reader_->read_vertices(count, xyz_.data() + base, attribute_pointers, stats_);
   soa_scratch_.resize(3 * count);
   for (size_t i = 0; i < count; ++i) {
     soa_scratch_[i] = xyz_[base + 3 * i];
@@ -113,8 +132,6 @@ bool MeshStream::next_vertices(VertexChunk& chunk, size_t max_vertices) {
   chunk.x = std::span<const float>(soa_scratch_).subspan(0, count);
   chunk.y = std::span<const float>(soa_scratch_).subspan(count, count);
   chunk.z = std::span<const float>(soa_scratch_).subspan(2 * count, count);
-  chunk.attributes.clear();
-  for (const auto& a : attribute_scratch_) chunk.attributes.emplace_back(a);
   vertices_read_ += count;
   return true;
 }
@@ -146,7 +163,107 @@ void orient(const float* xyz, uint32_t* tet, ReadStats& stats, bool count_invers
     if (count_inversion) ++stats.inverted;
   }
 }
+// The linear cell a volume cell of `corners` corners is split as.
+int linear_type(int type, int corners) {
+  if (corners == 4) return detail::kVtkTetra;
+  if (corners == 8) return type == detail::kVtkVoxel ? detail::kVtkVoxel : detail::kVtkHexahedron;
+  if (corners == 6) return detail::kVtkWedge;
+  if (corners == 5) return detail::kVtkPyramid;
+  return type;
+}
+// The volume of a volume cell: the sum of its tets' (a hexahedron's, wedge's or pyramid's as
+// split for the mesh).
+double cell_volume(const float* xyz, int type, int corners, std::span<const uint32_t> nodes) {
+  uint32_t tets[4 * 6];
+  const size_t n = corners == 4 ? 1 : detail::split_cell(linear_type(type, corners), nodes.first(static_cast<size_t>(corners)), tets);
+  if (corners == 4) std::copy_n(nodes.data(), 4, tets);
+  double volume = 0;
+  for (size_t t = 0; t < n; ++t) {
+    bool degenerate = false;
+    volume += std::fabs(orientation(xyz, tets + 4 * t, degenerate)) / 6;
+  }
+  return volume;
+}
 }  // namespace
+
+void MeshStream::convert_cell_data() {
+  const size_t V = static_cast<size_t>(header_.vertex_count), P = header_.point_attribute_count();
+  held_attributes_.resize(header_.attributes.size());
+  for (size_t a = 0; a < header_.attributes.size(); ++a) held_attributes_[a].resize(V * header_.attributes[a].components);
+  xyz_.resize(3 * V);
+  std::vector<float*> pointers(P);
+  for (size_t first = 0; first < V; first += kDefaultChunk) {
+    const size_t count = std::min(kDefaultChunk, V - first);
+    for (size_t a = 0; a < P; ++a) pointers[a] = held_attributes_[a].data() + first * header_.attributes[a].components;
+    reader_->read_vertices(count, xyz_.data() + 3 * first, pointers, stats_);
+  }
+  size_t floats = 0;
+  for (const AttributeInfo& info : header_.cell_attributes) floats += info.components;
+  std::vector<double> sums(V * floats, 0.0), weights(V, 0.0);
+  std::vector<uint8_t> marks(V, 0);  // vertices of a volume cell
+  accumulate_cell_data(sums, weights, marks, false);
+  reader_->rewind_cells();
+  // a vertex whose volume cells all have zero volume: their plain mean (one more pass, only then)
+  bool any_flat = false;
+  for (size_t v = 0; v < V; ++v) {
+    marks[v] = marks[v] && weights[v] == 0;
+    any_flat |= marks[v] != 0;
+  }
+  if (any_flat) {
+    accumulate_cell_data(sums, weights, marks, true);
+    reader_->rewind_cells();
+  }
+  uint64_t alone = 0;
+  for (size_t v = 0; v < V; ++v) alone += weights[v] == 0;
+  for (size_t k = 0, offset = 0; k < header_.cell_attributes.size(); ++k) {
+    const uint32_t c = header_.cell_attributes[k].components;
+    float* out = held_attributes_[P + k].data();
+    for (size_t v = 0; v < V; ++v)
+      for (uint32_t j = 0; j < c; ++j) out[v * c + j] = weights[v] > 0 ? static_cast<float>(sums[v * floats + offset + j] / weights[v]) : 0.0f;
+    offset += c;
+  }
+  if (alone > 0) stats_.warnings.push_back(std::to_string(alone) + " vertices in no volume cell take 0 for the cell data");
+  cell_data_converted_ = true;
+}
+
+// One pass over the cells: Σ weight·value and Σ weight at each volume cell's corners. The
+// weight is the cell's volume, and `marks` gets every corner; with `plain`, the weight is 1 at
+// the vertices `marks` holds and 0 elsewhere.
+void MeshStream::accumulate_cell_data(std::vector<double>& sums, std::vector<double>& weights, std::vector<uint8_t>& marks, bool plain) {
+  const size_t K = header_.cell_attributes.size(), floats = sums.size() / std::max<size_t>(weights.size(), 1);
+  std::vector<std::vector<float>> values(K);
+  std::vector<float*> pointers(K);
+  CellBatch& batch = cells_->batch;
+  for (;;) {
+    batch.clear();
+    if (!reader_->read_cells(batch, kDefaultChunk)) break;
+    const size_t n = batch.size();
+    for (size_t k = 0; k < K; ++k) {
+      values[k].resize(n * header_.cell_attributes[k].components);
+      pointers[k] = values[k].data();
+    }
+    reader_->read_cell_values(n, pointers, stats_);
+    for (size_t c = 0; c < n; ++c) {
+      const size_t node_count = batch.offsets[c + 1] - batch.offsets[c];
+      const std::span<const uint32_t> nodes(batch.nodes.data() + batch.offsets[c], node_count);
+      const int corners = detail::volume_corner_count(batch.types[c], static_cast<int>(node_count));
+      if (corners <= 0) continue;
+      const double volume = plain ? 0 : cell_volume(xyz_.data(), batch.types[c], corners, nodes);
+      for (int q = 0; q < corners; ++q) {
+        const uint32_t v = nodes[static_cast<size_t>(q)];
+        if (!plain) marks[v] = 1;
+        const double w = plain ? double(marks[v]) : volume;
+        if (w == 0) continue;
+        weights[v] += w;
+        for (size_t k = 0, offset = 0; k < K; ++k) {
+          const uint32_t components = header_.cell_attributes[k].components;
+          for (uint32_t j = 0; j < components; ++j) sums[size_t{v} * floats + offset + j] += w * values[k][c * components + j];
+          offset += components;
+        }
+      }
+    }
+  }
+}
 
 bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
   VertexChunk drain;
@@ -225,11 +342,7 @@ void MeshStream::fill_tet_chunk(size_t max_tets) {
       }
       ++stats_.cells;
       if (static_cast<size_t>(corners) < node_count) ++stats_.quadratic_cells;
-      int linear = type;
-      if (corners == 4) linear = detail::kVtkTetra;
-      else if (corners == 8) linear = type == detail::kVtkVoxel ? detail::kVtkVoxel : detail::kVtkHexahedron;
-      else if (corners == 6) linear = detail::kVtkWedge;
-      else if (corners == 5) linear = detail::kVtkPyramid;
+      const int linear = linear_type(type, corners);
       if (corners == 8) ++stats_.hexahedra;
       if (corners == 6) ++stats_.wedges;
       if (corners == 5) ++stats_.pyramids;

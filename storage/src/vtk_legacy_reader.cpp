@@ -36,6 +36,8 @@ class VtkLegacyReader final : public FormatReader {
   MeshHeader index(ReadStats& stats) override;
   void read_vertices(size_t count, float* xyz, std::span<float* const> attributes, ReadStats& stats) override;
   bool read_cells(CellBatch& batch, size_t max_cells) override;
+  void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
+  void rewind_cells() override;
 
  private:
   std::optional<ScalarType> parse_type(std::string_view name) const;
@@ -56,7 +58,7 @@ class VtkLegacyReader final : public FormatReader {
   MeshHeader header_;
   std::optional<ArrayLocation> points_, cells_, offsets_, connectivity_, cell_types_;
   uint64_t cell_count_ = 0;
-  std::vector<PointArray> point_arrays_;
+  std::vector<PointArray> point_arrays_, cell_arrays_;
 
   // vertex pass
   std::unique_ptr<ValueStream> point_values_;
@@ -70,6 +72,7 @@ class VtkLegacyReader final : public FormatReader {
   static constexpr uint64_t kTetRun = 1024;
   size_t slow_cells_ = 0;  // cells left to read one by one after a run that was not plain tets
   std::vector<uint32_t> cell_nodes_;
+  std::vector<std::unique_ptr<ValueStream>> cell_values_;
 };
 
 std::optional<ScalarType> VtkLegacyReader::parse_type(std::string_view name) const {
@@ -161,18 +164,18 @@ void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, R
     cursor_.fail("POINT_DATA has " + std::to_string(tuples) + " values but POINTS has " +
                  std::to_string(header_.vertex_count));
   }
+  if (!point_data && tuples != cell_count_) {
+    cursor_.fail("CELL_DATA has " + std::to_string(tuples) + " values but CELLS has " + std::to_string(cell_count_));
+  }
+  std::vector<PointArray>& arrays = point_data ? point_arrays_ : cell_arrays_;
   auto add = [&](std::string name, uint32_t components, const ArrayLocation& location) {
-    if (!point_data) {
-      stats.warnings.push_back("cell data '" + name + "' ignored (vertex data drives rendering)");
-      return;
-    }
-    for (const PointArray& a : point_arrays_) {
+    for (const PointArray& a : arrays) {
       if (a.info.name == name) {
-        stats.warnings.push_back("duplicate point array '" + name + "' ignored");
+        stats.warnings.push_back(std::string("duplicate ") + (point_data ? "point" : "cell") + " array '" + name + "' ignored");
         return;
       }
     }
-    point_arrays_.push_back({{std::move(name), components}, location});
+    arrays.push_back({{std::move(name), components}, location});
   };
   for (;;) {
     cursor_.skip_whitespace();
@@ -322,6 +325,7 @@ MeshHeader VtkLegacyReader::index(ReadStats& stats) {
   if (!cell_types_) throw MeshError(file_->name() + ": no CELL_TYPES section");
   header_.cell_count = cell_count_;
   for (const PointArray& a : point_arrays_) header_.attributes.push_back(a.info);
+  for (const PointArray& a : cell_arrays_) header_.cell_attributes.push_back(a.info);
   return header_;
 }
 
@@ -412,6 +416,28 @@ bool VtkLegacyReader::read_cells(CellBatch& batch, size_t max_cells) {
     cell_stream_->fail("CELLS list has " + std::to_string(cell_ints_.remaining()) + " integers more than its cells use");
   }
   return added > 0;
+}
+
+void VtkLegacyReader::read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) {
+  if (cell_values_.empty())
+    for (const PointArray& a : cell_arrays_) cell_values_.push_back(stream_at(a.location));
+  for (size_t a = 0; a < cell_arrays_.size(); ++a) {
+    stats.nonfinite_attribute_values += cell_values_[a]->read_float(values[a], count * cell_arrays_[a].info.components, false, cell_arrays_[a].info.name);
+  }
+}
+
+void VtkLegacyReader::rewind_cells() {
+  cells_started_ = false;
+  cells_read_ = 0;
+  slow_cells_ = 0;
+  previous_offset_ = 0;
+  cell_stream_.reset();
+  offset_stream_.reset();
+  type_stream_.reset();
+  cell_ints_ = {};
+  offset_ints_ = {};
+  type_ints_ = {};
+  cell_values_.clear();
 }
 
 }  // namespace

@@ -80,6 +80,8 @@ class VtuReader final : public FormatReader {
   MeshHeader index(ReadStats& stats) override;
   void read_vertices(size_t count, float* xyz, std::span<float* const> attributes, ReadStats& stats) override;
   bool read_cells(CellBatch& batch, size_t max_cells) override;
+  void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
+  void rewind_cells() override;
 
  private:
   bool next_tag(Tag& tag);
@@ -104,7 +106,7 @@ class VtuReader final : public FormatReader {
   std::optional<uint64_t> appended_offset_;
   MeshHeader header_;
   std::optional<DataArray> points_, connectivity_, offsets_, types_;
-  std::vector<DataArray> point_arrays_;
+  std::vector<DataArray> point_arrays_, cell_arrays_;
 
   std::unique_ptr<ValueStream> point_values_;
   std::vector<std::unique_ptr<ValueStream>> attribute_values_;
@@ -116,6 +118,7 @@ class VtuReader final : public FormatReader {
   std::unique_ptr<ValueStream> connectivity_stream_, offset_stream_, type_stream_;
   BufferedInts connectivity_ints_, offset_ints_, type_ints_;
   std::vector<uint32_t> cell_nodes_;
+  std::vector<std::unique_ptr<ValueStream>> cell_values_;
 };
 
 bool VtuReader::next_tag(Tag& tag) {
@@ -286,20 +289,20 @@ MeshHeader VtuReader::index(ReadStats& stats) {
           else if (a.name == "offsets") offsets_ = a;
           else if (a.name == "types") types_ = a;
           break;
-        case Section::kPointData: {
+        case Section::kPointData:
+        case Section::kCellData: {
+          const bool point = section == Section::kPointData;
+          std::vector<DataArray>& arrays = point ? point_arrays_ : cell_arrays_;
           bool duplicate = false;
-          for (const DataArray& b : point_arrays_) duplicate |= b.name == a.name;
+          for (const DataArray& b : arrays) duplicate |= b.name == a.name;
           if (duplicate) {
-            stats.warnings.push_back("duplicate point array '" + a.name + "' ignored");
+            stats.warnings.push_back(std::string("duplicate ") + (point ? "point" : "cell") + " array '" + a.name + "' ignored");
           } else {
-            if (a.name.empty()) a.name = "array" + std::to_string(point_arrays_.size());
-            point_arrays_.push_back(a);
+            if (a.name.empty()) a.name = (point ? "array" : "cell_array") + std::to_string(arrays.size());
+            arrays.push_back(a);
           }
           break;
         }
-        case Section::kCellData:
-          stats.warnings.push_back("cell data '" + a.name + "' ignored (vertex data drives rendering)");
-          break;
         default: break;
       }
     } else if (tag.name == "AppendedData" && !tag.closing) {
@@ -320,6 +323,10 @@ MeshHeader VtuReader::index(ReadStats& stats) {
     if (a->format == DataArray::Format::kAppended && !appended_offset_) fail_line(a->line, "DataArray '" + a->name + "' is appended but the file has no AppendedData");
   }
   for (const DataArray& a : point_arrays_) header_.attributes.push_back({a.name, a.components});
+  for (const DataArray& a : cell_arrays_) {
+    if (a.format == DataArray::Format::kAppended && !appended_offset_) fail_line(a.line, "DataArray '" + a.name + "' is appended but the file has no AppendedData");
+    header_.cell_attributes.push_back({a.name, a.components});
+  }
   if (compressed_) check_inflated_size();
   return header_;
 }
@@ -334,6 +341,7 @@ void VtuReader::check_inflated_size() const {
   };
   add(*points_, 3.0 * static_cast<double>(points));
   for (const DataArray& a : point_arrays_) add(a, static_cast<double>(points) * a.components);
+  for (const DataArray& a : cell_arrays_) add(a, static_cast<double>(cells) * a.components);
   add(*offsets_, static_cast<double>(cells));
   add(*types_, static_cast<double>(cells));
   if (connectivity_->format != DataArray::Format::kAscii) add(*connectivity_, static_cast<double>(value_count(*connectivity_)));
@@ -478,6 +486,28 @@ bool VtuReader::read_cells(CellBatch& batch, size_t max_cells) {
     ++added;
   }
   return added > 0;
+}
+
+void VtuReader::read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) {
+  if (cell_values_.empty())
+    for (const DataArray& a : cell_arrays_) cell_values_.push_back(open_values(a, header_.cell_count * a.components));
+  for (size_t a = 0; a < cell_arrays_.size(); ++a) {
+    stats.nonfinite_attribute_values += cell_values_[a]->read_float(values[a], count * cell_arrays_[a].components, false, cell_arrays_[a].name);
+  }
+}
+
+void VtuReader::rewind_cells() {
+  cells_started_ = false;
+  cells_read_ = 0;
+  previous_end_ = 0;
+  slow_cells_ = 0;
+  connectivity_stream_.reset();
+  offset_stream_.reset();
+  type_stream_.reset();
+  connectivity_ints_ = {};
+  offset_ints_ = {};
+  type_ints_ = {};
+  cell_values_.clear();
 }
 
 }  // namespace

@@ -124,16 +124,19 @@ void write_vtk_legacy(const std::filesystem::path& path, const CellMesh& m, cons
   }
   out += "CELL_TYPES " + std::to_string(cells) + "\n";
   ints(std::vector<int64_t>(m.types.begin(), m.types.end()), false);
-  if (!m.attributes.empty()) {
-    out += "POINT_DATA " + std::to_string(n) + "\n";
-    if (o.field) out += "FIELD FieldData " + std::to_string(m.attributes.size()) + "\n";
-    for (const auto& a : m.attributes) {
-      if (o.field) out += a.info.name + " " + std::to_string(a.info.components) + " " + std::to_string(n) + " " + real + "\n";
+  auto section = [&](const char* keyword, const std::vector<storage::Attribute>& arrays, size_t tuples) {
+    if (arrays.empty()) return;
+    out += std::string(keyword) + " " + std::to_string(tuples) + "\n";
+    if (o.field) out += "FIELD FieldData " + std::to_string(arrays.size()) + "\n";
+    for (const auto& a : arrays) {
+      if (o.field) out += a.info.name + " " + std::to_string(a.info.components) + " " + std::to_string(tuples) + " " + real + "\n";
       else if (a.info.components == 3) out += "VECTORS " + a.info.name + " " + real + "\n";
       else out += "SCALARS " + a.info.name + " " + real + " " + std::to_string(a.info.components) + "\nLOOKUP_TABLE default\n";
       values(std::vector<double>(a.values.begin(), a.values.end()));
     }
-  }
+  };
+  section("CELL_DATA", m.cell_attributes, cells);
+  section("POINT_DATA", m.attributes, n);
   write_file(path, out);
 }
 
@@ -198,8 +201,9 @@ std::pair<std::string, std::string> encode_binary(const std::string& raw, const 
 
 void write_vtu(const std::filesystem::path& path, const CellMesh& m, const VtuOptions& o) {
   const bool ascii = o.encoding == VtuEncoding::kAscii;
-  std::vector<VtuArray> point_data;
+  std::vector<VtuArray> point_data, cell_data;
   for (const auto& a : m.attributes) point_data.push_back(real_array(a.info.name, a.info.components, a.values, o.doubles, ascii));
+  for (const auto& a : m.cell_attributes) cell_data.push_back(real_array(a.info.name, a.info.components, a.values, o.doubles, ascii));
   std::vector<float> xyz;
   for (size_t i = 0; i < m.x.size(); ++i) xyz.insert(xyz.end(), {m.x[i], m.y[i], m.z[i]});
   VtuArray points = real_array("Points", 3, xyz, o.doubles, ascii);
@@ -229,7 +233,13 @@ void write_vtu(const std::filesystem::path& path, const CellMesh& m, const VtuOp
   out += "<UnstructuredGrid>\n<Piece NumberOfPoints=\"" + std::to_string(m.x.size()) + "\" NumberOfCells=\"" + std::to_string(m.cell_count()) + "\">\n";
   out += "<PointData>\n";
   for (const auto& a : point_data) out += element(a);
-  out += "</PointData>\n<Points>\n" + element(points) + "</Points>\n<Cells>\n";
+  out += "</PointData>\n";
+  if (!cell_data.empty()) {
+    out += "<CellData>\n";
+    for (const auto& a : cell_data) out += element(a);
+    out += "</CellData>\n";
+  }
+  out += "<Points>\n" + element(points) + "</Points>\n<Cells>\n";
   for (const auto& a : cells) out += element(a);
   out += "</Cells>\n</Piece>\n</UnstructuredGrid>\n";
   if (o.encoding == VtuEncoding::kAppendedRaw || o.encoding == VtuEncoding::kAppendedBase64) {
@@ -347,20 +357,25 @@ void write_gmsh(const std::filesystem::path& path, const CellMesh& m, const Gmsh
     }
   }
   out += (bin ? "\n" : "") + std::string("$EndElements\n");
-  for (const auto& a : m.attributes) {
-    out += "$NodeData\n1\n\"" + a.info.name + "\"\n1\n0.0\n3\n0\n" + std::to_string(a.info.components) + "\n" + std::to_string(n) + "\n";
-    for (size_t i = 0; i < n; ++i) {
+  // $NodeData by node tag; $ElementData by element tag (c + 1), written in reverse order
+  auto data = [&](const std::string& section, const storage::Attribute& a, size_t count, bool elements) {
+    out += "$" + section + "\n1\n\"" + a.info.name + "\"\n1\n0.0\n3\n0\n" + std::to_string(a.info.components) + "\n" + std::to_string(count) + "\n";
+    for (size_t j = 0; j < count; ++j) {
+      const size_t i = elements ? count - 1 - j : j;
+      const uint64_t t = elements ? i + 1 : tag(i);
       if (bin) {
-        append(out, static_cast<int32_t>(tag(i)), false);
+        append(out, static_cast<int32_t>(t), false);
         for (uint32_t k = 0; k < a.info.components; ++k) append(out, double(a.values[i * a.info.components + k]), false);
       } else {
-        out += std::to_string(tag(i));
+        out += std::to_string(t);
         for (uint32_t k = 0; k < a.info.components; ++k) out += " " + fmt(a.values[i * a.info.components + k]);
         out += "\n";
       }
     }
-    out += (bin ? "\n" : "") + std::string("$EndNodeData\n");
-  }
+    out += (bin ? "\n" : "") + std::string("$End") + section + "\n";
+  };
+  for (const auto& a : m.attributes) data("NodeData", a, n, false);
+  for (const auto& a : m.cell_attributes) data("ElementData", a, cells, true);
   write_file(path, out);
 }
 

@@ -15,6 +15,7 @@ namespace tetrascope::testing {
 struct CellMesh {
   std::vector<float> x, y, z;
   std::vector<storage::Attribute> attributes;
+  std::vector<storage::Attribute> cell_attributes;  // one tuple a cell (VTK CELL_DATA, VTU CellData, Gmsh $ElementData)
   std::vector<uint8_t> types;        // VTK cell types
   std::vector<uint32_t> offsets{0};  // cell c uses connectivity[offsets[c] .. offsets[c+1])
   std::vector<uint32_t> connectivity;

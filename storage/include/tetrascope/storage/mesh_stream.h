@@ -31,7 +31,16 @@ struct MeshHeader {
   std::string description;  // e.g. "VTK legacy 3.0 BINARY", "Gmsh 4.1 ascii"
   uint64_t vertex_count = 0;
   uint64_t cell_count = 0;  // all cells in the file, before splitting or skipping
+  // What the stream delivers per vertex: the file's point data, then its cell data averaged
+  // at the vertices (the last cell_attributes.size() entries).
   std::vector<AttributeInfo> attributes;
+  // The file's cell data, as read (a name that a point array also has gets "_cells" in
+  // `attributes`). A cell array becomes vertex data by the volume-weighted mean over the
+  // volume cells around each vertex: Σ V_c·f_c / Σ V_c (surface, line and point cells do not
+  // count; a vertex whose cells all have zero volume takes their plain mean, one in no volume
+  // cell 0).
+  std::vector<AttributeInfo> cell_attributes;
+  size_t point_attribute_count() const { return attributes.size() - cell_attributes.size(); }
 };
 
 // A run of consecutive vertices; spans are valid until the next call on the stream.
@@ -99,6 +108,11 @@ class MeshStream {
   void fill_tet_chunk(size_t max_tets);
   void drop_repeated_vertex_tets();
   void orient_chunk();
+  // Reads every vertex and, in one pass over the cells, averages the cell data at them; the
+  // cells are then rewound for next_tets. Memory: the vertices' values and one double a
+  // value component and vertex while it runs.
+  void convert_cell_data();
+  void accumulate_cell_data(std::vector<double>& sums, std::vector<double>& weights, std::vector<uint8_t>& marks, bool plain);
   static constexpr size_t kParallelOrientTets = 16384;
 
   std::unique_ptr<detail::FormatReader> reader_;
@@ -109,6 +123,8 @@ class MeshStream {
   uint64_t tets_emitted_ = 0;
   std::vector<float> soa_scratch_;
   std::vector<std::vector<float>> attribute_scratch_;
+  std::vector<std::vector<float>> held_attributes_;  // every vertex's values, when the file has cell data
+  bool cell_data_converted_ = false;
   std::vector<uint32_t> tet_scratch_;
   std::vector<uint8_t> split_scratch_;  // per tet in the chunk: 1 when it came from a split cell
   struct CellScratch;
