@@ -147,6 +147,11 @@ void VtkLegacyReader::read_field(std::optional<uint64_t> tuples,
     if (t == "STRING" || t == "UTF8_STRING" || t == "VARIANT") cursor_.fail("FIELD array '" + name + "' of type " + type + " is not supported");
     ArrayLocation loc = skip_array(count * components, type, "FIELD array '" + name + "'");
     if (keep && t != "BIT" && components <= 64) keep(std::move(name), components, loc);
+    // VTK 9 follows an array of a FIELD with its own METADATA block
+    cursor_.skip_whitespace();
+    const uint64_t offset = cursor_.offset(), line = cursor_.line();
+    if (upper(cursor_.token()) == "METADATA") skip_metadata();
+    else cursor_.seek(offset, line);
   }
 }
 

@@ -179,6 +179,27 @@ TEST(CellDataNames, AVertexOnlyInFlatCellsTakesTheirPlainMeanAndOneInNoVolumeCel
   EXPECT_TRUE(warned);
 }
 
+TEST(CellDataNames, FieldArraysEachFollowedByAMetadataBlockReadAsVtk9WritesThem) {
+  const std::string text =
+      "# vtk DataFile Version 5.1\nvtk output\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\n"
+      "CELLS 2 4\nOFFSETS vtktypeint64\n0 4\nCONNECTIVITY vtktypeint64\n0 1 2 3\nCELL_TYPES 1\n10\n\n"
+      "CELL_DATA 1\nFIELD FieldData 2\nCH4 1 1 float\n0.5 \nMETADATA\nINFORMATION 0\n\n"
+      "Velocity 3 1 float\n1 2 3 \nMETADATA\nINFORMATION 2\nNAME L2_NORM_RANGE LOCATION vtkDataArray\nDATA 2 3.74166 3.74166 \n"
+      "NAME L2_NORM_FINITE_RANGE LOCATION vtkDataArray\nDATA 2 3.74166 3.74166 \n\n"
+      "POINT_DATA 4\nSCALARS T float 1\nLOOKUP_TABLE default\n1 2 3 4 \nMETADATA\nINFORMATION 0\n\n";
+  const auto path = scratch_dir("cell_data_vtk9_field") / "m.vtk";
+  write_file(path, text);
+  const TetMesh mesh = storage::load_mesh(path);
+  ASSERT_EQ(mesh.attributes.size(), 3u);
+  EXPECT_EQ(mesh.attributes[0].info.name, "T");
+  EXPECT_EQ(mesh.attributes[1].info.name, "CH4");
+  EXPECT_EQ(mesh.attributes[2].info.name, "Velocity");
+  for (size_t v = 0; v < 4; ++v) {
+    EXPECT_FLOAT_EQ(mesh.attributes[1].values[v], 0.5f);
+    EXPECT_FLOAT_EQ(mesh.attributes[2].values[3 * v + 2], 3.0f);
+  }
+}
+
 std::string read_error(const std::filesystem::path& path) {
   try {
     storage::load_mesh(path);
