@@ -1,7 +1,8 @@
 # Cell data against ParaView 5.11, for bench/cell_data_paraview.sh. Run with pvpython.
 #   pvpython cell_data_paraview.py make OUTDIR SHARED_DATA
 #     writes files with cell data by ParaView's own writers: shared meshes whose point data
-#     ParaView's Point Data to Cell Data turned into cell data (VTU zlib and VTK legacy binary),
+#     ParaView's Point Data to Cell Data turned into cell data (VTU zlib, VTK legacy binary and
+#     Exodus II),
 #     and a hexahedral wavelet (Clean to Grid of an image) with cell data
 #   pvpython cell_data_paraview.py check FILE TETRASCOPE_VTK
 #     reads FILE with ParaView's reader, takes its cell arrays, cell volumes (Cell Size) and
@@ -17,8 +18,8 @@ import sys
 
 import numpy as np
 from paraview import servermanager
-from paraview.simple import (CellDatatoPointData, CellSize, CleantoGrid, LegacyVTKReader, OpenDataFile,
-                             PointDatatoCellData, SaveData, Wavelet)
+from paraview.simple import (CellDatatoPointData, CellSize, CleantoGrid, ExodusIIWriter, LegacyVTKReader, MergeBlocks,
+                             OpenDataFile, PointDatatoCellData, SaveData, Wavelet)
 from vtk.util.numpy_support import vtk_to_numpy
 
 VOLUME_TYPES = {10, 11, 12, 13, 14}  # tet, voxel, hexahedron, wedge, pyramid
@@ -33,6 +34,7 @@ def make(out, shared):
         cells.PassPointData = 0
         SaveData(os.path.join(out, name + "_cells.vtu"), proxy=cells, CompressorType="ZLib")
         SaveData(os.path.join(out, name + "_cells.vtk"), proxy=cells, FileType="Binary")
+        ExodusIIWriter(Input=cells, FileName=os.path.join(out, name + "_cells.exo")).UpdatePipeline()
     wave = Wavelet(WholeExtent=[-12, 12, -12, 12, -6, 6])
     cells = PointDatatoCellData(Input=wave)
     cells.PassPointData = 0
@@ -45,8 +47,14 @@ def fetch(proxy):
     return servermanager.Fetch(proxy)
 
 
+# arrays ParaView's Exodus reader makes itself (and the element number map and block id it shows as "ids" and "object_id")
+GENERATED = {"ObjectId", "GlobalElementId", "PedigreeElementId", "GlobalNodeId", "PedigreeNodeId", "ids", "object_id"}
+
+
 def check(path, ours_path):
     source = OpenDataFile(path)
+    if path.endswith(".exo"):
+        source = MergeBlocks(Input=source)
     grid = fetch(source)
     points = vtk_to_numpy(grid.GetPoints().GetData()).astype(np.float32)
     n = points.shape[0]
@@ -80,7 +88,7 @@ def check(path, ours_path):
     data = grid.GetCellData()
     for a in range(data.GetNumberOfArrays()):
         array = data.GetArray(a)
-        if array is None:
+        if array is None or array.GetName() in GENERATED:
             continue
         name = array.GetName()
         values = vtk_to_numpy(array).astype(np.float64).reshape(len(types), -1)

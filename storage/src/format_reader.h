@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <memory>
 #include <span>
@@ -90,6 +91,7 @@ std::unique_ptr<FormatReader> make_gmsh_reader(std::shared_ptr<InputFile> file);
 std::unique_ptr<FormatReader> make_tetgen_reader(std::shared_ptr<InputFile> node_file,
                                                  std::shared_ptr<InputFile> ele_file);
 std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);
+std::unique_ptr<FormatReader> make_exodus_reader(const std::filesystem::path& path, const ReadLimits& limits);
 
 // ---- typed values -------------------------------------------------------------------
 

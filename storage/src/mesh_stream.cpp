@@ -22,8 +22,17 @@ const char* format_name(MeshFormat format) {
     case MeshFormat::kGmsh: return "msh";
     case MeshFormat::kTetgen: return "tetgen";
     case MeshFormat::kOff: return "off";
+    case MeshFormat::kExodus: return "exodus";
   }
   return "?";
+}
+
+bool exodus_supported() {
+#ifdef TETRA_HAVE_EXODUS
+  return true;
+#else
+  return false;
+#endif
 }
 
 MeshFormat format_from_path(const std::filesystem::path& path) {
@@ -34,8 +43,9 @@ MeshFormat format_from_path(const std::filesystem::path& path) {
   if (ext == ".msh") return MeshFormat::kGmsh;
   if (ext == ".node" || ext == ".ele") return MeshFormat::kTetgen;
   if (ext == ".off") return MeshFormat::kOff;
+  if (ext == ".exo" || ext == ".e" || ext == ".ex2" || ext == ".exii" || ext == ".g" || ext == ".gen") return MeshFormat::kExodus;
   throw MeshError(path.string() + ": unknown mesh format '" + ext +
-                  "' (expected .vtk, .vtu, .msh, .node/.ele or .off)");
+                  "' (expected .vtk, .vtu, .msh, .node/.ele, .off or Exodus II .exo/.e/.ex2/.exii/.g/.gen)");
 }
 
 uint64_t ReadLimits::max_inflated_bytes(uint64_t file_bytes) const {
@@ -52,6 +62,10 @@ std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path, 
     case MeshFormat::kVtu: reader = detail::make_vtu_reader(open_file(path)); break;
     case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(open_file(path)); break;
     case MeshFormat::kOff: reader = detail::make_off_reader(open_file(path)); break;
+    case MeshFormat::kExodus:
+      if (!exodus_supported()) throw MeshError(path.string() + ": this build of tetrascope reads no Exodus II (the Exodus II library was not found)");
+      reader = detail::make_exodus_reader(path, limits);
+      break;
     case MeshFormat::kTetgen: {
       std::filesystem::path node = path, ele = path;
       node.replace_extension(".node");
@@ -72,6 +86,7 @@ std::unique_ptr<MeshStream> MeshStream::open_memory(MeshFormat format, std::stri
     case MeshFormat::kVtu: reader = detail::make_vtu_reader(file); break;
     case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(file); break;
     case MeshFormat::kOff: reader = detail::make_off_reader(file); break;
+    case MeshFormat::kExodus: throw MeshError(name + ": Exodus II is read from files, not from memory");
     case MeshFormat::kTetgen:
       reader = detail::make_tetgen_reader(file, detail::InputFile::from_memory(name + ".ele", second_bytes));
       break;

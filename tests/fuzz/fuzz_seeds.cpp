@@ -54,7 +54,8 @@ int main(int argc, char** argv) {
   write_gmsh(out / "msh/b41.msh", m, {.version4 = true, .binary = true});
   // cell data: the cells' values averaged at the vertices
   CellMesh cells = m;
-  cells.cell_attributes = {{{"p", 1}, {1.0f, 2.0f, 3.0f}}, {{"u", 3}, {1, 0, 0, 0, 1, 0, 0, 0, 1}}};
+  tetrascope::storage::Attribute p{{"p", 1}, {1.0f, 2.0f, 3.0f}}, u{{"u", 3}, {1, 0, 0, 0, 1, 0, 0, 0, 1}};
+  cells.cell_attributes = {p, u};
   write_vtk_legacy(out / "vtk/cell_data.vtk", cells, {.binary = true});
   write_vtu(out / "vtu/cell_data_zlib.vtu", cells, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 64});
   write_gmsh(out / "msh/cell_data41.msh", cells, {.version4 = true, .binary = false});

@@ -136,7 +136,7 @@ TEST_P(CellData, ArrivesAtTheVerticesAsTheVolumeWeightedMeanOfTheVolumeCells) {
   EXPECT_EQ(stats.skipped_cells, 1u);
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, CellData, ::testing::ValuesIn(variants()), [](const auto& info) { return info.param.name; });
+INSTANTIATE_TEST_SUITE_P(Formats, CellData, ::testing::ValuesIn(variants()), [](const auto& test) { return test.param.name; });
 
 TEST(CellDataNames, ACellArrayNamedLikeAPointArrayGetsTheSuffixCellsAndAWarning) {
   Fixture f = hybrid_block();
@@ -164,7 +164,10 @@ TEST(CellDataNames, AVertexOnlyInFlatCellsTakesTheirPlainMeanAndOneInNoVolumeCel
   m.add_cell(10, {0, 1, 2, 3});
   m.add_cell(10, {4, 5, 6, 7});
   m.add_cell(10, {4, 5, 7, 3});  // a volume cell: its vertices 4, 5, 7 are no longer flat-only
-  m.cell_attributes = {{{"q", 1}, {2, 8, 20}}};
+  storage::Attribute cell_q;
+  cell_q.info.name = "q";
+  cell_q.values = {2, 8, 20};
+  m.cell_attributes.push_back(cell_q);
   const auto path = scratch_dir("cell_data_flat") / "m.vtk";
   write_vtk_legacy(path, m, {.binary = false});
   storage::ReadStats stats;

@@ -18,13 +18,16 @@
 
 namespace tetrascope::storage {
 
-enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff };
+enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff, kExodus };
 
-// "vtk", "vtu", "msh", "tetgen", "off".
+// "vtk", "vtu", "msh", "tetgen", "off", "exodus".
 const char* format_name(MeshFormat format);
 
-// The format from the file name (.vtk .vtu .msh .node .ele .off); throws MeshError otherwise.
+// The format from the file name (.vtk .vtu .msh .node .ele .off, Exodus II .exo .e .ex2 .exii
+// .g .gen); throws MeshError otherwise.
 MeshFormat format_from_path(const std::filesystem::path& path);
+// Whether this build reads Exodus II (the Exodus II library was found).
+bool exodus_supported();
 
 struct MeshHeader {
   MeshFormat format = MeshFormat::kVtkLegacy;

@@ -1,0 +1,228 @@
+// Exodus II files written by the Exodus II library itself: element blocks of every volume
+// type and a shell block, nodal and element variables (x/y/z components joined into vectors)
+// over two time steps, read at the last; and damaged files refused with a message, never a
+// crash.
+#include <exodusII.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "fixture_writers.h"
+#include "test_paths.h"
+#include "tetrascope/storage/mesh_info.h"
+#include "tetrascope/storage/mesh_stream.h"
+
+namespace tetrascope::testing {
+namespace {
+
+using storage::MeshError;
+using storage::TetMesh;
+
+const char* exodus_type(uint8_t vtk) {
+  switch (vtk) {
+    case 10: return "TETRA";
+    case 12: return "HEX8";
+    case 13: return "WEDGE";
+    case 14: return "PYRAMID";
+    case 9: return "SHELL4";
+    default: return "TRI3";
+  }
+}
+
+// Cells grouped into one block a type (in the order the types first appear); the element
+// variables "pressure" and "u_x", "u_y", "u_z"; the nodal "height" and "vel_x/y/z". Step 1
+// holds -1 everywhere, step 2 the values. Returns the cells in file order (block by block).
+std::vector<size_t> write_exodus(const std::filesystem::path& path, const CellMesh& m, double scale = 1) {
+  std::vector<uint8_t> types;
+  for (uint8_t t : m.types)
+    if (std::find(types.begin(), types.end(), t) == types.end()) types.push_back(t);
+  int word = 8, io_word = 8;
+  const int exoid = ex_create(path.c_str(), EX_CLOBBER, &word, &io_word);
+  if (exoid < 0) throw std::runtime_error("ex_create failed");
+  ex_put_init(exoid, "fixture", 3, static_cast<int64_t>(m.x.size()), static_cast<int64_t>(m.cell_count()), static_cast<int64_t>(types.size()), 0, 0);
+  std::vector<double> x(m.x.begin(), m.x.end()), y(m.y.begin(), m.y.end()), z(m.z.begin(), m.z.end());
+  ex_put_coord(exoid, x.data(), y.data(), z.data());
+  std::vector<size_t> order;
+  std::vector<std::vector<size_t>> blocks(types.size());
+  for (size_t b = 0; b < types.size(); ++b) {
+    std::vector<int> conn;
+    for (size_t c = 0; c < m.cell_count(); ++c) {
+      if (m.types[c] != types[b]) continue;
+      blocks[b].push_back(c);
+      order.push_back(c);
+      for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) conn.push_back(static_cast<int>(m.connectivity[k]) + 1);
+    }
+    const int64_t nodes = m.offsets[blocks[b][0] + 1] - m.offsets[blocks[b][0]];
+    ex_put_block(exoid, EX_ELEM_BLOCK, static_cast<int64_t>(b + 10), exodus_type(types[b]), static_cast<int64_t>(blocks[b].size()), nodes, 0, 0, 0);
+    ex_put_conn(exoid, EX_ELEM_BLOCK, static_cast<int64_t>(b + 10), conn.data(), nullptr, nullptr);
+  }
+  const char* nodal[] = {"height", "vel_x", "vel_y", "vel_z"};
+  const char* element[] = {"pressure", "u_x", "u_y", "u_z"};
+  ex_put_variable_param(exoid, EX_NODAL, 4);
+  ex_put_variable_names(exoid, EX_NODAL, 4, const_cast<char**>(nodal));
+  ex_put_variable_param(exoid, EX_ELEM_BLOCK, 4);
+  ex_put_variable_names(exoid, EX_ELEM_BLOCK, 4, const_cast<char**>(element));
+  std::vector<int> truth(types.size() * 4, 1);
+  ex_put_truth_table(exoid, EX_ELEM_BLOCK, static_cast<int>(types.size()), 4, truth.data());
+  for (int step = 1; step <= 2; ++step) {
+    const double t = 0.5 * step;
+    ex_put_time(exoid, step, &t);
+    for (int v = 0; v < 4; ++v) {
+      std::vector<double> values;
+      for (size_t i = 0; i < m.x.size(); ++i) values.push_back(step == 1 ? -1.0 : v == 0 ? m.z[i] : (v == 1 ? 1 : v == 2 ? -1 : 2) * double(m.x[i]) * scale);
+      ex_put_var(exoid, step, EX_NODAL, v + 1, 1, static_cast<int64_t>(m.x.size()), values.data());
+      for (size_t b = 0; b < types.size(); ++b) {
+        std::vector<double> cells;
+        for (size_t c : blocks[b]) cells.push_back(step == 1 ? -1.0 : v == 0 ? m.cell_attributes[0].values[c] : m.cell_attributes[1].values[3 * c + size_t(v - 1)]);
+        ex_put_var(exoid, step, EX_ELEM_BLOCK, v + 1, static_cast<int64_t>(b + 10), static_cast<int64_t>(cells.size()), cells.data());
+      }
+    }
+  }
+  ex_close(exoid);
+  return order;
+}
+
+// The block of the cell-data tests: hexahedra, a pyramid, a wedge, a tet and one shell quad
+// (value 1000, which must reach no vertex), with closed-form volumes.
+struct Fixture {
+  CellMesh mesh;
+  std::vector<double> volumes;
+};
+
+Fixture hybrid_block() {
+  Fixture f;
+  CellMesh& m = f.mesh;
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) m.x.push_back(float(i)), m.y.push_back(float(j) * 0.5f), m.z.push_back(float(k) * 2.0f);
+  auto at = [](int i, int j, int k) { return uint32_t(i + 3 * j + 9 * k); };
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      m.add_cell(12, {at(i, j, 0), at(i + 1, j, 0), at(i + 1, j + 1, 0), at(i, j + 1, 0), at(i, j, 1), at(i + 1, j, 1), at(i + 1, j + 1, 1), at(i, j + 1, 1)});
+      f.volumes.push_back(1.0);
+    }
+  m.add_cell(9, {at(0, 0, 0), at(1, 0, 0), at(1, 1, 0), at(0, 1, 0)});
+  f.volumes.push_back(0);
+  const uint32_t apex = static_cast<uint32_t>(m.x.size());
+  m.x.push_back(0.5f), m.y.push_back(0.25f), m.z.push_back(3.5f);
+  m.add_cell(14, {at(0, 0, 1), at(1, 0, 1), at(1, 1, 1), at(0, 1, 1), apex});
+  f.volumes.push_back(0.5 * 1.5 / 3);
+  const uint32_t tip = static_cast<uint32_t>(m.x.size());
+  m.x.push_back(3), m.y.push_back(0), m.z.push_back(0);
+  m.add_cell(10, {at(2, 0, 0), at(2, 1, 0), at(2, 0, 1), tip});
+  f.volumes.push_back(1.0 / 6);
+  storage::Attribute pressure{{"pressure", 1}, {}}, u{{"u", 3}, {}};
+  for (size_t c = 0; c < m.cell_count(); ++c) {
+    const float v = f.volumes[c] > 0 ? 1.5f * float(c) + 1 : 1000;
+    pressure.values.push_back(v);
+    u.values.insert(u.values.end(), {v, -v, 2 * v});
+  }
+  m.cell_attributes = {pressure, u};
+  return f;
+}
+
+TEST(Exodus, BlocksOfEveryVolumeTypeReadWithNodalAndElementVariablesAtTheLastStep) {
+  const Fixture f = hybrid_block();
+  const auto path = scratch_dir("exodus_hybrid") / "m.exo";
+  write_exodus(path, f.mesh);
+  auto stream = storage::MeshStream::open(path);
+  const storage::MeshHeader& header = stream->header();
+  EXPECT_EQ(header.format, storage::MeshFormat::kExodus);
+  EXPECT_NE(header.description.find("step 2 of 2"), std::string::npos) << header.description;
+  ASSERT_EQ(header.attributes.size(), 4u);
+  EXPECT_EQ(header.attributes[0].name, "height");
+  EXPECT_EQ(header.attributes[1].name, "vel");
+  EXPECT_EQ(header.attributes[1].components, 3u);
+  EXPECT_EQ(header.attributes[2].name, "pressure");
+  EXPECT_EQ(header.attributes[3].name, "u");
+  EXPECT_EQ(header.attributes[3].components, 3u);
+  const TetMesh mesh = storage::load_stream(*stream);
+  EXPECT_EQ(stream->stats().cells, 6u);
+  EXPECT_EQ(stream->stats().skipped_cells, 1u);
+  EXPECT_EQ(stream->stats().hexahedra, 4u);
+  EXPECT_EQ(mesh.tet_count(), 4u * 6 + 2 + 1);
+  // the volume-weighted mean of the volume cells around each vertex, the shell left out
+  std::vector<double> sum(mesh.vertex_count(), 0), weight(mesh.vertex_count(), 0);
+  const CellMesh& m = f.mesh;
+  for (size_t c = 0; c < m.cell_count(); ++c)
+    for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) {
+      sum[m.connectivity[k]] += f.volumes[c] * m.cell_attributes[0].values[c];
+      weight[m.connectivity[k]] += f.volumes[c];
+    }
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    EXPECT_EQ(mesh.attributes[0].values[v], m.z[v]);
+    EXPECT_FLOAT_EQ(mesh.attributes[1].values[3 * v + 2], 2 * m.x[v]);
+    const double want = weight[v] > 0 ? sum[v] / weight[v] : 0;
+    EXPECT_NEAR(mesh.attributes[2].values[v], want, 1e-5 * std::max(1.0, want)) << "vertex " << v;
+    EXPECT_NEAR(mesh.attributes[3].values[3 * v + 1], -want, 1e-5 * std::max(1.0, want)) << "vertex " << v;
+  }
+  bool warned = false;
+  for (const std::string& w : stream->stats().warnings) warned |= w.find("2 time steps") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+TEST(Exodus, InfoListsTheVariablesAndMarksTheElementOnes) {
+  const Fixture f = hybrid_block();
+  const auto path = scratch_dir("exodus_info") / "m.e";
+  write_exodus(path, f.mesh);
+  const auto s = storage::summarize_mesh(path);
+  const nlohmann::json j = storage::summary_json(s);
+  EXPECT_EQ(j["format"], "exodus");
+  ASSERT_EQ(j["attributes"].size(), 4u);
+  EXPECT_EQ(j["attributes"][1]["association"], "point");
+  EXPECT_EQ(j["attributes"][2]["association"], "cell");
+  EXPECT_EQ(j["tetrahedra"], 27);
+}
+
+std::string read_error(const std::filesystem::path& path) {
+  try {
+    storage::load_mesh(path);
+    return "";
+  } catch (const MeshError& e) {
+    return e.what();
+  }
+}
+
+TEST(HostileExodus, AFileThatIsNotExodusIsRefusedNamingIt) {
+  const auto path = scratch_dir("exodus_not") / "m.exo";
+  write_file(path, "this is not a NetCDF file\n");
+  EXPECT_NE(read_error(path).find("m.exo: not an Exodus II file"), std::string::npos) << read_error(path);
+}
+
+TEST(HostileExodus, ANodeIndexPastTheNodesIsRefusedNamingTheElement) {
+  Fixture f = hybrid_block();
+  f.mesh.connectivity.back() = 999;  // the tet's last node
+  const auto path = scratch_dir("exodus_node_range") / "m.exo";
+  write_exodus(path, f.mesh);
+  const std::string error = read_error(path);
+  EXPECT_NE(error.find("node 1000 out of range"), std::string::npos) << error;
+}
+
+TEST(HostileExodus, TruncatedAndFlippedFilesGetAnErrorOrReadNeverCrash) {
+  const Fixture f = hybrid_block();
+  const auto dir = scratch_dir("exodus_damaged");
+  write_exodus(dir / "good.exo", f.mesh);
+  const std::string good = read_file(dir / "good.exo");
+  std::mt19937 random(20261127);
+  int refused = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    std::string bad = good;
+    if (trial % 3 == 0) {
+      bad.resize(random() % bad.size());
+    } else {
+      for (int k = 0; k < 4; ++k) bad[random() % bad.size()] = static_cast<char>(random());
+    }
+    write_file(dir / "bad.exo", bad);
+    try {
+      storage::load_mesh(dir / "bad.exo");
+    } catch (const MeshError&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 0);
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
