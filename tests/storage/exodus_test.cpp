@@ -11,7 +11,9 @@
 
 #include "fixture_writers.h"
 #include "test_paths.h"
+#include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/mesh_info.h"
+#include "tetrascope/storage/store.h"
 #include "tetrascope/storage/mesh_stream.h"
 
 namespace tetrascope::testing {
@@ -174,6 +176,25 @@ TEST(Exodus, InfoListsTheVariablesAndMarksTheElementOnes) {
   EXPECT_EQ(j["attributes"][1]["association"], "point");
   EXPECT_EQ(j["attributes"][2]["association"], "cell");
   EXPECT_EQ(j["tetrahedra"], 27);
+}
+
+TEST(Exodus, AStoreBuiltFromItHoldsTheElementVariablesAtTheVertices) {
+  const Fixture f = hybrid_block();
+  const auto dir = scratch_dir("exodus_store");
+  write_exodus(dir / "m.exo", f.mesh);
+  lod::PreprocessOptions options;
+  options.threads = 1;
+  lod::preprocess(dir / "m.exo", dir / "store", options, nullptr);
+  const auto store = storage::Store::open(dir / "store");
+  const auto& attributes = store->manifest().attributes;
+  ASSERT_EQ(attributes.size(), 4u);
+  EXPECT_EQ(attributes[2].name, "pressure");
+  EXPECT_EQ(attributes[3].name, "u");
+  EXPECT_EQ(attributes[3].components, 3u);
+  // the pressure of the volume cells is 1 .. 10 (the shell's 1000 reaches no vertex)
+  EXPECT_GE(attributes[2].min, 1.0 - 1e-6);
+  EXPECT_LE(attributes[2].max, 10 + 1e-6);
+  EXPECT_EQ(store->manifest().tet_count, 27u);
 }
 
 std::string read_error(const std::filesystem::path& path) {
