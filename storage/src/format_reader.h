@@ -43,13 +43,18 @@ struct CellBatch {
   std::vector<uint32_t> nodes;       // 0-based vertex indices, already range-checked
   uint64_t reduced = 0;              // higher-order cells the reader cut down to their corners
   bool only_tets = true;             // every cell is a 4-vertex tetrahedron
+  // Per cell, 1 when it is a further piece of the cell before it (a polyhedron a reader
+  // decomposed): the pieces count as one cell, of their whole volume. Empty: no pieces.
+  std::vector<uint8_t> same_cell;
   void clear() {
     reduced = 0;
     only_tets = true;
     types.clear();
     offsets.assign(1, 0);
     nodes.clear();
+    same_cell.clear();
   }
+  bool continues(size_t cell) const { return !same_cell.empty() && same_cell[cell] != 0; }
   size_t size() const { return types.size(); }
   void push(uint8_t type, std::span<const uint32_t> cell_nodes) {
     only_tets = only_tets && type == kVtkTetra && cell_nodes.size() == 4;
@@ -92,6 +97,7 @@ std::unique_ptr<FormatReader> make_tetgen_reader(std::shared_ptr<InputFile> node
                                                  std::shared_ptr<InputFile> ele_file);
 std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);
 std::unique_ptr<FormatReader> make_exodus_reader(const std::filesystem::path& path, const ReadLimits& limits);
+std::unique_ptr<FormatReader> make_openfoam_reader(const std::filesystem::path& path, const ReadLimits& limits);
 
 // ---- typed values -------------------------------------------------------------------
 

@@ -76,7 +76,7 @@ MeshSummary summarize_mesh(const std::filesystem::path& path) {
   s.read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   s.file = path.string();
   std::error_code ec;
-  s.file_bytes = std::filesystem::file_size(path, ec);
+  s.file_bytes = std::filesystem::is_regular_file(path, ec) ? std::filesystem::file_size(path, ec) : 0;  // 0 for a case folder
   if (s.header.format == MeshFormat::kTetgen) {
     std::filesystem::path node = path, ele = path;
     s.file_bytes = std::filesystem::file_size(node.replace_extension(".node"), ec) + std::filesystem::file_size(ele.replace_extension(".ele"), ec);
@@ -97,7 +97,7 @@ nlohmann::json summary_json(const MeshSummary& s) {
   j["vertices"] = s.header.vertex_count;
   j["tetrahedra"] = s.stats.tetrahedra;
   j["cells"] = {{"total", s.header.cell_count}, {"volume", s.stats.cells}, {"hexahedra", s.stats.hexahedra},
-                {"wedges", s.stats.wedges}, {"pyramids", s.stats.pyramids}, {"higher_order", s.stats.quadratic_cells},
+                {"wedges", s.stats.wedges}, {"pyramids", s.stats.pyramids}, {"polyhedra", s.stats.polyhedra}, {"higher_order", s.stats.quadratic_cells},
                 {"skipped", s.stats.skipped_cells}};
   nlohmann::json attributes = nlohmann::json::array();
   const size_t points = s.header.point_attribute_count();
@@ -140,6 +140,7 @@ std::string summary_text(const MeshSummary& s) {
     appendf(out, "split       %llu hexahedra, %llu wedges, %llu pyramids\n", static_cast<unsigned long long>(s.stats.hexahedra),
         static_cast<unsigned long long>(s.stats.wedges), static_cast<unsigned long long>(s.stats.pyramids));
   }
+  if (s.stats.polyhedra) appendf(out, "decomposed  %llu polyhedra about their centres\n", static_cast<unsigned long long>(s.stats.polyhedra));
   if (s.stats.quadratic_cells) appendf(out, "higher-order cells reduced to corners: %llu\n", static_cast<unsigned long long>(s.stats.quadratic_cells));
   if (s.stats.skipped_cells) appendf(out, "skipped     %llu points/lines/surface cells\n", static_cast<unsigned long long>(s.stats.skipped_cells));
   appendf(out, "bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", s.bounds.min[0], s.bounds.max[0], s.bounds.min[1], s.bounds.max[1], s.bounds.min[2], s.bounds.max[2]);

@@ -23,6 +23,7 @@ const char* format_name(MeshFormat format) {
     case MeshFormat::kTetgen: return "tetgen";
     case MeshFormat::kOff: return "off";
     case MeshFormat::kExodus: return "exodus";
+    case MeshFormat::kOpenFoam: return "openfoam";
   }
   return "?";
 }
@@ -36,6 +37,8 @@ bool exodus_supported() {
 }
 
 MeshFormat format_from_path(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path / "constant" / "polyMesh", ec)) return MeshFormat::kOpenFoam;
   std::string ext = path.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".vtk") return MeshFormat::kVtkLegacy;
@@ -43,9 +46,10 @@ MeshFormat format_from_path(const std::filesystem::path& path) {
   if (ext == ".msh") return MeshFormat::kGmsh;
   if (ext == ".node" || ext == ".ele") return MeshFormat::kTetgen;
   if (ext == ".off") return MeshFormat::kOff;
+  if (ext == ".foam" || ext == ".openfoam") return MeshFormat::kOpenFoam;
   if (ext == ".exo" || ext == ".e" || ext == ".ex2" || ext == ".exii" || ext == ".g" || ext == ".gen") return MeshFormat::kExodus;
   throw MeshError(path.string() + ": unknown mesh format '" + ext +
-                  "' (expected .vtk, .vtu, .msh, .node/.ele, .off or Exodus II .exo/.e/.ex2/.exii/.g/.gen)");
+                  "' (expected .vtk, .vtu, .msh, .node/.ele, .off, Exodus II .exo/.e/.ex2/.exii/.g/.gen or an OpenFOAM case)");
 }
 
 uint64_t ReadLimits::max_inflated_bytes(uint64_t file_bytes) const {
@@ -66,6 +70,7 @@ std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path, 
       if (!exodus_supported()) throw MeshError(path.string() + ": this build of tetrascope reads no Exodus II (the Exodus II library was not found)");
       reader = detail::make_exodus_reader(path, limits);
       break;
+    case MeshFormat::kOpenFoam: reader = detail::make_openfoam_reader(path, limits); break;
     case MeshFormat::kTetgen: {
       std::filesystem::path node = path, ele = path;
       node.replace_extension(".node");
@@ -87,6 +92,7 @@ std::unique_ptr<MeshStream> MeshStream::open_memory(MeshFormat format, std::stri
     case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(file); break;
     case MeshFormat::kOff: reader = detail::make_off_reader(file); break;
     case MeshFormat::kExodus: throw MeshError(name + ": Exodus II is read from files, not from memory");
+    case MeshFormat::kOpenFoam: throw MeshError(name + ": an OpenFOAM case is read from its folder, not from memory");
     case MeshFormat::kTetgen:
       reader = detail::make_tetgen_reader(file, detail::InputFile::from_memory(name + ".ele", second_bytes));
       break;
@@ -248,6 +254,7 @@ void MeshStream::accumulate_cell_data(std::vector<double>& sums, std::vector<dou
   const size_t K = header_.cell_attributes.size(), floats = sums.size() / std::max<size_t>(weights.size(), 1);
   std::vector<std::vector<float>> values(K);
   std::vector<float*> pointers(K);
+  std::vector<uint32_t> corners_scratch;
   CellBatch& batch = cells_->batch;
   for (;;) {
     batch.clear();
@@ -258,14 +265,22 @@ void MeshStream::accumulate_cell_data(std::vector<double>& sums, std::vector<dou
       pointers[k] = values[k].data();
     }
     reader_->read_cell_values(n, pointers, stats_);
-    for (size_t c = 0; c < n; ++c) {
-      const size_t node_count = batch.offsets[c + 1] - batch.offsets[c];
-      const std::span<const uint32_t> nodes(batch.nodes.data() + batch.offsets[c], node_count);
-      const int corners = detail::volume_corner_count(batch.types[c], static_cast<int>(node_count));
-      if (corners <= 0) continue;
-      const double volume = plain ? 0 : cell_volume(xyz_.data(), batch.types[c], corners, nodes);
-      for (int q = 0; q < corners; ++q) {
-        const uint32_t v = nodes[static_cast<size_t>(q)];
+    for (size_t c = 0, end = 0; c < n; c = end) {
+      // a cell and the pieces that continue it (one decomposed polyhedron)
+      for (end = c + 1; end < n && batch.continues(end);) ++end;
+      double volume = 0;
+      corners_scratch.clear();
+      for (size_t e = c; e < end; ++e) {
+        const size_t node_count = batch.offsets[e + 1] - batch.offsets[e];
+        const std::span<const uint32_t> nodes(batch.nodes.data() + batch.offsets[e], node_count);
+        const int corners = detail::volume_corner_count(batch.types[e], static_cast<int>(node_count));
+        if (corners <= 0) continue;
+        if (!plain) volume += cell_volume(xyz_.data(), batch.types[e], corners, nodes);
+        corners_scratch.insert(corners_scratch.end(), nodes.begin(), nodes.begin() + corners);
+      }
+      std::sort(corners_scratch.begin(), corners_scratch.end());
+      corners_scratch.erase(std::unique(corners_scratch.begin(), corners_scratch.end()), corners_scratch.end());
+      for (const uint32_t v : corners_scratch) {
         if (!plain) marks[v] = 1;
         const double w = plain ? double(marks[v]) : volume;
         if (w == 0) continue;
@@ -341,7 +356,7 @@ void MeshStream::fill_tet_chunk(size_t max_tets) {
     }
     stats_.quadratic_cells += batch.reduced;
     if (batch.only_tets) {  // bulk path: one copy
-      stats_.cells += batch.size();
+      stats_.cells += batch.size() - static_cast<size_t>(std::count(batch.same_cell.begin(), batch.same_cell.end(), uint8_t{1}));
       tet_scratch_.insert(tet_scratch_.end(), batch.nodes.begin(), batch.nodes.end());
       split_scratch_.resize(tet_scratch_.size() / 4, 0);
       continue;
@@ -355,7 +370,7 @@ void MeshStream::fill_tet_chunk(size_t max_tets) {
         ++stats_.skipped_cells;
         continue;
       }
-      ++stats_.cells;
+      if (!batch.continues(c)) ++stats_.cells;
       if (static_cast<size_t>(corners) < node_count) ++stats_.quadratic_cells;
       const int linear = linear_type(type, corners);
       if (corners == 8) ++stats_.hexahedra;

@@ -26,6 +26,7 @@ struct ReadStats {
   uint64_t hexahedra = 0;           // hexes and voxels split into tets
   uint64_t wedges = 0;
   uint64_t pyramids = 0;
+  uint64_t polyhedra = 0;           // general polyhedra (OpenFOAM) decomposed into tets about a centre point
   uint64_t quadratic_cells = 0;     // higher-order cells reduced to their corner vertices
   uint64_t skipped_cells = 0;       // vertices, lines and surface cells (not part of a volume)
   uint64_t inverted = 0;            // tets re-oriented to positive volume

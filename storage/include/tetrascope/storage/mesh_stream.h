@@ -18,13 +18,14 @@
 
 namespace tetrascope::storage {
 
-enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff, kExodus };
+enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff, kExodus, kOpenFoam };
 
-// "vtk", "vtu", "msh", "tetgen", "off", "exodus".
+// "vtk", "vtu", "msh", "tetgen", "off", "exodus", "openfoam".
 const char* format_name(MeshFormat format);
 
 // The format from the file name (.vtk .vtu .msh .node .ele .off, Exodus II .exo .e .ex2 .exii
-// .g .gen); throws MeshError otherwise.
+// .g .gen, an OpenFOAM case folder or a .foam/.OpenFOAM file in it); throws MeshError
+// otherwise.
 MeshFormat format_from_path(const std::filesystem::path& path);
 // Whether this build reads Exodus II (the Exodus II library was found).
 bool exodus_supported();
