@@ -4,7 +4,7 @@
 #     ParaView's Point Data to Cell Data turned into cell data (VTU zlib, VTK legacy binary and
 #     Exodus II),
 #     and a hexahedral wavelet (Clean to Grid of an image) with cell data
-#   pvpython cell_data_paraview.py check FILE TETRASCOPE_VTK
+#   pvpython cell_data_paraview.py check FILE TETRASCOPE_VTK   (FILE: also an OpenFOAM CASE.foam)
 #     reads FILE with ParaView's reader, takes its cell arrays, cell volumes (Cell Size) and
 #     connectivity, forms the volume-weighted mean at each point over the volume cells in numpy
 #     (the plain mean where every volume cell around a point has zero volume),
@@ -19,10 +19,10 @@ import sys
 import numpy as np
 from paraview import servermanager
 from paraview.simple import (CellDatatoPointData, CellSize, CleantoGrid, ExodusIIWriter, LegacyVTKReader, MergeBlocks,
-                             OpenDataFile, PointDatatoCellData, SaveData, Wavelet)
+                             OpenDataFile, OpenFOAMReader, PointDatatoCellData, SaveData, Wavelet)
 from vtk.util.numpy_support import vtk_to_numpy
 
-VOLUME_TYPES = {10, 11, 12, 13, 14}  # tet, voxel, hexahedron, wedge, pyramid
+VOLUME_TYPES = {10, 11, 12, 13, 14, 42}  # tet, voxel, hexahedron, wedge, pyramid, polyhedron
 
 
 def make(out, shared):
@@ -52,7 +52,16 @@ GENERATED = {"ObjectId", "GlobalElementId", "PedigreeElementId", "GlobalNodeId",
 
 
 def check(path, ours_path):
-    source = OpenDataFile(path)
+    if path.endswith(".foam"):  # the internal mesh at the latest time, polyhedra kept whole
+        reader = OpenFOAMReader(FileName=path)
+        reader.MeshRegions = ["internalMesh"]
+        reader.Decomposepolyhedra = 0
+        reader.UpdatePipelineInformation()
+        reader.UpdatePipeline(max(reader.TimestepValues))
+        source = MergeBlocks(Input=reader)
+        source.UpdatePipeline(max(reader.TimestepValues))
+    else:
+        source = OpenDataFile(path)
     if path.endswith(".exo"):
         source = MergeBlocks(Input=source)
     grid = fetch(source)

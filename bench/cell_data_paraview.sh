@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Cell data against ParaView 5.11 (bench/cell_data_paraview.py): files with cell data written
 # by ParaView's own writers (disk_out_ref and nasa_bluntfin through Point Data to Cell Data, as
-# VTU zlib, VTK legacy binary and Exodus II; a hexahedral wavelet), read by tetrascope and by
-# ParaView.
+# VTU zlib, VTK legacy binary and Exodus II; a hexahedral wavelet) and OpenFOAM cases run here
+# (bench/openfoam_cavity.sh: the cavity's hexahedra and its polyhedral dual), read by
+# tetrascope and by ParaView.
 # For each file: tetrascope's vertex values against the volume-weighted mean formed in numpy
 # from ParaView's cell arrays, cell volumes and connectivity (the conversion's check), and
 # against ParaView's Cell Data to Point Data (the plain mean: how far the two conventions
@@ -25,12 +26,13 @@ cmake --build --preset release -j "$(nproc)" --target tetrascope > /dev/null
 work=bench/out/cell_data
 mkdir -p "$work" bench/results
 pvpython bench/cell_data_paraview.py make "$work" "$shared" 2> "$work/make.log"
+bench/openfoam_cavity.sh "$work"
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 now() { date +%s.%N; }
 rows=()
-for f in disk_out_ref_cells.vtu disk_out_ref_cells.vtk disk_out_ref_cells.exo nasa_bluntfin_cells.vtu nasa_bluntfin_cells.vtk nasa_bluntfin_cells.exo wavelet_hex_cells.vtu; do
+for f in disk_out_ref_cells.vtu disk_out_ref_cells.vtk disk_out_ref_cells.exo nasa_bluntfin_cells.vtu nasa_bluntfin_cells.vtk nasa_bluntfin_cells.exo wavelet_hex_cells.vtu cavity/cavity.foam dual/dual.foam; do
   path=$work/$f
-  ours=$work/${f%.*}_${f##*.}_ours.vtk
+  ours=$work/$(basename "${f%.*}")_${f##*.}_ours.vtk
   build/release/apps/tetrascope simplify "$path" -o "$ours" --ratio 1 --json > /dev/null
   check=$(pvpython bench/cell_data_paraview.py check "$path" "$ours" 2> "$work/check.log" | tail -1)
   original=$shared/${f%%_cells*}.vtk

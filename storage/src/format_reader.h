@@ -43,8 +43,9 @@ struct CellBatch {
   std::vector<uint32_t> nodes;       // 0-based vertex indices, already range-checked
   uint64_t reduced = 0;              // higher-order cells the reader cut down to their corners
   bool only_tets = true;             // every cell is a 4-vertex tetrahedron
-  // Per cell, 1 when it is a further piece of the cell before it (a polyhedron a reader
-  // decomposed): the pieces count as one cell, of their whole volume. Empty: no pieces.
+  // Per cell, for the pieces of a polyhedron a reader decomposed: 2 for the first piece, 1 for
+  // each further one (the pieces count as one cell, of their whole volume); 0 for a whole
+  // cell. Empty: no pieces.
   std::vector<uint8_t> same_cell;
   void clear() {
     reduced = 0;
@@ -54,7 +55,8 @@ struct CellBatch {
     nodes.clear();
     same_cell.clear();
   }
-  bool continues(size_t cell) const { return !same_cell.empty() && same_cell[cell] != 0; }
+  bool continues(size_t cell) const { return !same_cell.empty() && same_cell[cell] == 1; }
+  bool piece(size_t cell) const { return !same_cell.empty() && same_cell[cell] != 0; }
   size_t size() const { return types.size(); }
   void push(uint8_t type, std::span<const uint32_t> cell_nodes) {
     only_tets = only_tets && type == kVtkTetra && cell_nodes.size() == 4;

@@ -355,8 +355,8 @@ void MeshStream::fill_tet_chunk(size_t max_tets) {
       break;
     }
     stats_.quadratic_cells += batch.reduced;
-    if (batch.only_tets) {  // bulk path: one copy
-      stats_.cells += batch.size() - static_cast<size_t>(std::count(batch.same_cell.begin(), batch.same_cell.end(), uint8_t{1}));
+    if (batch.only_tets && batch.same_cell.empty()) {  // bulk path: one copy
+      stats_.cells += batch.size();
       tet_scratch_.insert(tet_scratch_.end(), batch.nodes.begin(), batch.nodes.end());
       split_scratch_.resize(tet_scratch_.size() / 4, 0);
       continue;
@@ -380,8 +380,9 @@ void MeshStream::fill_tet_chunk(size_t max_tets) {
       tet_scratch_.resize(at + 4 * 6);
       size_t produced = detail::split_cell(linear, nodes.first(static_cast<size_t>(corners)), tet_scratch_.data() + at);
       tet_scratch_.resize(at + 4 * produced);
-      // split products come in either orientation; only native tets count as inverted
-      split_scratch_.resize(tet_scratch_.size() / 4, linear == detail::kVtkTetra ? 0 : 1);
+      // split products and a decomposed polyhedron's pieces come in either orientation; only
+      // native tets count as inverted
+      split_scratch_.resize(tet_scratch_.size() / 4, linear == detail::kVtkTetra && !batch.piece(c) ? 0 : 1);
     }
   }
 }

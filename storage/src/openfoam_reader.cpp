@@ -500,7 +500,7 @@ void OpenFoamReader::decompose(uint64_t cell, CellBatch& batch) {
     const uint32_t nodes[4] = {centre, a, b, c};
     batch.push(kVtkTetra, nodes);
     batch.same_cell.resize(batch.size(), 0);
-    batch.same_cell.back() = first ? 0 : 1;
+    batch.same_cell.back() = first ? 2 : 1;
     first = false;
   };
   for (uint64_t i = cell_offsets_[cell]; i < cell_offsets_[cell + 1]; ++i) {
@@ -549,7 +549,8 @@ void OpenFoamReader::read_fields(const fs::path& folder, ReadStats& stats) {
 
 MeshHeader OpenFoamReader::index(ReadStats& stats) {
   std::error_code ec;
-  const fs::path folder = fs::is_directory(path_, ec) ? path_ : path_.parent_path();
+  fs::path folder = fs::is_directory(path_, ec) ? path_ : path_.parent_path();
+  if (folder.empty()) folder = ".";  // "case.foam" in the working folder
   const fs::path mesh = folder / "constant" / "polyMesh";
   if (!fs::is_directory(mesh, ec)) throw MeshError(path_.string() + ": not an OpenFOAM case (no constant/polyMesh beside it)");
   read_mesh(mesh);
