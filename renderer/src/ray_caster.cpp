@@ -1,18 +1,23 @@
 // The CPU ray caster: one ray a pixel, in tiles over the cores. A ray enters the mesh through
-// a boundary face (found in a bounding volume hierarchy of the boundary) or starts in the
-// tet that holds the eye, then walks from tet to tet through the face it leaves by, with
-// exact segment lengths, composing the GL path's pre-integrated table where a segment's value
-// spans one of its bins and integrating the transfer function's finely tabulated extinction
-// where the value is nearly constant (there, however long the segment, the table's
-// interpolation between bins would veil thin opacity), until it is opaque or leaves the mesh
-// (and finds where it enters again, for meshes with holes). Isosurfaces and slices are
-// composed in the walk as the reference integrator does.
+// a boundary face (found in a bounding volume hierarchy of the boundary, nearer boxes first)
+// or starts in the tet that holds the eye, then walks from tet to tet through the face it
+// leaves by, with exact segment lengths, composing the GL path's pre-integrated table where a
+// segment's value spans one of its bins and integrating the transfer function's finely
+// tabulated extinction where the value is nearly constant (there, however long the segment,
+// the table's interpolation between bins would veil thin opacity), until it is opaque or
+// leaves the mesh (and finds where it enters again, for meshes with holes). Isosurfaces and
+// slices are composed in the walk as the reference integrator does. A tet is two cache lines
+// of floats, in the order of a Morton curve through the centroids; the walk computes in
+// double relative to the tet's corner, so the float planes cost no precision where the ray
+// is; segments whose values lie where the transfer function is clear are not integrated.
 #include "tetrascope/renderer/ray_caster.h"
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <thread>
 
@@ -30,8 +35,7 @@ constexpr uint32_t kTile = 16;
 constexpr double kOpaque = 0.999;  // a ray stops here (the reference: 0.9999)
 constexpr uint32_t kClassified = 65536;  // intervals of the transfer function's extinction (its opacity: kinks matter)
 constexpr uint32_t kColors = 4096;       // intervals of its colour
-constexpr double kStepsPerRange = 1024;  // fine steps a segment spanning the colour range would take
-constexpr int kMaxFineSteps = 8;         // = kStepsPerRange / the pre-integrated table's 128 bins
+constexpr uint32_t kLeafFaces = 4;       // boundary faces in a leaf of the hierarchy at most
 
 struct Box {
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -47,32 +51,86 @@ struct Box {
       hi[k] = std::max(hi[k], b.hi[k]);
     }
   }
-  // the ray's parameter range inside the box, [t0, t1] clipped to [tmin, tmax]; false: none
-  bool slab(const Vec3& o, const Vec3& inv, double tmin, double tmax) const {
-    for (int k = 0; k < 3; ++k) {
-      double a = (lo[k] - o[k]) * inv[k], b = (hi[k] - o[k]) * inv[k];
-      if (a > b) std::swap(a, b);
-      tmin = std::max(tmin, a);
-      tmax = std::min(tmax, b);
-      if (tmin > tmax) return false;
-    }
-    return true;
-  }
 };
 
-// Möller–Trumbore: the ray parameter where it meets triangle abc, or NaN.
-double hit_triangle(const Vec3& o, const Vec3& d, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 e1 = b - a, e2 = c - a, p = cross(d, e2);
-  const double det = dot(e1, p);
-  if (std::fabs(det) < 1e-300) return NAN;
+// The ray's parameter range inside a box (float corners), clipped to [tmin, tmax]: its start
+// in *t_near, false when empty.
+inline bool slab(const float lo[3], const float hi[3], const double o[3], const double inv[3], double tmin, double tmax, double* t_near) {
+  for (int k = 0; k < 3; ++k) {
+    const double a = (lo[k] - o[k]) * inv[k], b = (hi[k] - o[k]) * inv[k];
+    tmin = std::max(tmin, std::min(a, b));
+    tmax = std::min(tmax, std::max(a, b));
+  }
+  *t_near = tmin;
+  return tmin <= tmax;
+}
+
+// Möller–Trumbore for a ray entering triangle abc, wound so that (b - a) x (c - a) points out
+// of the mesh: the ray parameter where it meets it, or NaN (missed, or leaving by it).
+inline double enter_triangle(const double o[3], const double d[3], const float a[3], const float b[3], const float c[3]) {
+  const double e1[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
+  const double e2[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
+  const double p[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]};
+  const double det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];  // -d.n: positive entering
+  if (!(det > 1e-300)) return NAN;
   const double inv = 1 / det;
-  const Vec3 s = o - a;
-  const double u = dot(s, p) * inv;
+  const double s[3] = {o[0] - a[0], o[1] - a[1], o[2] - a[2]};
+  const double u = (s[0] * p[0] + s[1] * p[1] + s[2] * p[2]) * inv;
   if (u < -1e-9 || u > 1 + 1e-9) return NAN;
-  const Vec3 q = cross(s, e1);
-  const double v = dot(d, q) * inv;
+  const double q[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]};
+  const double v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) * inv;
   if (v < -1e-9 || u + v > 1 + 1e-9) return NAN;
-  return dot(e2, q) * inv;
+  return (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) * inv;
+}
+
+// 2^(j/64), j = 0..63: the table of exp_minus
+const std::array<double, 64> kExp2Sixtyfourths = [] {
+  std::array<double, 64> t{};
+  for (int j = 0; j < 64; ++j) t[j] = std::exp2(j / 64.0);
+  return t;
+}();
+
+// e^-x for x >= 0 (0 past 700), to about 1e-13 relative: 2^(k/64) from a table times a
+// polynomial on what is left (|u| <= ln 2 / 128).
+inline double exp_minus(double x) {
+  if (!(x < 700)) return 0;
+  constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
+  const double y = -x * (64 * 1.4426950408889634);
+  const double k = (y + kRound) - kRound;
+  const double u = (y - k) * (0.6931471805599453 / 64);
+  const double p = 1 + u * (1 + u * (0.5 + u * (1.0 / 6 + u * (1.0 / 24 + u * (1.0 / 120)))));
+  const int64_t n = static_cast<int64_t>(k);
+  return p * kExp2Sixtyfourths[static_cast<size_t>(n & 63)] * std::bit_cast<double>(static_cast<uint64_t>((n >> 6) + 1023) << 52);
+}
+
+// ln(1 + x) for x >= 0, to about 1e-10: the exponent of 1 + x, and 2 atanh(z) on the rest.
+inline double ln_1p(double x) {
+  const double y = 1 + x;
+  const uint64_t bits = std::bit_cast<uint64_t>(y);
+  int64_t e = static_cast<int64_t>(bits >> 52) - 1023;
+  double m = std::bit_cast<double>((bits & 0x000FFFFFFFFFFFFFull) | 0x3FF0000000000000ull);  // [1, 2)
+  if (m > 1.4142135623730951) {
+    m *= 0.5;
+    ++e;
+  }
+  const double z = (m - 1) / (m + 1), z2 = z * z;  // |z| <= 0.172
+  const double atanh = z * (1 + z2 * (1.0 / 3 + z2 * (1.0 / 5 + z2 * (1.0 / 7 + z2 * (1.0 / 9 + z2 * (1.0 / 11))))));
+  // ln(1 + x) = e ln 2 + ln m; where 1 + x rounds, the difference restores what was lost
+  return e * 0.6931471805599453 + 2 * atanh + (x - (y - 1)) / y;
+}
+
+// Where each tet's centroid falls on a Morton curve over the mesh's box (10 bits an axis).
+uint32_t morton(const Vec3& p, const storage::Bounds& b) {
+  uint32_t code = 0;
+  uint32_t cell[3];
+  for (int k = 0; k < 3; ++k) {
+    const double extent = b.max[k] - b.min[k];
+    const double u = extent > 0 ? (p[k] - b.min[k]) / extent : 0;
+    cell[k] = static_cast<uint32_t>(std::clamp(u * 1024, 0.0, 1023.0));
+  }
+  for (int bit = 9; bit >= 0; --bit)
+    for (int k = 0; k < 3; ++k) code = (code << 1) | ((cell[k] >> bit) & 1);
+  return code;
 }
 
 }  // namespace
@@ -87,44 +145,27 @@ bool known_backend(const std::string& name) { return name == "gl" || name == "cp
 
 struct RayCaster::Bvh {
   struct Node {
-    Box box;
-    uint32_t first = 0, count = 0;  // leaf: faces [first, first + count); inner: count 0, children first, first + 1
+    float lo[3], hi[3];
+    uint32_t first = 0, count = 0;  // leaf: triangles [first, first + count); inner: count 0, children first, first + 1
+  };
+  struct Triangle {
+    float a[3], b[3], c[3];  // wound so that (b - a) x (c - a) points out of the mesh
+    uint32_t face;           // 4 * cell + face
   };
   std::vector<Node> nodes;
-  std::vector<uint32_t> faces;  // 4 * tet + face, leaves' order
+  std::vector<Triangle> triangles;  // leaves' order
 };
 
-RayCaster::RayCaster(const SceneMesh& mesh) : mesh_(mesh), bvh_(std::make_unique<Bvh>()) {
-  const size_t T = mesh.tets.size() / 4;
-  opposite_ = pair_faces(mesh.tets).opposite;
-  cells_.resize(T);
-  auto point = [&](uint32_t v) { return Vec3{mesh.xyz[3 * size_t{v}], mesh.xyz[3 * size_t{v} + 1], mesh.xyz[3 * size_t{v} + 2]}; };
-  for (size_t t = 0; t < T; ++t) {
-    Cell& cell = cells_[t];
-    Vec3 p[4];
-    for (int k = 0; k < 4; ++k) p[k] = point(mesh.tets[4 * t + k]);
-    for (int f = 0; f < 4; ++f) {
-      const Vec3& a = p[kTetFace[f][0]];
-      Vec3 n = cross(p[kTetFace[f][1]] - a, p[kTetFace[f][2]] - a);
-      if (dot(n, p[f] - a) > 0) n = n * -1.0;  // outward whatever the tet's orientation
-      cell.plane[f] = {n[0], n[1], n[2], -dot(n, a)};
-    }
-    double s[4];
-    for (int k = 0; k < 4; ++k) s[k] = mesh.value[mesh.tets[4 * t + k]];
-    Vec3 g;
-    double c;
-    cell.flat = !linear_field(p, s, &g, &c);
-    cell.gradient = cell.flat ? std::array<double, 4>{0, 0, 0, 0} : std::array<double, 4>{g[0], g[1], g[2], c};
-  }
-  // the boundary faces in a binary hierarchy of boxes, split at the median of the longest axis
-  std::vector<uint32_t>& faces = bvh_->faces;
-  for (uint32_t f = 0; f < opposite_.size(); ++f)
-    if (opposite_[f] == kNoOppositeFace) faces.push_back(f);
+namespace {
+
+// The boundary faces (4 * cell + face) in a binary hierarchy of boxes, split at the median of
+// the longest axis of their centres; `point` gives a face's corners.
+template <class Bvh, class Corners>
+void build_hierarchy(Bvh& bvh, const std::vector<uint32_t>& faces, const Corners& corners) {
   std::vector<Box> boxes(faces.size());
   std::vector<Vec3> centre(faces.size());
   for (size_t i = 0; i < faces.size(); ++i) {
-    const uint32_t t = faces[i] / 4, f = faces[i] % 4;
-    for (int k = 0; k < 3; ++k) boxes[i].add(point(mesh.tets[4 * size_t{t} + kTetFace[f][k]]));
+    for (const Vec3& p : corners(faces[i])) boxes[i].add(p);
     for (int k = 0; k < 3; ++k) centre[i][k] = 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]);
   }
   std::vector<uint32_t> order(faces.size());
@@ -132,7 +173,7 @@ RayCaster::RayCaster(const SceneMesh& mesh) : mesh_(mesh), bvh_(std::make_unique
   struct Task {
     uint32_t node, first, count;
   };
-  bvh_->nodes.push_back({});
+  bvh.nodes.push_back({});
   std::vector<Task> stack{{0, 0, static_cast<uint32_t>(order.size())}};
   while (!stack.empty()) {
     const Task task = stack.back();
@@ -142,29 +183,102 @@ RayCaster::RayCaster(const SceneMesh& mesh) : mesh_(mesh), bvh_(std::make_unique
       box.add(boxes[order[i]]);
       centres.add(centre[order[i]]);
     }
-    bvh_->nodes[task.node].box = box;
+    for (int k = 0; k < 3; ++k) {  // the faces' corners are floats: their box is exact in float
+      bvh.nodes[task.node].lo[k] = static_cast<float>(box.lo[k]);
+      bvh.nodes[task.node].hi[k] = static_cast<float>(box.hi[k]);
+    }
     int axis = 0;
     for (int k = 1; k < 3; ++k)
       if (centres.hi[k] - centres.lo[k] > centres.hi[axis] - centres.lo[axis]) axis = k;
-    if (task.count <= 4 || !(centres.hi[axis] > centres.lo[axis])) {
-      bvh_->nodes[task.node].first = task.first;
-      bvh_->nodes[task.node].count = task.count;
+    if (task.count <= kLeafFaces || !(centres.hi[axis] > centres.lo[axis])) {
+      bvh.nodes[task.node].first = task.first;
+      bvh.nodes[task.node].count = task.count;
       continue;
     }
     const uint32_t half = task.count / 2;
     std::nth_element(order.begin() + task.first, order.begin() + task.first + half, order.begin() + task.first + task.count,
                      [&](uint32_t a, uint32_t b) { return centre[a][axis] < centre[b][axis]; });
-    const uint32_t left = static_cast<uint32_t>(bvh_->nodes.size());
-    bvh_->nodes.push_back({});
-    bvh_->nodes.push_back({});
-    bvh_->nodes[task.node].first = left;
-    bvh_->nodes[task.node].count = 0;
+    const uint32_t left = static_cast<uint32_t>(bvh.nodes.size());
+    bvh.nodes.push_back({});
+    bvh.nodes.push_back({});
+    bvh.nodes[task.node].first = left;
+    bvh.nodes[task.node].count = 0;
     stack.push_back({left, task.first, half});
     stack.push_back({left + 1, task.first + half, task.count - half});
   }
-  std::vector<uint32_t> sorted(faces.size());
-  for (size_t i = 0; i < order.size(); ++i) sorted[i] = faces[order[i]];
-  faces = std::move(sorted);
+  bvh.triangles.resize(faces.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    auto& tri = bvh.triangles[i];
+    const auto p = corners(faces[order[i]]);
+    for (int k = 0; k < 3; ++k) {
+      tri.a[k] = static_cast<float>(p[0][k]);
+      tri.b[k] = static_cast<float>(p[1][k]);
+      tri.c[k] = static_cast<float>(p[2][k]);
+    }
+    tri.face = faces[order[i]];
+  }
+}
+
+}  // namespace
+
+RayCaster::RayCaster(const SceneMesh& mesh) : mesh_(mesh), bvh_(std::make_unique<Bvh>()) {
+  const size_t T = mesh.tets.size() / 4;
+  auto point = [&](uint32_t v) { return Vec3{mesh.xyz[3 * size_t{v}], mesh.xyz[3 * size_t{v} + 1], mesh.xyz[3 * size_t{v} + 2]}; };
+  // the cells along a Morton curve of the centroids
+  std::vector<std::pair<uint32_t, uint32_t>> keyed(T);
+  for (size_t t = 0; t < T; ++t) {
+    Vec3 c{0, 0, 0};
+    for (int k = 0; k < 4; ++k) c = c + point(mesh.tets[4 * t + k]) * 0.25;
+    keyed[t] = {morton(c, mesh.bounds), static_cast<uint32_t>(t)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  source_.resize(T);
+  std::vector<uint32_t> cell_of(T);
+  for (uint32_t i = 0; i < T; ++i) {
+    source_[i] = keyed[i].second;
+    cell_of[keyed[i].second] = i;
+  }
+  const std::vector<uint32_t> opposite = pair_faces(mesh.tets).opposite;
+  cells_.resize(T);
+  for (uint32_t i = 0; i < T; ++i) {
+    const size_t t = source_[i];
+    Cell& cell = cells_[i];
+    Vec3 p[4];
+    double s[4];
+    for (int k = 0; k < 4; ++k) {
+      p[k] = point(mesh.tets[4 * t + k]);
+      s[k] = mesh.value[mesh.tets[4 * t + k]];
+    }
+    for (int f = 0; f < 4; ++f) {
+      const Vec3& a = p[kTetFace[f][0]];
+      Vec3 n = cross(p[kTetFace[f][1]] - a, p[kTetFace[f][2]] - a);
+      if (dot(n, p[f] - a) > 0) n = n * -1.0;  // outward whatever the tet's orientation
+      n = normalise(n, {0, 0, 0});
+      cell.nx[f] = static_cast<float>(n[0]);
+      cell.ny[f] = static_cast<float>(n[1]);
+      cell.nz[f] = static_cast<float>(n[2]);
+      cell.offset[f] = static_cast<float>(dot(n, p[0] - a));
+      const uint32_t across = opposite[4 * t + f];
+      cell.across[f] = across == kNoOppositeFace ? kNoOppositeFace : 4 * cell_of[across / 4] + across % 4;
+    }
+    for (int k = 0; k < 3; ++k) cell.corner[k] = static_cast<float>(p[0][k]);
+    cell.value = static_cast<float>(s[0]);
+    Vec3 g;
+    double c;
+    cell.flat = !linear_field(p, s, &g, &c);
+    for (int k = 0; k < 3; ++k) cell.gradient[k] = cell.flat ? 0.0f : static_cast<float>(g[k]);
+  }
+  std::vector<uint32_t> faces;
+  for (uint32_t i = 0; i < T; ++i)
+    for (uint32_t f = 0; f < 4; ++f)
+      if (cells_[i].across[f] == kNoOppositeFace) faces.push_back(4 * i + f);
+  build_hierarchy(*bvh_, faces, [&](uint32_t face) {
+    const size_t t = source_[face / 4];
+    const uint32_t f = face % 4;
+    std::array<Vec3, 3> c{point(mesh.tets[4 * t + kTetFace[f][0]]), point(mesh.tets[4 * t + kTetFace[f][1]]), point(mesh.tets[4 * t + kTetFace[f][2]])};
+    if (dot(cross(c[1] - c[0], c[2] - c[0]), point(mesh.tets[4 * t + f]) - c[0]) > 0) std::swap(c[1], c[2]);  // outward
+    return c;
+  });
 }
 
 RayCaster::~RayCaster() = default;
@@ -181,36 +295,49 @@ std::string RayCaster::unsupported(const RenderSettings& s) {
 
 // The nearest boundary face the ray enters by at a parameter from `after` on (less a rounding,
 // so that a ray leaving by an unpaired face finds a face at the same place: internal
-// boundaries between regions), `left` (the face it left by) aside: 4 * tet + face, or kNone.
-uint32_t RayCaster::enter(const Vec3& o, const Vec3& d, double after, double* t_hit, uint32_t left) const {
-  after -= 1e-9 * mesh_.diagonal / std::max(1e-300, std::sqrt(dot(d, d)));
-  const Vec3 inv{1 / d[0], 1 / d[1], 1 / d[2]};
-  double best = INFINITY;
+// boundaries between regions), `left` (the face it left by) aside: 4 * cell + face, or kNone.
+// The nearer child box is searched first, so that the farther is mostly cut off.
+uint32_t RayCaster::enter(const Vec3& origin, const Vec3& direction, double after, double* t_hit, uint32_t left) const {
+  const double o[3] = {origin[0], origin[1], origin[2]}, d[3] = {direction[0], direction[1], direction[2]};
+  after -= 1e-9 * mesh_.diagonal / std::max(1e-300, std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+  const double inv[3] = {1 / d[0], 1 / d[1], 1 / d[2]};
+  double best = INFINITY, t_near;
   uint32_t found = kNone;
-  uint32_t stack[64];
+  *t_hit = best;
+  const std::vector<Bvh::Node>& nodes = bvh_->nodes;
+  if (nodes.empty() || bvh_->triangles.empty() || !slab(nodes[0].lo, nodes[0].hi, o, inv, after, best, &t_near)) return kNone;
+  struct Pending {
+    uint32_t node;
+    double t_near;
+  } stack[64];
   int top = 0;
-  if (bvh_->nodes.empty() || bvh_->faces.empty()) return kNone;
-  stack[top++] = 0;
-  auto point = [&](uint32_t v) { return Vec3{mesh_.xyz[3 * size_t{v}], mesh_.xyz[3 * size_t{v} + 1], mesh_.xyz[3 * size_t{v} + 2]}; };
+  stack[top++] = {0, t_near};
   while (top > 0) {
-    const Bvh::Node& node = bvh_->nodes[stack[--top]];
-    if (!node.box.slab(o, inv, after, best)) continue;
+    const Pending pending = stack[--top];
+    if (pending.t_near > best) continue;
+    const Bvh::Node& node = nodes[pending.node];
     if (node.count == 0) {
+      const Bvh::Node &a = nodes[node.first], &b = nodes[node.first + 1];
+      double ta, tb;
+      const bool hit_a = slab(a.lo, a.hi, o, inv, after, best, &ta), hit_b = slab(b.lo, b.hi, o, inv, after, best, &tb);
       if (top + 2 > 64) continue;  // deeper than any median split of 2^32 faces
-      stack[top++] = node.first;
-      stack[top++] = node.first + 1;
+      if (hit_a && hit_b) {
+        const bool a_first = ta <= tb;
+        stack[top++] = a_first ? Pending{node.first + 1, tb} : Pending{node.first, ta};
+        stack[top++] = a_first ? Pending{node.first, ta} : Pending{node.first + 1, tb};
+      } else if (hit_a) {
+        stack[top++] = {node.first, ta};
+      } else if (hit_b) {
+        stack[top++] = {node.first + 1, tb};
+      }
       continue;
     }
     for (uint32_t i = node.first; i < node.first + node.count; ++i) {
-      const uint32_t face = bvh_->faces[i], t = face / 4, f = face % 4;
-      const double h = hit_triangle(o, d, point(mesh_.tets[4 * size_t{t} + kTetFace[f][0]]), point(mesh_.tets[4 * size_t{t} + kTetFace[f][1]]),
-                                    point(mesh_.tets[4 * size_t{t} + kTetFace[f][2]]));
-      if (h >= after && h < best && face != left) {
-        // entering: the ray runs against the face's outward normal
-        const auto& q = cells_[t].plane[f];
-        if (q[0] * d[0] + q[1] * d[1] + q[2] * d[2] >= 0) continue;
+      const Bvh::Triangle& tri = bvh_->triangles[i];
+      const double h = enter_triangle(o, d, tri.a, tri.b, tri.c);
+      if (h >= after && h < best && tri.face != left) {
         best = h;
-        found = face;
+        found = tri.face;
       }
     }
   }
@@ -218,39 +345,37 @@ uint32_t RayCaster::enter(const Vec3& o, const Vec3& d, double after, double* t_
   return found;
 }
 
-// Near tets `from` and `also`, the tet that holds the point o + t d: a search across the
-// interior faces whose planes the point is outside of, nearest tets first (at most 48); kNone
+// Near cells `from` and `also`, the cell that holds the point o + t d: a search across the
+// interior faces whose planes the point is outside of, nearest cells first (at most 48); kNone
 // when none holds it (the point is outside the mesh, or farther than that).
 uint32_t RayCaster::walk_to(uint32_t from, uint32_t also, const Vec3& o, const Vec3& d, double t) const {
   const Vec3 p{o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
   uint32_t queue[48];
   size_t head = 0, tail = 0;
-  auto push = [&](uint32_t tet) {
-    if (tet == kNone || tail == 48) return;
+  auto push = [&](uint32_t cell) {
+    if (cell == kNone || tail == 48) return;
     for (size_t i = 0; i < tail; ++i)
-      if (queue[i] == tet) return;
-    queue[tail++] = tet;
+      if (queue[i] == cell) return;
+    queue[tail++] = cell;
   };
   push(from);
   push(also);
   while (head < tail) {
-    const uint32_t tet = queue[head++];
-    const Cell& c = cells_[tet];
+    const uint32_t at = queue[head++];
+    const Cell& c = cells_[at];
+    const double q[3] = {p[0] - c.corner[0], p[1] - c.corner[1], p[2] - c.corner[2]};
     bool outside = false;
     for (int f = 0; f < 4; ++f) {
-      const auto& q = c.plane[f];
-      const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
-      if (!((q[0] * p[0] + q[1] * p[1] + q[2] * p[2] + q[3]) / std::max(n, 1e-300) > 0)) continue;
+      if (!(c.nx[f] * q[0] + c.ny[f] * q[1] + c.nz[f] * q[2] + c.offset[f] > 0)) continue;
       outside = true;
-      const uint32_t across = opposite_[4 * size_t{tet} + f];
-      if (across != kNoOppositeFace) push(across / 4);
+      if (c.across[f] != kNoOppositeFace) push(c.across[f] / 4);
     }
-    if (!outside && !c.flat) return tet;
+    if (!outside && !c.flat) return at;
   }
   return kNone;
 }
 
-// The tet that holds `p`, or kNone (every tet's planes, once a frame, for an eye inside the
+// The cell that holds `p`, or kNone (every cell's planes, once a frame, for an eye inside the
 // mesh's box).
 uint32_t RayCaster::locate(const Vec3& p) const {
   const double margin_of_box = 1e-9 * mesh_.diagonal;
@@ -258,22 +383,19 @@ uint32_t RayCaster::locate(const Vec3& p) const {
     if (p[k] < mesh_.bounds.min[k] - margin_of_box || p[k] > mesh_.bounds.max[k] + margin_of_box) return kNone;  // outside every tet
   uint32_t best = kNone;
   double best_margin = -INFINITY;
-  for (uint32_t t = 0; t < cells_.size(); ++t) {
-    const Cell& c = cells_[t];
+  for (uint32_t at = 0; at < cells_.size(); ++at) {
+    const Cell& c = cells_[at];
     if (c.flat) continue;
+    const double q[3] = {p[0] - c.corner[0], p[1] - c.corner[1], p[2] - c.corner[2]};
     double margin = INFINITY;
-    for (int f = 0; f < 4; ++f) {
-      const auto& q = c.plane[f];
-      const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
-      margin = std::min(margin, -(q[0] * p[0] + q[1] * p[1] + q[2] * p[2] + q[3]) / n);
-    }
-    if (margin >= 0) return t;
+    for (int f = 0; f < 4; ++f) margin = std::min(margin, -(c.nx[f] * q[0] + c.ny[f] * q[1] + c.nz[f] * q[2] + c.offset[f]));
+    if (margin >= 0) return at;
     if (margin > best_margin) {
       best_margin = margin;
-      best = t;
+      best = at;
     }
   }
-  // within a rounding of a face: the nearest tet
+  // within a rounding of a face: the nearest cell
   return best_margin > -1e-9 * mesh_.diagonal ? best : kNone;
 }
 
@@ -282,32 +404,68 @@ uint32_t RayCaster::locate(const Vec3& p) const {
 struct RayCaster::Shading {
   double lo = 0, hi = 1, scale = 1, unit = 1;
   const PreintegrationTable* table = nullptr;
-  const std::vector<float>* extinction = nullptr;
-  const std::vector<std::array<float, 3>>* colors = nullptr;
-  double table_bins = 1, log_range = 1;
+  const float* extinction = nullptr;
+  const std::array<float, 3>* colors = nullptr;
+  const std::array<double, 4>* integrals = nullptr;  // of extinction, and of colour times extinction, from value 0
+  std::array<double, 4> below{}, above{};           // their rates past the range's ends
+  const uint32_t* lit_bins = nullptr;
+  double table_bins = 1, length_axis = 1;  // length_axis: (lengths - 1) / ln(1 + max length / length scale)
+  double inverse_length_scale = 1;
   std::vector<double> isos;  // normalised, ascending, distinct
   std::vector<std::array<double, 3>> iso_rgb;
   double iso_opacity = 1;
+  // Whether the transfer function is clear (no opacity) over every value from a to b
+  // (normalised) that the table or the fine extinction would read for them.
+  bool clear(double a, double b) const {
+    const uint32_t last = table->n - 2;
+    const double lo_value = std::clamp(std::min(a, b), 0.0, 1.0) * table_bins, hi_value = std::clamp(std::max(a, b), 0.0, 1.0) * table_bins;
+    const uint32_t first_bin = std::min(static_cast<uint32_t>(lo_value), last), last_bin = std::min(static_cast<uint32_t>(hi_value), last);
+    return lit_bins[last_bin + 1] == lit_bins[first_bin];
+  }
 };
 
 namespace {
 
+// The integrals of extinction and of colour times extinction over the normalised values from 0
+// to s: the tabulated prefix sums, linear past the range's ends (where the transfer function
+// holds its end values).
+template <class Shading>
+inline void integrals_to(const Shading& sh, double s, double out[4]) {
+  if (!(s > 0)) {
+    for (int k = 0; k < 4; ++k) out[k] = sh.below[k] * s;
+    return;
+  }
+  if (!(s < 1)) {
+    for (int k = 0; k < 4; ++k) out[k] = sh.integrals[kClassified][k] + sh.above[k] * (s - 1);
+    return;
+  }
+  const double x = s * kClassified;
+  const uint32_t i = std::min(static_cast<uint32_t>(x), kClassified - 1);
+  const double f = x - i;
+  const auto &a = sh.integrals[i], &b = sh.integrals[i + 1];
+  for (int k = 0; k < 4; ++k) out[k] = a[k] + f * (b[k] - a[k]);
+}
+
 // The colour and opacity of a segment from value sf to sb (normalised) of `length`. A segment
 // whose value spans a bin of the pre-integrated table or more reads the table (as the GL path
-// does); a nearly constant one (most of them, in fine meshes and over long paths) is integrated
-// in up to kMaxFineSteps steps over the fine extinction, where a table interpolated between its
-// bins would veil thin opacity near a kink.
+// does). A nearly constant one (most of them, in fine meshes and over long paths) takes its
+// optical depth exactly from the prefix sums of the finely tabulated extinction (a kink of the
+// transfer function inside it is no blur, and however long it is, thin opacity is not veiled)
+// and its colour as the extinction-weighted mean over its values; one within a step of that
+// grid reads the extinction and colour at its middle. Where the transfer function is clear
+// over the segment's values, nothing is integrated.
 template <class Shading>
 void integrate(const Shading& sh, double sf, double sb, double length, double out[4]) {
+  for (int k = 0; k < 4; ++k) out[k] = 0;
   const double span = std::fabs(sb - sf);
   if (span * sh.table_bins >= 1) {
+    if (sh.clear(sf, sb)) return;
     const PreintegrationTable& table = *sh.table;
     const uint32_t n = table.n, L = table.lengths;
     const double u = std::clamp(sf, 0.0, 1.0) * (n - 1), v = std::clamp(sb, 0.0, 1.0) * (n - 1);
-    const double w = std::clamp(std::log1p(static_cast<float>(std::max(length, 0.0) / table.length_scale)) / sh.log_range, 0.0, 1.0) * (L - 1);
+    const double w = std::min(ln_1p(std::max(length, 0.0) * sh.inverse_length_scale) * sh.length_axis, double(L - 1));
     const uint32_t i0 = std::min(static_cast<uint32_t>(u), n - 2), j0 = std::min(static_cast<uint32_t>(v), n - 2), m0 = std::min(static_cast<uint32_t>(w), L - 2);
     const double fu = u - i0, fv = v - j0, fw = w - m0;
-    for (int k = 0; k < 4; ++k) out[k] = 0;
     for (int dm = 0; dm < 2; ++dm)
       for (int dj = 0; dj < 2; ++dj) {
         const float* c = &table.rgba[((size_t{m0 + dm} * n + j0 + dj) * n + i0) * 4];
@@ -316,33 +474,118 @@ void integrate(const Shading& sh, double sf, double sb, double length, double ou
       }
     return;
   }
-  const std::vector<float>& extinction = *sh.extinction;
-  const std::vector<std::array<float, 3>>& colors = *sh.colors;
-  const int steps = std::clamp(static_cast<int>(std::ceil(span * kStepsPerRange)), 1, kMaxFineSteps);
-  const double dt = length / steps;
-  double r = 0, g = 0, b = 0, keep = 1;  // keep: the transmittance so far
-  for (int k = 0; k < steps; ++k) {
-    const double s = std::clamp(sf + (sb - sf) * (k + 0.5) / steps, 0.0, 1.0);
-    const double x = s * kClassified;
+  double depth, rgb[3];
+  if (span * kClassified < 1) {
+    const double x = std::clamp(0.5 * (sf + sb), 0.0, 1.0) * kClassified;
     const uint32_t i = std::min(static_cast<uint32_t>(x), kClassified - 1);
-    const double depth = (extinction[i] + (x - i) * (extinction[i + 1] - extinction[i])) * dt;
-    // 1 - exp(-depth): a series where it is small (most steps), else the library's
-    const double alpha = depth < 0.03 ? depth * (1 - depth * (0.5 - depth * (1.0 / 6 - depth * (1.0 / 24)))) : -std::expm1(-depth);
-    const double weight = keep * alpha;
-    const double y = s * kColors;
+    depth = std::max(0.0, (sh.extinction[i] + (x - i) * (sh.extinction[i + 1] - sh.extinction[i])) * length);
+    if (!(depth > 0)) return;  // clear
+    const double y = x * (double(kColors) / kClassified);
     const uint32_t j = std::min(static_cast<uint32_t>(y), kColors - 1);
-    const float f = static_cast<float>(y - j);
-    const auto& c0 = colors[j];
-    const auto& c1 = colors[j + 1];
-    r += weight * (c0[0] + f * (c1[0] - c0[0]));
-    g += weight * (c0[1] + f * (c1[1] - c0[1]));
-    b += weight * (c0[2] + f * (c1[2] - c0[2]));
-    keep *= 1 - alpha;
+    const auto &c0 = sh.colors[j], &c1 = sh.colors[j + 1];
+    for (int k = 0; k < 3; ++k) rgb[k] = c0[k] + (y - j) * (c1[k] - c0[k]);
+  } else {
+    double a[4], b[4];
+    integrals_to(sh, sf, a);
+    integrals_to(sh, sb, b);
+    const double optical = b[0] - a[0];  // of the sign of sb - sf
+    if (optical == 0) return;            // clear
+    depth = std::max(0.0, length * optical / (sb - sf));
+    for (int k = 0; k < 3; ++k) rgb[k] = optical != 0 ? std::clamp((b[k + 1] - a[k + 1]) / optical, 0.0, 1.0) : 0.0;
   }
-  out[0] = r;
-  out[1] = g;
-  out[2] = b;
-  out[3] = 1 - keep;
+  const double alpha = 1 - exp_minus(depth);
+  for (int k = 0; k < 3; ++k) out[k] = rgb[k] * alpha;
+  out[3] = alpha;
+}
+
+// The face a ray leaves a cell by, from q (where it is, less the cell's corner) along d,
+// `entry` aside: of the faces ahead (n.d > 0), the one it reaches first, and in *dt the
+// parameter to it from q (negative where rounding put q past it). -1: none ahead.
+template <class Cell>
+int exit_face_double(const Cell& c, const double q[3], const double d[3], uint32_t entry, double* dt) {
+  double t[4];
+  for (int f = 0; f < 4; ++f) {
+    const double dn = c.nx[f] * d[0] + c.ny[f] * d[1] + c.nz[f] * d[2];
+    const double distance = c.nx[f] * q[0] + c.ny[f] * q[1] + c.nz[f] * q[2] + c.offset[f];
+    t[f] = dn > 0 && f != static_cast<int>(entry) ? -distance / dn : INFINITY;
+  }
+  const int a = t[1] < t[0] ? 1 : 0, b = t[3] < t[2] ? 3 : 2;
+  const int exit = t[b] < t[a] ? b : a;
+  *dt = t[exit];
+  return *dt < INFINITY ? exit : -1;
+}
+
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = int32_t __attribute__((vector_size(16)));
+
+inline Float4 load4(const float (&v)[4]) {
+  Float4 r;
+  std::memcpy(&r, v, sizeof r);
+  return r;
+}
+
+// exit_face_double for the four faces at once in float: q is within the cell, so float's
+// rounding is a tiny part of the cell. Where another face ahead is within that rounding of the
+// nearest (a ray near an edge or a corner), the faces are compared again in double; the
+// parameter to the face chosen is computed in double.
+template <class Cell>
+inline int exit_face(const Cell& c, const double q[3], const double d[3], const float df[3], uint32_t entry, double* dt) {
+  constexpr float kRounding = 1e-5f;  // float's rounding in a plane's distance and its ratio, with a wide margin
+  const Float4 nx = load4(c.nx), ny = load4(c.ny), nz = load4(c.nz), offset = load4(c.offset);
+  const float qx = static_cast<float>(q[0]), qy = static_cast<float>(q[1]), qz = static_cast<float>(q[2]);
+  const Float4 dn = nx * df[0] + ny * df[1] + nz * df[2];
+  const Float4 distance = nx * qx + ny * qy + nz * qz + offset;
+  const Int4 lanes = {0, 1, 2, 3};
+  const Int4 ahead = (dn > 0) & (lanes != static_cast<int32_t>(entry));
+  const Float4 inverse = 1.0f / dn;
+  const Float4 infinite = {INFINITY, INFINITY, INFINITY, INFINITY};
+  const Float4 t = ahead ? -distance * inverse : infinite;
+  const int a = t[1] < t[0] ? 1 : 0, b = t[3] < t[2] ? 3 : 2;
+  const int exit = t[b] < t[a] ? b : a;
+  const float nearest = t[exit];
+  if (!(nearest < INFINITY)) return -1;
+  // how far each face's parameter may be off: its distance's rounding over n.d, and its own
+  const float scale = std::fabs(qx) + std::fabs(qy) + std::fabs(qz) + std::fabs(c.offset[0]);
+  const Float4 off = kRounding * (scale * inverse + (t < 0 ? -t : t));
+  const Int4 rivals = ahead & (lanes != exit) & (t - off <= nearest + off[exit]);
+  if (rivals[0] | rivals[1] | rivals[2] | rivals[3]) return exit_face_double(c, q, d, entry, dt);
+  // the parameter in double, as exact as the planes: where the ray leaves the mesh, another
+  // region's face at the same place is found within a rounding of it
+  const double dn_exit = c.nx[exit] * d[0] + c.ny[exit] * d[1] + c.nz[exit] * d[2];
+  *dt = -(c.nx[exit] * q[0] + c.ny[exit] * q[1] + c.nz[exit] * q[2] + c.offset[exit]) / dn_exit;
+  return exit;
+}
+
+// Of the faces but `entry`, the one the ray runs most into (a ray along a face or through an
+// edge, where rounding left no face ahead).
+template <class Cell>
+int steepest_face(const Cell& c, const double d[3], uint32_t entry) {
+  double most = -INFINITY;
+  int exit = -1;
+  for (int f = 0; f < 4; ++f) {
+    const double dn = c.nx[f] * d[0] + c.ny[f] * d[1] + c.nz[f] * d[2];
+    if (f != static_cast<int>(entry) && dn > most) {
+      most = dn;
+      exit = f;
+    }
+  }
+  return exit;
+}
+
+// Where the ray is in its cell (q: the point at t_in less the cell's corner) and the face it
+// leaves by, with in *dt the parameter from t_in to it; a ray along a face or through an edge
+// (rounding left no face ahead) leaves where it is by the face it runs most into, rather than
+// skipping to the boundary. -1: a flat cell with no face ahead.
+template <class Ray, class Cell>
+inline int leave(const Ray& ray, const Cell& cell, double q[3], double* dt) {
+  for (int k = 0; k < 3; ++k) q[k] = ray.o[k] + ray.t_in * ray.d[k] - cell.corner[k];
+  int exit = exit_face(cell, q, ray.d, ray.df, ray.entry, dt);
+  if (exit < 0 && !cell.flat) {
+    exit = steepest_face(cell, ray.d, ray.entry);
+    *dt = 0;
+  }
+  *dt = std::max(*dt, 0.0);
+  return exit;
 }
 
 }  // namespace
@@ -373,14 +616,48 @@ void RayCaster::shading(const RenderSettings& settings, Shading& sh) const {
         const auto color = settings.tf.colors.empty() ? colormap(settings.tf.colormap, double(k) / kColors) : settings.tf.user_color(lo + (hi - lo) * k / kColors);
         colors_[k] = {color[0], color[1], color[2]};
       }
+      // the prefix sums over the fine grid (trapezoids; the colour read from its own grid)
+      integrals_.resize(kClassified + 1);
+      integrals_[0] = {0, 0, 0, 0};
+      auto emitted = [&](uint32_t k) {
+        const double y = double(k) * kColors / kClassified;
+        const uint32_t j = std::min(static_cast<uint32_t>(y), kColors - 1);
+        std::array<double, 4> e{extinction_[k], 0, 0, 0};
+        for (int c = 0; c < 3; ++c) e[c + 1] = extinction_[k] * (colors_[j][c] + (y - j) * (colors_[j + 1][c] - colors_[j][c]));
+        return e;
+      };
+      std::array<double, 4> previous = emitted(0);
+      below_ = previous;
+      for (uint32_t k = 0; k < kClassified; ++k) {
+        const std::array<double, 4> next = emitted(k + 1);
+        for (int c = 0; c < 4; ++c) integrals_[k + 1][c] = integrals_[k][c] + 0.5 * (previous[c] + next[c]) / kClassified;
+        previous = next;
+      }
+      above_ = previous;
+      // a bin of the table is lit when the extinction is not zero somewhere over its values,
+      // widened by a step of the table's own grid (1/1024 of the range), which it rounds to
+      const uint32_t bins = table_.n - 1;
+      lit_bins_.assign(bins + 1, 0);
+      for (uint32_t bin = 0; bin < bins; ++bin) {
+        const double from = (double(bin) / bins - 1.0 / 1024) * kClassified, to = (double(bin + 1) / bins + 1.0 / 1024) * kClassified;
+        const auto first = extinction_.begin() + static_cast<ptrdiff_t>(std::clamp(std::floor(from), 0.0, double(kClassified)));
+        const auto last = extinction_.begin() + static_cast<ptrdiff_t>(std::clamp(std::ceil(to), 0.0, double(kClassified))) + 1;
+        const bool lit = std::any_of(first, last, [](float e) { return e > 0; });
+        lit_bins_[bin + 1] = lit_bins_[bin] + (lit ? 1 : 0);
+      }
       table_key_ = key;
     }
   }
   sh.table = &table_;
-  sh.extinction = &extinction_;
-  sh.colors = &colors_;
+  sh.extinction = extinction_.data();
+  sh.colors = colors_.data();
+  sh.integrals = integrals_.data();
+  sh.below = below_;
+  sh.above = above_;
+  sh.lit_bins = lit_bins_.data();
   sh.table_bins = table_.n - 1;
-  sh.log_range = std::log1p(table_.max_length / table_.length_scale);
+  sh.length_axis = (table_.lengths - 1) / std::log1p(table_.max_length / table_.length_scale);
+  sh.inverse_length_scale = 1 / table_.length_scale;
   if (settings.iso)
     for (double v : settings.isovalues) sh.isos.push_back((v - lo) * sh.scale);
   std::sort(sh.isos.begin(), sh.isos.end());
@@ -392,107 +669,248 @@ void RayCaster::shading(const RenderSettings& settings, Shading& sh) const {
   }
 }
 
-// One ray from o along d, up to `stop` (a slice; +inf: none), starting in `eye_tet` (kNone: at
-// the boundary face it enters by): the colour and opacity composed into acc, the tets visited
-// added to `visits`.
-void RayCaster::trace(const Shading& sh, const Vec3& o, const Vec3& d, double stop, uint32_t eye_tet, double acc[4], uint64_t& visits) const {
-  const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+// A ray on its walk: where it is (the cell, the face it came in by: 4 for none, the cell
+// before) and from which parameter.
+struct RayCaster::Ray {
+  double o[3], d[3];
+  float df[3];  // d in float
+  double dl;    // |d|
+  uint32_t cell = kNone, entry = 4, previous = kNone;
+  double t_in = 0;
+  const EntryBins* bins = nullptr;  // the frame's, with the ray's tile and pixel; none: the hierarchy
+  uint32_t tile = 0, x = 0, y = 0;
+  Ray(const Vec3& origin, const Vec3& direction)
+      : o{origin[0], origin[1], origin[2]},
+        d{direction[0], direction[1], direction[2]},
+        df{static_cast<float>(direction[0]), static_cast<float>(direction[1]), static_cast<float>(direction[2])},
+        dl(std::sqrt(dot(direction, direction))) {}
+  Vec3 origin() const { return {o[0], o[1], o[2]}; }
+  Vec3 direction() const { return {d[0], d[1], d[2]}; }
+};
+
+// The ray's first cell: `eye_cell`, else the one whose boundary face it enters by (kNone: it
+// misses the mesh).
+void RayCaster::start(Ray& ray, uint32_t eye_cell) const {
+  ray.cell = eye_cell;
+  ray.entry = 4;
+  ray.t_in = 0;
+  if (eye_cell != kNone) return;
+  const uint32_t face = enter(ray.origin(), ray.direction(), 0, &ray.t_in, kNone);
+  ray.cell = face == kNone ? kNone : face / 4;
+  ray.entry = face == kNone ? 4 : face % 4;
+}
+
+// From the ray's cell through face `exit` at t_out to the next cell: across the face, else
+// (a boundary face) the cell that holds a point just ahead, else where the ray enters again.
+// exit -1 (a flat cell): the boundary past this point.
+void RayCaster::advance(Ray& ray, int exit, double t_out) const {
+  const Vec3 o = ray.origin(), d = ray.direction();
+  if (exit < 0) {
+    const uint32_t face = enter(ray, ray.t_in + 1e-6 * mesh_.diagonal / ray.dl, &ray.t_in, kNone);
+    ray.cell = face == kNone ? kNone : face / 4;
+    ray.entry = face == kNone ? 4 : face % 4;
+    return;
+  }
+  const uint32_t across = cells_[ray.cell].across[exit];
+  ray.t_in = t_out;
+  if (across != kNoOppositeFace) {
+    ray.previous = ray.cell;
+    ray.cell = across / 4;
+    ray.entry = across % 4;
+  } else if (const uint32_t ahead = walk_to(ray.cell, ray.previous, o, d, t_out + 1e-6 * mesh_.diagonal / ray.dl); ahead != kNone) {
+    // a ray through an edge took the face of a cell it only grazed, and that face is on the
+    // boundary: it is still inside, in the cell that holds a point just ahead
+    ray.previous = ray.cell;
+    ray.cell = ahead;
+    ray.entry = 4;
+  } else {  // out of the mesh: where does it come back in?
+    const uint32_t face = enter(ray, t_out, &ray.t_in, 4 * ray.cell + static_cast<uint32_t>(exit));
+    ray.cell = face == kNone ? kNone : face / 4;
+    ray.entry = face == kNone ? 4 : face % 4;
+  }
+}
+
+namespace {
+
+// A segment of a ray through one cell, from q (its start, less the cell's corner) along d for
+// dt, composed into acc front to back: the volume, with the isosurfaces it crosses.
+template <class Shading, class Cell>
+void compose(const Shading& sh, const Cell& cell, const double q[3], const double d[3], double dl, double dt, double acc[4]) {
   auto over = [&](const double c[4]) {
     const double keep = 1 - acc[3];
     for (int k = 0; k < 4; ++k) acc[k] += keep * c[k];
   };
-  uint32_t tet = eye_tet, entry = 4, previous = kNone;
-  double t_in = 0;
-  if (tet == kNone) {
-    const uint32_t face = enter(o, d, 0, &t_in, kNone);
-    if (face == kNone) return;
-    tet = face / 4;
-    entry = face % 4;
+  const float* g = cell.gradient;
+  const double along = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
+  const double s_in = (cell.value + g[0] * q[0] + g[1] * q[1] + g[2] * q[2] - sh.lo) * sh.scale, s_out = s_in + along * dt * sh.scale;
+  const double length = dt * dl;
+  double s0 = s_in, l0 = 0, c[4];
+  if (!sh.isos.empty() && s_out != s_in) {
+    const bool rising = s_out > s_in;
+    const double gn = std::sqrt(double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2]);
+    const double light = 0.25 + 0.75 * (gn > 0 ? std::fabs(along) / (gn * dl) : 1.0);
+    for (size_t k = 0; k < sh.isos.size(); ++k) {
+      const size_t at = rising ? k : sh.isos.size() - 1 - k;
+      const double iv = sh.isos[at];
+      if ((s0 < iv) == (s_out < iv)) continue;
+      const double li = length * (iv - s_in) / (s_out - s_in);
+      integrate(sh, s0, iv, li - l0, c);
+      over(c);
+      const double a = sh.iso_opacity;
+      const double surface[4] = {sh.iso_rgb[at][0] * light * a, sh.iso_rgb[at][1] * light * a, sh.iso_rgb[at][2] * light * a, a};
+      over(surface);
+      s0 = iv;
+      l0 = li;
+    }
   }
+  integrate(sh, s0, s_out, length - l0, c);
+  over(c);
+}
+
+}  // namespace
+
+// One ray up to `stop` (a slice; +inf: none) from where it is: the colour and opacity composed
+// into acc, the cells visited added to `visits`.
+void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], uint64_t& visits) const {
   uint64_t guard = 4 * cells_.size() + 16;
-  while (tet != kNone && acc[3] < kOpaque && t_in < stop && guard-- > 0) {
+  while (ray.cell != kNone && acc[3] < kOpaque && ray.t_in < stop && guard-- > 0) {
     ++visits;
-    const Cell& cell = cells_[tet];
-    double t_out = INFINITY;
-    int exit = -1;
-    for (int f = 0; f < 4; ++f) {
-      if (f == static_cast<int>(entry)) continue;
-      const auto& q = cell.plane[f];
-      const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
-      if (dn <= 0) continue;
-      const double t = -(q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3]) / dn;
-      if (t < t_out) {
-        t_out = t;
-        exit = f;
-      }
-    }
-    if (exit < 0 && !cell.flat) {
-      // a ray along a face or through an edge (rounding left no face ahead): it leaves where
-      // it is by the face it runs least into, rather than skipping to the boundary
-      double most = -INFINITY;
-      for (int f = 0; f < 4; ++f) {
-        if (f == static_cast<int>(entry)) continue;
-        const auto& q = cell.plane[f];
-        const double dn = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
-        if (dn > most) {
-          most = dn;
-          exit = f;
-        }
-      }
-      t_out = t_in;
-    }
-    if (exit < 0) {  // a flat tet: look for the boundary past this point
-      const uint32_t face = enter(o, d, t_in + 1e-6 * mesh_.diagonal / dl, &t_in, kNone);
-      tet = face == kNone ? kNone : face / 4;
-      entry = face == kNone ? 4 : face % 4;
+    const Cell& cell = cells_[ray.cell];
+    double q[3], dt;
+    const int exit = leave(ray, cell, q, &dt);
+    if (exit < 0) {  // a flat cell: look for the boundary past this point
+      advance(ray, -1, ray.t_in);
       continue;
     }
-    t_out = std::max(t_out, t_in);
-    const double t_end = std::min(t_out, stop);
-    const auto& g = cell.gradient;
-    auto value_at = [&](double t) { return ((g[0] * (o[0] + t * d[0]) + g[1] * (o[1] + t * d[1]) + g[2] * (o[2] + t * d[2]) + g[3]) - sh.lo) * sh.scale; };
-    const double s_in = value_at(t_in), s_out = value_at(t_end);
-    const double length = (t_end - t_in) * dl;
-    double s0 = s_in, l0 = 0, c[4];
-    if (!sh.isos.empty() && s_out != s_in) {
-      const bool rising = s_out > s_in;
-      const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-      const double light = 0.25 + 0.75 * (gn > 0 ? std::fabs(g[0] * d[0] + g[1] * d[1] + g[2] * d[2]) / (gn * dl) : 1.0);
-      for (size_t k = 0; k < sh.isos.size(); ++k) {
-        const size_t at = rising ? k : sh.isos.size() - 1 - k;
-        const double iv = sh.isos[at];
-        if ((s0 < iv) == (s_out < iv)) continue;
-        const double li = length * (iv - s_in) / (s_out - s_in);
-        integrate(sh, s0, iv, li - l0, c);
-        over(c);
-        const double a = sh.iso_opacity;
-        const double surface[4] = {sh.iso_rgb[at][0] * light * a, sh.iso_rgb[at][1] * light * a, sh.iso_rgb[at][2] * light * a, a};
-        over(surface);
-        s0 = iv;
-        l0 = li;
-      }
-    }
-    integrate(sh, s0, s_out, length - l0, c);
-    over(c);
+    const double t_out = ray.t_in + dt, t_end = std::min(t_out, stop);
+    compose(sh, cell, q, ray.d, ray.dl, t_end - ray.t_in, acc);
     if (t_end >= stop) break;
-    const uint32_t across = opposite_[4 * size_t{tet} + exit];
-    t_in = t_out;
-    if (across != kNoOppositeFace) {
-      previous = tet;
-      tet = across / 4;
-      entry = across % 4;
-    } else if (const uint32_t ahead = walk_to(tet, previous, o, d, t_out + 1e-6 * mesh_.diagonal / dl); ahead != kNone) {
-      // a ray through an edge took the face of a tet it only grazed, and that face is on the
-      // boundary: it is still inside, in the tet that holds a point just ahead
-      previous = tet;
-      tet = ahead;
-      entry = 4;
-    } else {  // out of the mesh: where does it come back in?
-      const uint32_t face = enter(o, d, t_out, &t_in, 4 * tet + static_cast<uint32_t>(exit));
-      tet = face == kNone ? kNone : face / 4;
-      entry = face == kNone ? 4 : face % 4;
+    if (const uint32_t across = cell.across[exit]; across != kNoOppositeFace) {  // most steps
+      ray.previous = ray.cell;
+      ray.cell = across / 4;
+      ray.entry = across % 4;
+      ray.t_in = t_out;
+    } else {
+      advance(ray, exit, t_out);
     }
   }
+}
+
+std::vector<RayCaster::Step> RayCaster::walk(const Vec3& origin, const Vec3& direction) const {
+  std::vector<Step> steps;
+  Ray ray(origin, direction);
+  start(ray, locate(origin));
+  uint64_t guard = 4 * cells_.size() + 16;
+  while (ray.cell != kNone && guard-- > 0) {
+    double q[3], dt;
+    const int exit = leave(ray, cells_[ray.cell], q, &dt);
+    if (exit < 0) {
+      advance(ray, -1, ray.t_in);
+      continue;
+    }
+    const double t_out = ray.t_in + dt;
+    steps.push_back({source_[ray.cell], t_out});
+    advance(ray, exit, t_out);
+  }
+  return steps;
+}
+
+// The boundary faces a frame's rays may enter by, binned by the tiles their projections
+// cover: a ray tests its tile's faces whose pixel box holds it, with the same test as the
+// hierarchy, so it finds the same face. Faces turned away from the eye are left out (no ray
+// enters by them); a face across the eye's plane has no pixel box and is tested by every ray.
+struct RayCaster::EntryBins {
+  struct Entry {
+    uint32_t triangle;        // into the hierarchy's triangles
+    uint16_t x0, y0, x1, y1;  // the pixels it may cover (inclusive)
+  };
+  std::vector<uint32_t> first;   // per tile into entries, and the end
+  std::vector<Entry> entries;
+  std::vector<uint32_t> across;  // faces across the eye's plane
+};
+
+namespace {
+
+constexpr size_t kMaxFacesAcrossTheEye = 64;  // more: every ray searches the hierarchy
+
+// false: faces across the eye's plane are too many (the hierarchy is the better search)
+template <class Triangle, class EntryBins>
+bool bin_entries(const std::vector<Triangle>& triangles, const Frame& frame, uint32_t tiles_x, uint32_t tiles, EntryBins& bins) {
+  const int W = static_cast<int>(frame.width), H = static_cast<int>(frame.height);
+  std::vector<std::array<uint16_t, 4>> box(triangles.size());
+  std::vector<uint8_t> kept(triangles.size(), 0);
+  bins.first.assign(tiles + 1, 0);
+  for (uint32_t i = 0; i < triangles.size(); ++i) {
+    const Triangle& tri = triangles[i];
+    const Vec3 a{tri.a[0], tri.a[1], tri.a[2]}, b{tri.b[0], tri.b[1], tri.b[2]}, c{tri.c[0], tri.c[1], tri.c[2]};
+    const Vec3 outward = cross(b - a, c - a);
+    if (dot(frame.ortho ? frame.forward : a - frame.eye, outward) >= 0) continue;  // turned away: never entered
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    int in_front = 0;
+    for (const Vec3* p : {&a, &b, &c}) {
+      double px, py;
+      if (!frame.project(*p, &px, &py)) continue;
+      ++in_front;
+      lo[0] = std::min(lo[0], px), hi[0] = std::max(hi[0], px), lo[1] = std::min(lo[1], py), hi[1] = std::max(hi[1], py);
+    }
+    if (in_front == 0) continue;  // behind the eye: no ray reaches it
+    if (in_front < 3) {
+      bins.across.push_back(i);
+      if (bins.across.size() > kMaxFacesAcrossTheEye) return false;
+      continue;
+    }
+    // a pixel's ray meets the face only where its centre is within the projection (and a
+    // rounding): a pixel's margin
+    const double x0 = std::max(0.0, std::floor(lo[0]) - 1), x1 = std::min(W - 1.0, std::ceil(hi[0]) + 1);
+    const double y0 = std::max(0.0, std::floor(lo[1]) - 1), y1 = std::min(H - 1.0, std::ceil(hi[1]) + 1);
+    if (!(x0 <= x1 && y0 <= y1)) continue;
+    box[i] = {static_cast<uint16_t>(x0), static_cast<uint16_t>(y0), static_cast<uint16_t>(x1), static_cast<uint16_t>(y1)};
+    kept[i] = 1;
+    for (uint32_t ty = box[i][1] / kTile; ty <= box[i][3] / kTile; ++ty)
+      for (uint32_t tx = box[i][0] / kTile; tx <= box[i][2] / kTile; ++tx) ++bins.first[ty * tiles_x + tx + 1];
+  }
+  for (uint32_t t = 0; t < tiles; ++t) bins.first[t + 1] += bins.first[t];
+  bins.entries.resize(bins.first[tiles]);
+  std::vector<uint32_t> fill(bins.first.begin(), bins.first.end() - 1);
+  for (uint32_t i = 0; i < triangles.size(); ++i) {
+    if (!kept[i]) continue;
+    for (uint32_t ty = box[i][1] / kTile; ty <= box[i][3] / kTile; ++ty)
+      for (uint32_t tx = box[i][0] / kTile; tx <= box[i][2] / kTile; ++tx) bins.entries[fill[ty * tiles_x + tx]++] = {i, box[i][0], box[i][1], box[i][2], box[i][3]};
+  }
+  return true;
+}
+
+}  // namespace
+
+// As enter, for the ray of pixel (x, y) in `tile`, among the faces binned there.
+uint32_t RayCaster::enter_binned(const EntryBins& bins, uint32_t tile, uint32_t x, uint32_t y, const Vec3& origin, const Vec3& direction, double after,
+                                 double* t_hit, uint32_t left) const {
+  const double o[3] = {origin[0], origin[1], origin[2]}, d[3] = {direction[0], direction[1], direction[2]};
+  after -= 1e-9 * mesh_.diagonal / std::max(1e-300, std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+  double best = INFINITY;
+  uint32_t found = kNone;
+  auto test = [&](uint32_t i) {
+    const Bvh::Triangle& tri = bvh_->triangles[i];
+    const double h = enter_triangle(o, d, tri.a, tri.b, tri.c);
+    if (h >= after && h < best && tri.face != left) {
+      best = h;
+      found = tri.face;
+    }
+  };
+  for (uint32_t k = bins.first[tile]; k < bins.first[tile + 1]; ++k) {
+    const EntryBins::Entry& e = bins.entries[k];
+    if (x >= e.x0 && x <= e.x1 && y >= e.y0 && y <= e.y1) test(e.triangle);
+  }
+  for (uint32_t i : bins.across) test(i);
+  *t_hit = best;
+  return found;
+}
+
+// The ray's way into the mesh from `after` on, `left` aside: among its pixel's binned faces
+// where the frame has them, else in the hierarchy.
+uint32_t RayCaster::enter(const Ray& ray, double after, double* t_hit, uint32_t left) const {
+  return ray.bins ? enter_binned(*ray.bins, ray.tile, ray.x, ray.y, ray.origin(), ray.direction(), after, t_hit, left)
+                  : enter(ray.origin(), ray.direction(), after, t_hit, left);
 }
 
 Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, unsigned threads) const {
@@ -509,6 +927,8 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   const uint32_t eye_tet = frame.ortho ? kNone : locate(frame.eye);
   Image image{W, H, std::vector<uint8_t>(size_t{W} * H * 4), std::vector<float>(size_t{W} * H * 3)};
   const uint32_t tiles_x = (W + kTile - 1) / kTile, tiles = tiles_x * ((H + kTile - 1) / kTile);
+  EntryBins bins;
+  const bool binned = eye_tet == kNone && bin_entries(bvh_->triangles, frame, tiles_x, tiles, bins);
   std::atomic<uint32_t> next{0};
   std::atomic<uint64_t> visited{0};
   // should_stop is asked by the calling thread between its tiles; the others stop with it
@@ -527,11 +947,30 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
           Vec3 o, d;
           frame.ray(static_cast<int>(x), static_cast<int>(y), &o, &d);
           double acc[4] = {0, 0, 0, 0};
-          trace(sh, o, d, slices.distance[pixel], eye_tet, acc, visits);
+          uint32_t cell = eye_tet, entry = 4;
+          double t_in = 0;
+          if (cell == kNone) {
+            const uint32_t face = binned ? enter_binned(bins, tile, x, y, o, d, 0, &t_in, kNone) : enter(o, d, 0, &t_in, kNone);
+            cell = face == kNone ? kNone : face / 4;
+            entry = face % 4;
+          }
+          if (cell != kNone) {
+            Ray ray(o, d);
+            ray.cell = cell;
+            ray.entry = entry;
+            ray.t_in = t_in;
+            if (binned) {
+              ray.bins = &bins;
+              ray.tile = tile;
+              ray.x = x;
+              ray.y = y;
+            }
+            trace(sh, ray, slices.distance[pixel], acc, visits);
+          }
           const std::array<float, 3> behind = std::isfinite(slices.distance[pixel]) ? slices.rgb[pixel] : settings.background;
           for (int k = 0; k < 3; ++k) {
             const double value = std::clamp(acc[k] + (1 - acc[3]) * behind[k], 0.0, 1.0);
-            image.rgba[4 * pixel + k] = static_cast<uint8_t>(std::lround(value * 255));
+            image.rgba[4 * pixel + k] = static_cast<uint8_t>(value * 255 + 0.5);
             image.rgb[3 * pixel + k] = static_cast<float>(value);
           }
           image.rgba[4 * pixel + 3] = 255;

@@ -1,10 +1,14 @@
 // The CPU ray caster against the exact integrator (renderer::reference_render): from outside
-// and from inside, with thin opacity, isosurfaces and slices, through a mesh in two pieces and
-// across faces two regions do not share; the modes it leaves to the GL renderer are refused.
+// and from inside, with thin opacity, clear ranges of the transfer function, isosurfaces and
+// slices, through a mesh in two pieces and across faces two regions do not share; its walk
+// (float planes, double where faces tie) against every tet's exact interval on a ray through
+// slivers far from the origin; the modes it leaves to the GL renderer are refused.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "mesh_checks.h"
 #include "test_paths.h"
@@ -89,6 +93,89 @@ TEST(RayCaster, ThinOpacityOverALongPathMatchesTheExactIntegrator) {
   k.tf.opacity = {{-1, 0.5}, {0, 0}, {1, 0.5}};
   k.unit_distance = 0.005;
   EXPECT_GE(caster_db(kink_scene, k, "values near the transfer function's kink"), 55.0);
+}
+
+// Opacity 0 over the lower half of the values: segments there are not integrated, and the
+// image still matches (a segment reaching into the lit half is integrated).
+TEST(RayCaster, ClearRangesOfTheTransferFunctionMatchTheExactIntegrator) {
+  const storage::TetMesh box = wavy_box(8);
+  const auto scene = renderer::SceneMesh::from(box, "f");
+  auto s = settings_for(scene, 128);
+  const double middle = 0.5 * (scene.value_min + scene.value_max);
+  s.tf.opacity = {{scene.value_min, 0}, {middle, 0}, {scene.value_max, 0.8}};
+  EXPECT_GE(caster_db(scene, s, "opacity 0 over half the values"), 55.0);
+}
+
+// The parameters where a ray is inside tet t (by its four planes, in double): [enter, leave],
+// empty when enter >= leave.
+std::pair<double, double> interval_in(const storage::TetMesh& m, size_t t, const Vec3& o, const Vec3& d) {
+  Vec3 p[4];
+  for (int k = 0; k < 4; ++k) {
+    const uint32_t v = m.tets[4 * t + k];
+    p[k] = {m.x[v], m.y[v], m.z[v]};
+  }
+  double enter = -INFINITY, leave = INFINITY;
+  for (int f = 0; f < 4; ++f) {
+    const Vec3& a = p[(f + 1) % 4];
+    Vec3 n = cross(p[(f + 2) % 4] - a, p[(f + 3) % 4] - a);
+    if (dot(n, p[f] - a) > 0) n = n * -1.0;
+    const double dn = dot(n, d), distance = dot(n, o - a);
+    if (dn > 0) leave = std::min(leave, -distance / dn);
+    if (dn < 0) enter = std::max(enter, -distance / dn);
+    if (dn == 0 && distance > 0) return {INFINITY, -INFINITY};
+  }
+  return {enter, leave};
+}
+
+// Flat tets (a box 1,000 times thinner than it is wide) a thousand units from the origin,
+// where a face's plane in float is off by more than the tets are thick: rays towards random
+// points and through the mesh's own vertices (along edges and faces) visit every tet they
+// cross, in order, leaving each where its planes say, and no tet they do not cross.
+TEST(RayCaster, TheWalkVisitsTheTetsARayCrossesInOrderThroughSlivers) {
+  storage::TetMesh m = kuhn_box(6, 0.3, [](double x, double y, double z) { return x + y + z; });
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    m.x[v] += 1000.0f;
+    m.z[v] *= 1e-3f;
+  }
+  const auto scene = renderer::SceneMesh::from(m, "f");
+  const renderer::RayCaster caster(scene);
+  const double tolerance = 1e-6;
+  uint32_t seed = 7;
+  auto uniform = [&] {
+    seed = seed * 1664525u + 1013904223u;
+    return (seed >> 8) / double(1 << 24);
+  };
+  size_t rays = 0, crossed = 0;
+  for (int r = 0; r < 400; ++r) {
+    const Vec3 o{1000.0 - 0.3 + 0.1 * uniform(), -0.4 + 0.2 * uniform(), 2e-3 * uniform() - 5e-4};
+    Vec3 target{1000.0 + uniform(), uniform(), 1e-3 * uniform()};
+    if (r % 2) {
+      const uint32_t v = static_cast<uint32_t>(uniform() * m.vertex_count()) % static_cast<uint32_t>(m.vertex_count());
+      target = {m.x[v], m.y[v], m.z[v]};
+    }
+    const Vec3 d = normalise(target - o);
+    // the tets the ray crosses (more than a rounding), by their planes, in order
+    std::vector<std::pair<double, uint32_t>> expected;
+    for (size_t t = 0; t < m.tets.size() / 4; ++t) {
+      const auto [enter, leave] = interval_in(m, t, o, d);
+      if (leave - enter > tolerance) expected.push_back({enter, static_cast<uint32_t>(t)});
+    }
+    std::sort(expected.begin(), expected.end());
+    const auto steps = caster.walk(o, d);
+    std::vector<uint32_t> walked;
+    for (size_t i = 0; i < steps.size(); ++i) {
+      const auto [enter, leave] = interval_in(m, steps[i].tet, o, d);
+      if (leave - enter <= tolerance) continue;  // grazed at an edge or a corner
+      walked.push_back(steps[i].tet);
+      EXPECT_NEAR(steps[i].t_out, leave, tolerance) << "ray " << r << ", tet " << steps[i].tet;
+    }
+    ASSERT_EQ(walked.size(), expected.size()) << "ray " << r;
+    for (size_t i = 0; i < walked.size(); ++i) EXPECT_EQ(walked[i], expected[i].second) << "ray " << r << ", step " << i;
+    rays += !expected.empty();
+    crossed += expected.size();
+  }
+  std::printf("%zu rays through slivers crossed %zu tets, each walked in order\n", rays, crossed);
+  EXPECT_GT(rays, 300u);
 }
 
 TEST(RayCaster, IsosurfacesAndSlicesMatchTheExactIntegrator) {

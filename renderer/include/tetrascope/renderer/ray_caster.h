@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -23,8 +24,9 @@ bool known_backend(const std::string& name);
 
 class RayCaster {
  public:
-  // Face adjacency, per-tet planes and gradients, and a hierarchy of boxes over the boundary
-  // faces. Keeps a reference to `mesh`: it must outlive the caster.
+  // Face adjacency, per-tet planes and gradients (the tets reordered along a Morton curve of
+  // their centroids, so that a tile's rays read nearby memory), and a hierarchy of boxes over
+  // the boundary faces. Keeps a reference to `mesh`: it must outlive the caster.
   explicit RayCaster(const SceneMesh& mesh);
   ~RayCaster();
   RayCaster(const RayCaster&) = delete;
@@ -40,28 +42,55 @@ class RayCaster {
   // (asked between tiles; the image is partial).
   Image render(const RenderSettings& settings, FrameTimings* timings = nullptr, unsigned threads = 0) const;
 
+  // One step of a ray's walk: the tet (its index in the mesh) and the ray parameter where the
+  // ray leaves it.
+  struct Step {
+    uint32_t tet = 0;
+    double t_out = 0;
+  };
+  // The tets a ray from `origin` along `direction` visits, in order, as render walks them
+  // (entering from outside, or from the tet that holds `origin`), and where it leaves each.
+  std::vector<Step> walk(const Vec3& origin, const Vec3& direction) const;
+
  private:
-  struct Cell {
-    std::array<std::array<double, 4>, 4> plane;  // outward face planes: n.x + d, face f opposite vertex f
-    std::array<double, 4> gradient;              // the value: g.x + c
-    bool flat = false;                           // no volume: no gradient, never holds a point
+  // One tet as the walk reads it, in two cache lines, in float (the mesh's own precision;
+  // the walk computes in double, relative to the tet's corner): the outward unit normals of
+  // its faces (face f opposite vertex f) with their signed distances n.(x - corner) + offset,
+  // the value and its gradient (value + gradient.(x - corner)), and the faces across.
+  struct alignas(64) Cell {
+    float nx[4], ny[4], nz[4], offset[4];
+    float corner[3];
+    float value;
+    float gradient[3];
+    uint32_t flat;       // no volume: no gradient, never holds a point
+    uint32_t across[4];  // 4 * cell + face on the other side of face f, or kNoOppositeFace
   };
   struct Bvh;
   struct Shading;
+  struct Ray;
   void shading(const RenderSettings& settings, Shading& out) const;
-  void trace(const Shading& shading, const Vec3& origin, const Vec3& direction, double stop, uint32_t eye_tet, double acc[4], uint64_t& visits) const;
+  void start(Ray& ray, uint32_t eye_tet) const;
+  void advance(Ray& ray, int exit, double t_out) const;
+  struct EntryBins;
+  void trace(const Shading& shading, Ray& ray, double stop, double acc[4], uint64_t& visits) const;
+  uint32_t enter(const Ray& ray, double after, double* t_hit, uint32_t left) const;
+  uint32_t enter_binned(const EntryBins& bins, uint32_t tile, uint32_t x, uint32_t y, const Vec3& origin, const Vec3& direction, double after, double* t_hit,
+                        uint32_t left) const;
   uint32_t enter(const Vec3& origin, const Vec3& direction, double after, double* t_hit, uint32_t left) const;
   uint32_t locate(const Vec3& p) const;
   uint32_t walk_to(uint32_t from, uint32_t also, const Vec3& origin, const Vec3& direction, double t) const;
 
   const SceneMesh& mesh_;
-  std::vector<uint32_t> opposite_;
-  std::vector<Cell> cells_;
+  std::vector<Cell> cells_;        // the tets along a space-filling curve of their centroids
+  std::vector<uint32_t> source_;   // cell -> the mesh's tet
   std::unique_ptr<Bvh> bvh_;
   mutable std::mutex table_mutex_;
   mutable PreintegrationTable table_;                      // the GL path's
   mutable std::vector<float> extinction_;                 // per unit length, over the colour range
   mutable std::vector<std::array<float, 3>> colors_;      // over the colour range
+  mutable std::vector<std::array<double, 4>> integrals_;  // of extinction and of colour times extinction, on extinction_'s grid
+  mutable std::array<double, 4> below_{}, above_{};       // their rates past the range's ends
+  mutable std::vector<uint32_t> lit_bins_;                // bins of the table below each with some opacity (a prefix count)
   mutable std::string table_key_;
 };
 
