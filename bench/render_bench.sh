@@ -12,14 +12,19 @@
 # has the process CPU time per frame (every thread, llvmpipe's included), which a shared
 # machine disturbs less than wall time.
 #   bench/render_bench.sh [FRAMES] [MESHES] [OUT]   (default 36, "disk_out_ref fea_bracket 100k 1m 5m";
-#   ParaView gets at most 6 frames on 5M tets). A blade bench/out/bladeN.vtk is made by
+#   ParaView gets at most 6 frames on 5M tets). TETRASCOPE_BUILD=DIR takes tetrascope and
+#   triangle_ceiling from an existing build folder DIR as they are (default: build/release,
+#   configured and built by the release preset first). A blade bench/out/bladeN.vtk is made by
 #   make-large.sh when missing (a symlink to an existing one will do); other names are
 #   ../shared/data/NAME.vtk, rendered by their first attribute.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/install-deps --bench > /dev/null
-cmake --preset release > /dev/null
-cmake --build --preset release -j "$(nproc)" --target tetrascope triangle_ceiling > /dev/null
+build=${TETRASCOPE_BUILD:-build/release}
+if [[ -z ${TETRASCOPE_BUILD:-} ]]; then
+  scripts/install-deps --bench > /dev/null
+  cmake --preset release > /dev/null
+  cmake --build --preset release -j "$(nproc)" --target tetrascope triangle_ceiling > /dev/null
+fi
 frames=${1:-36}
 meshes=${2:-disk_out_ref fea_bracket 100k 1m 5m}
 out=${3:-bench/results/render.json}
@@ -38,16 +43,16 @@ rows=()
 for n in $meshes; do
   mesh=$(mesh_path "$n")
   # the blades' analytic_f, else the first attribute; opacity 0 to 0.4 over its range
-  info=$(build/release/apps/tetrascope info --json "$mesh" | python3 -c 'import json,sys; at=json.load(sys.stdin)["attributes"]; a=([x for x in at if x["name"]=="analytic_f"] or at)[0]; print(a["name"], a["min"], a["max"])')
+  info=$("$build"/apps/tetrascope info --json "$mesh" | python3 -c 'import json,sys; at=json.load(sys.stdin)["attributes"]; a=([x for x in at if x["name"]=="analytic_f"] or at)[0]; print(a["name"], a["min"], a["max"])')
   read -r attribute lo hi <<< "$info"
   printf '{"attribute": "%s", "colormap": "viridis", "opacity": [[%s, 0], [%s, 0.4]]}\n' "$attribute" "$lo" "$hi" > bench/out/render-tf.json
-  dvr=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume projected --json | tail -1)
-  exact=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-exact-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume exact --json | tail -1)
-  cpu=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-cpu-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --backend cpu --json | tail -1)
-  iso=$(build/release/apps/tetrascope render "$mesh" -o bench/out/render-iso-$n.jpg --mode iso --attribute "$attribute" --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
+  dvr=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume projected --json | tail -1)
+  exact=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-exact-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume exact --json | tail -1)
+  cpu=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-cpu-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --backend cpu --json | tail -1)
+  iso=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-iso-$n.jpg --mode iso --attribute "$attribute" --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
   pv_frames=$frames
   [[ $n == 5m ]] && pv_frames=$(( frames < 6 ? frames : 6 ))
-  ceiling=$(build/release/bench/triangle_ceiling "$mesh" 1024x768 "$frames" 2>/dev/null | tail -1)
+  ceiling=$("$build"/bench/triangle_ceiling "$mesh" 1024x768 "$frames" 2>/dev/null | tail -1)
   # xvfb-run -a can lose a race for a display with other runs on a shared machine: up to 3
   # tries, each on a display number of its own (-n); a mesh whose ParaView run still fails is
   # left out with a message
