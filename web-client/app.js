@@ -7,11 +7,12 @@ import { OrbitCamera } from './camera.js';
 import { PRESETS, fromHex, toHex } from './colormaps.js';
 import { Jobs } from './jobs.js';
 import { LinesPanel } from './lines.js';
-import { composeStill, drawAxes, drawColorBar } from './overlays.js';
+import { backgroundOf, composeStill, drawAxes, drawBox, drawColorBar, inkOn } from './overlays.js';
 import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
 import { TfEditor } from './tf-editor.js';
 import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from './view-state.js';
+import { visibleCorners } from './visible.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -21,6 +22,8 @@ const authHeaders = token ? { Authorization: `Bearer ${token}`, 'X-Tetrascope': 
 const kSmallScreen = window.matchMedia('(max-width: 700px)');
 const kRotateStep = 1 / 12;  // arrow keys: 15° (orbit takes fractions of pi)
 const kZoomStep = 1.2;
+const kWheelZoomRate = 0.001;  // the distance scales by exp(rate * deltaY): about 10% a notch
+const kMinZoomBox = 4;  // px: a smaller box is a click (the probe)
 const kCaptureTimeoutMs = 60000;
 
 // What the page shows; exposed for the browser test and the console.
@@ -35,6 +38,7 @@ const state = {
   lastSentId: 0,    // a still whose header carries this id shows everything asked for
   dataset: null,    // dataset.info
   errors: [],
+  picks: [],        // what the double-clicks and zoom boxes hit: {hit, position, surface}
   sent: [],         // the last messages sent: {type, body}
   received: [],     // the last text messages received: {type, id, code}
   closes: [],       // the connection's ends: {code, reason, at (ms since the page loaded)}
@@ -45,6 +49,16 @@ const state = {
   onFrame: null,      // (header) => void, after each frame is drawn (tests)
 };
 window.tetrascope = state;
+
+// What pixel (x, y) of the view shows, as the server's probe.result (the browser tests and
+// the console measure the view with it).
+const probeWaiters = new Map();  // probe id -> resolve
+state.probePixel = (x, y) =>
+  new Promise((resolve, reject) => {
+    const id = send('probe', { x, y });
+    if (id < 0) reject(new Error('not connected'));
+    else probeWaiters.set(id, resolve);
+  });
 
 let socket = null;
 let nextId = 1;
@@ -102,8 +116,42 @@ function banner(text) {
   $('banner').textContent = text ?? '';
 }
 
+// What the view is waiting for, over the image: 'connecting', 'loading' (a dataset opened,
+// its first frame not here yet), 'refining' (frames flagged refining), 'empty' (no dataset),
+// or '' (nothing: the image is current).
+function viewStatus(name, text = '') {
+  const status = $('view-status');
+  status.dataset.state = name;
+  status.textContent = text;
+  status.hidden = !name;
+}
+
+// The reconnect countdown: the banner says how long until the next try, second by second.
+const reconnect = {
+  at: 0,        // performance.now() of the next try
+  timer: null,  // the banner's ticker
+  reason: '',
+  schedule(delay, reason) {
+    this.at = performance.now() + delay;
+    this.reason = reason;
+    clearTimeout(this.timer);
+    this.tick();
+  },
+  tick() {
+    const left = Math.max(0, this.at - performance.now());
+    if (left <= 0) {
+      banner(`Connection lost${this.reason}; reconnecting…`);
+      connect();
+      return;
+    }
+    banner(`Connection lost${this.reason}; reconnecting in ${Math.ceil(left / 1000)} s. Changes made meanwhile are not kept.`);
+    this.timer = setTimeout(() => this.tick(), Math.min(left, (left % 1000) || 1000));
+  },
+};
+
 function connect() {
   const url = `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/api/v1/session${token ? `?token=${encodeURIComponent(token)}` : ''}`;
+  if (!state.frames) viewStatus('connecting', 'Connecting to the server…');
   socket = new WebSocket(url);
   socket.binaryType = 'arraybuffer';
   socket.onopen = () => {
@@ -111,19 +159,23 @@ function connect() {
     state.connects += 1;
     reconnectDelay = 500;
     banner(null);
+    if (!state.frames) viewStatus('loading', 'Loading the dataset list…');
     send('hello', { version: VERSION, ...(token ? { token } : {}) });
   };
   socket.onmessage = (event) => (typeof event.data === 'string' ? onText(event.data) : onFrame(event.data));
   socket.onclose = (event) => {
     state.connected = false;
     state.closes.push({ code: event.code, reason: event.reason, at: Math.round(performance.now()) });
-    const seconds = (reconnectDelay / 1000).toFixed(1);
-    banner(`Connection lost${event.reason ? ` (${event.reason})` : ''}; reconnecting in ${seconds} s`);
+    // what is done while disconnected is dropped: the view goes back to this one on reconnect
+    viewAtClose ??= structuredClone(state.view);
+    pointers.clear();
+    pinch = null;
     capture?.reject(new Error('the connection was lost'));
-    setTimeout(connect, reconnectDelay);
+    reconnect.schedule(reconnectDelay, event.reason ? ` (${event.reason})` : '');
     reconnectDelay = Math.min(reconnectDelay * 2, 10000);
   };
 }
+let viewAtClose = null;  // the view when the connection was lost
 
 let openId = 0, openName = null;  // the last dataset.open sent
 
@@ -133,6 +185,7 @@ function onText(text) {
   if (state.received.length > 20) state.received.shift();
   switch (message.type) {
     case 'hello.ok':
+      if (viewAtClose) [state.view, viewAtClose] = [viewAtClose, null];
       limits = { ...limits, ...message.limits };
       serverDefaults = message.defaults ?? {};
       $('budget').value = state.view.budget ?? serverDefaults.budget ?? '';
@@ -145,7 +198,10 @@ function onText(text) {
       onDataset(message);
       break;
     case 'probe.result':
-      probe.show(message);
+      if (message.id === pick?.id) onPicked(message);
+      else if (probeWaiters.has(message.id)) probeWaiters.get(message.id)(message);
+      else probe.show(message);
+      probeWaiters.delete(message.id);
       break;
     case 'error':
       state.errors.push(message);
@@ -170,7 +226,7 @@ async function onFrame(buffer) {
   const { header, payload } = decodeFrame(buffer, limits);
   const blob = new Blob([payload], { type: header.codec === 'png' ? 'image/png' : 'image/jpeg' });
   if (capture && header.still && header.message_id >= capture.id) {
-    capture.resolve({ header, blob });
+    capture.resolve({ header, blob, camera: cameraOf(header) });
     capture = null;
     return;
   }
@@ -179,13 +235,15 @@ async function onFrame(buffer) {
   frameContext.drawImage(bitmap, 0, 0, frameCanvas.width, frameCanvas.height);
   bitmap.close?.();
   state.frames += 1;
-  state.lastFrame = { header, blob };
+  state.lastFrame = { header, blob, camera: cameraOf(header) };
+  drawBoxOverlay(header);
   if (header.still) {
     state.stills += 1;
-    state.lastStill = { header, blob };
+    state.lastStill = state.lastFrame;
     saveViewInHash();
   }
   if (header.refining) state.refiningFrames += 1;
+  if (header.message_id >= openId) viewStatus('');  // the dataset asked for is on the screen
   stats.frame(header, payload.length);
   refinement.frame(header);
   linesPanel.onFrame(header);
@@ -224,11 +282,12 @@ const refinement = {
       bar.dataset.state = header.still ? 'still' : 'moving';
       return;
     }
-    const budget = state.view.budget ?? serverDefaults.budget ?? header.tets;
+    // the still draws at most the budget, and never more tets than the dataset has
+    const budget = Math.min(state.view.budget ?? serverDefaults.budget ?? header.tets, state.dataset?.tets ?? Infinity);
     bar.hidden = false;
     bar.dataset.state = 'refining';
     bar.querySelector('progress').value = Math.min(1, header.tets / budget);
-    bar.querySelector('span').textContent = `refining: ${header.tets.toLocaleString()} of ${budget.toLocaleString()} tets, est. error ${header.estimated_error.toPrecision(3)}`;
+    bar.querySelector('span').textContent = `Refining… ${header.tets.toLocaleString()} of ${budget.toLocaleString()} tets, est. error ${header.estimated_error.toPrecision(3)}`;
   },
 };
 
@@ -323,8 +382,10 @@ function openDataset(name) {
   if (!name) {
     if (!listFailure) {
       $('dataset-summary').textContent = 'No dataset yet: upload a mesh below.';
+      viewStatus('empty', 'No dataset on this server yet: add a mesh under “Add a dataset”.');
       return;
     }
+    viewStatus('loading', `${listFailure}. Trying again…`);
     // no list to pick from (the server too busy to answer, a proxy in the way): say so, not
     // "no dataset", and ask again until a list comes or a dataset is opened
     $('dataset-summary').textContent = `${listFailure}. Trying again…`;
@@ -337,6 +398,7 @@ function openDataset(name) {
   $('dataset').value = name;
   openName = name;
   openId = send('dataset.open', { name });
+  if (openId >= 0) viewStatus('loading', `Loading ${name}…`);
 }
 
 function defaultUnit() {  // the renderer's unit distance: 1/100 of the box diagonal
@@ -465,10 +527,28 @@ function sendSize(width, height) {
 
 function sendCamera(interacting = true) {
   if (!camera) return;
-  send('camera.set', { ...camera.get(), interacting });
+  const id = send('camera.set', { ...camera.get(), interacting });
   state.view.camera = camera.get();
+  if (id >= 0) camerasSent.push([id, camera.get()]);
+  if (camerasSent.length > 64) camerasSent.shift();
   drawAxes($('axes'), camera.basis());
   if (!interacting) saveViewInHash();
+}
+
+// The cameras sent, by message id: a frame is drawn with the last one its message_id covers
+// (the box overlay follows the image, not the input running ahead of it).
+const camerasSent = [];  // [id, camera]
+const cameraOf = (header) => camerasSent.findLast(([id]) => id <= header.message_id)?.[1] ?? state.view.camera;
+
+// The dataset's box over the frame, in an ink chosen from the frame's background (the
+// renderer's own box lines are near-black: they vanish on its dark background).
+function drawBoxOverlay(header) {
+  const overlay = $('box-overlay'), g = overlay.getContext('2d');
+  if (overlay.width !== frameCanvas.width || overlay.height !== frameCanvas.height) [overlay.width, overlay.height] = [frameCanvas.width, frameCanvas.height];
+  g.clearRect(0, 0, overlay.width, overlay.height);
+  const camera = header && cameraOf(header);
+  if (!state.view.box || !state.dataset?.bounds || !camera) return;
+  drawBox(g, camera, state.dataset.bounds, overlay.width, overlay.height, inkOn(backgroundOf(frameContext, frameCanvas.width, frameCanvas.height)));
 }
 
 function queueCamera() {  // at most one camera.set per animation frame
@@ -499,7 +579,8 @@ function queueTf() {  // at most one tf.set per animation frame
 function sendMode() {
   const v = state.view;
   const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes()].join('+');
-  send('mode.set', { mode, wireframe: v.wireframe, box: v.box });
+  send('mode.set', { mode, wireframe: v.wireframe, box: false });  // the box: drawBoxOverlay
+  drawBoxOverlay(state.lastFrame?.header);
 }
 
 function sendIso() {
@@ -626,6 +707,7 @@ function homeCamera() {
   return home;
 }
 
+// A preset looks along its direction and frames what is visible from there (fitVisible).
 function viewPreset(name) {
   if (!state.dataset || !camera) return;
   const home = homeCamera().get();
@@ -637,8 +719,109 @@ function viewPreset(name) {
     const distance = Math.hypot(...home.eye.map((e, i) => e - home.target[i]));
     const [direction, up] = name === 'iso' ? [[-1, -1, -1], home.up] : kViews[name];
     camera.look(direction, up, home.target, distance);
+    frameVisible();
   }
   sendCamera(false);
+}
+
+// The camera keeps its direction and frames the part of the dataset's box the clip planes
+// keep: the whole domain, or the region a clip cut out.
+function frameVisible() {
+  const corners = visibleCorners(state.dataset?.bounds, state.view.clips);
+  if (corners.length) camera.fit(corners, frameCanvas.width / frameCanvas.height);
+}
+
+function fitVisible() {
+  if (!state.dataset || !camera) return;
+  frameVisible();
+  sendCamera(false);
+}
+
+// ---------- rotation centre (double-click) and zoom to box ----------
+
+// A double-click asks the server's probe what the pixel shows (slice, isosurface or boundary);
+// the point hit becomes the rotation centre (OrbitCamera.centreOn). The probe popups of its
+// two clicks are dropped.
+let pick = null;  // the probe asked for: {id, then(message)}
+function pickAt(clientX, clientY, then) {
+  if (!camera || !state.connected) return;
+  probe.cancel();
+  const rect = frameCanvas.getBoundingClientRect();
+  const x = ((clientX - rect.left) / rect.width) * frameCanvas.width, y = ((clientY - rect.top) / rect.height) * frameCanvas.height;
+  const id = send('probe', { x: Math.max(0, x), y: Math.max(0, y) });
+  if (id >= 0) pick = { id, then };
+}
+
+function onPicked(message) {
+  const { then } = pick;
+  pick = null;
+  state.picks.push({ hit: message.hit, position: message.position ?? null, surface: message.surface ?? null });
+  if (state.picks.length > 20) state.picks.shift();
+  if (camera) then(message);
+}
+
+const pointText = (p) => `(${p.map((v) => +v.toPrecision(4)).join(', ')})`;
+
+function centreAt(e) {
+  pickAt(e.clientX, e.clientY, (message) => {
+    if (!message.hit) return flashNote('Nothing under the cursor to turn about');
+    camera.centreOn(message.position);
+    sendCamera(false);
+    flashNote(`Rotation centre: the ${message.surface} at ${pointText(message.position)}`);
+  });
+}
+
+// Zoom to box (ParaView's): the box's middle goes to the middle of the view on the plane
+// through the rotation centre facing the camera, and the box fills the view. The rotation
+// centre moves with it. (Not a probe at the box's middle: in the volume the nearest surface
+// there is often the far field in front, and a box drawn over a hole of a slice would land on
+// it.)
+function zoomToBox(a, b) {
+  const rect = frameCanvas.getBoundingClientRect();
+  const w = Math.abs(a.x - b.x), h = Math.abs(a.y - b.y);
+  if (!camera || (w < kMinZoomBox && h < kMinZoomBox)) return;
+  camera.pan(...cursorOffset((a.x + b.x) / 2, (a.y + b.y) / 2));
+  camera.zoom(Math.max(w / rect.width, h / rect.height));
+  sendCamera(false);
+}
+
+// The box being drawn (Ctrl+drag, or a drag after the Zoom to box button or the b key).
+const zoomBox = {
+  armed: false,  // the next drag draws a box
+  start: null,
+  arm(on = !this.armed) {
+    this.armed = on;
+    $('zoom-box-button').setAttribute('aria-pressed', String(on));
+    frameCanvas.classList.toggle('boxing', on);
+  },
+  begin(e) {
+    this.start = { x: e.clientX, y: e.clientY };
+    this.draw(e);
+  },
+  draw(e) {
+    const rect = frameCanvas.getBoundingClientRect(), box = $('zoom-box');
+    Object.assign(box.style, {
+      left: `${Math.min(this.start.x, e.clientX) - rect.left}px`, top: `${Math.min(this.start.y, e.clientY) - rect.top}px`,
+      width: `${Math.abs(e.clientX - this.start.x)}px`, height: `${Math.abs(e.clientY - this.start.y)}px`,
+    });
+    box.hidden = false;
+  },
+  end(e) {
+    const start = this.start;
+    this.start = null;
+    $('zoom-box').hidden = true;
+    this.arm(false);
+    if (e) zoomToBox(start, { x: e.clientX, y: e.clientY });
+  },
+};
+
+// A short note over the view (rotation centre set, nothing hit), gone after a few seconds.
+function flashNote(text) {
+  const note = $('view-note');
+  note.textContent = text;
+  note.hidden = false;
+  clearTimeout(flashNote.timer);
+  flashNote.timer = setTimeout(() => (note.hidden = true), 3000);
 }
 
 function onKey(e) {
@@ -652,11 +835,18 @@ function onKey(e) {
     if (kSmallScreen.matches) setPanel(false);
     return;
   }
-  if (!camera) return;
   const lower = key.toLowerCase();
+  if (lower === 's') {
+    showStats(!statsShown());
+    e.preventDefault();
+    return;
+  }
+  if (!camera || !state.connected) return;  // not moved while disconnected: the reconnect would undo it
   if (lower === 'r') viewPreset('reset');
   else if (lower === 'x' || lower === 'y' || lower === 'z') viewPreset(`${e.shiftKey ? '-' : '+'}${lower}`);
   else if (lower === 'i') viewPreset('iso');
+  else if (lower === 'f') fitVisible();
+  else if (lower === 'b') zoomBox.arm();
   else if (lower === 'p') setParallel(!camera.orthographic);
   else if (key === 'ArrowLeft' || key === 'ArrowRight' || key === 'ArrowUp' || key === 'ArrowDown') {
     if (tag === 'INPUT') return;  // a focused slider takes its arrows
@@ -678,6 +868,31 @@ function setParallel(on) {
   camera.orthographic = on;
   $('parallel').checked = on;
   sendCamera(false);
+}
+
+// The stats box: shown, or hidden by its toggle or s (kept in localStorage); hidden at first on
+// a small screen, where it covers the top of the view.
+const kStatsKey = 'tetrascope.stats';
+const statsShown = () => !$('stats').hidden;
+function showStats(on) {
+  $('stats').hidden = !on;
+  $('stats-toggle').setAttribute('aria-pressed', String(on));
+  try {
+    localStorage.setItem(kStatsKey, on ? 'shown' : 'hidden');
+  } catch {
+    // no storage (a private window): the choice lasts for this page
+  }
+}
+function initialStats() {
+  let saved = null;
+  try {
+    saved = localStorage.getItem(kStatsKey);
+  } catch {
+    // no storage
+  }
+  const on = saved ? saved === 'shown' : !kSmallScreen.matches;
+  $('stats').hidden = !on;
+  $('stats-toggle').setAttribute('aria-pressed', String(on));
 }
 
 function toggleHelp(show = $('help').hidden) {
@@ -727,9 +942,7 @@ async function saveImage() {
   $('save-image').disabled = true;  // one capture at a time
   try {
     const still = await stillAt(w, h);
-    const blob = await composeStill(await createImageBitmap(still.blob), {
-      colors: state.view.colors, range: state.view.range, attribute: state.view.attribute, dataset: state.dataset.name,
-    });
+    const blob = await composeStill(await createImageBitmap(still.blob), legendOf(still));
     const a = document.createElement('a');
     a.href = URL.createObjectURL(blob);
     a.download = `${state.dataset.name}-${state.view.attribute}.png`;
@@ -742,12 +955,14 @@ async function saveImage() {
     $('save-image').disabled = false;
   }
 }
-state.composeStill = async () => {
-  const blob = await composeStill(await createImageBitmap(state.lastStill.blob), {
-    colors: state.view.colors, range: state.view.range, attribute: state.view.attribute, dataset: state.dataset.name,
-  });
-  return blob;
-};
+// What composeStill draws over `still` ({header, blob, camera}): the legend, and the box when
+// it is on, seen with the camera the still was drawn with.
+function legendOf(still) {
+  const v = state.view;
+  const box = v.box && state.dataset.bounds ? { camera: still.camera ?? v.camera, bounds: state.dataset.bounds } : null;
+  return { colors: v.colors, range: v.range, attribute: v.attribute, dataset: state.dataset.name, box };
+}
+state.composeStill = async () => composeStill(await createImageBitmap(state.lastStill.blob), legendOf(state.lastStill));
 
 async function copyViewLink() {
   saveViewInHash();
@@ -777,9 +992,20 @@ async function copyViewLink() {
 const pointers = new Map();
 let pinch = null;
 
+// The cursor's offset from the view's centre, in view heights (x right, y down): what
+// OrbitCamera.zoomAt takes.
+function cursorOffset(clientX, clientY) {
+  const rect = frameCanvas.getBoundingClientRect();
+  return [(clientX - rect.left - rect.width / 2) / rect.height, (clientY - rect.top - rect.height / 2) / rect.height];
+}
+
 frameCanvas.addEventListener('pointerdown', (e) => {
   frameCanvas.setPointerCapture(e.pointerId);
   frameCanvas.focus();
+  if (e.button === 0 && (e.ctrlKey || zoomBox.armed) && pointers.size === 0 && camera && state.connected) {
+    zoomBox.begin(e);
+    return;
+  }
   pointers.set(e.pointerId, { x: e.clientX, y: e.clientY, button: e.button, shift: e.shiftKey });
   if (pointers.size === 2) {
     const [a, b] = [...pointers.values()];
@@ -787,16 +1013,17 @@ frameCanvas.addEventListener('pointerdown', (e) => {
   }
 });
 frameCanvas.addEventListener('pointermove', (e) => {
+  if (zoomBox.start) return zoomBox.draw(e);
   const p = pointers.get(e.pointerId);
-  if (!p || !camera) return;
+  if (!p || !camera || !state.connected) return;
   const height = frameCanvas.getBoundingClientRect().height;
   if (pointers.size === 2 && pinch) {
     p.x = e.clientX;
     p.y = e.clientY;
     const [a, b] = [...pointers.values()];
     const distance = Math.hypot(a.x - b.x, a.y - b.y), x = (a.x + b.x) / 2, y = (a.y + b.y) / 2;
-    if (distance > 0) camera.zoom(pinch.distance / distance);
     camera.pan(-(x - pinch.x) / height, -(y - pinch.y) / height);
+    if (distance > 0) camera.zoomAt(pinch.distance / distance, ...cursorOffset(x, y));
     pinch = { distance, x, y };
   } else {
     const dx = (e.clientX - p.x) / height, dy = (e.clientY - p.y) / height;
@@ -808,18 +1035,21 @@ frameCanvas.addEventListener('pointermove', (e) => {
   queueCamera();
 });
 const release = (e) => {
+  if (zoomBox.start) zoomBox.end(e.type === 'pointerup' ? e : null);
   pointers.delete(e.pointerId);
   if (pointers.size < 2) pinch = null;
 };
 frameCanvas.addEventListener('pointerup', release);
 frameCanvas.addEventListener('pointercancel', release);
 frameCanvas.addEventListener('contextmenu', (e) => e.preventDefault());
+frameCanvas.addEventListener('dblclick', centreAt);
 frameCanvas.addEventListener(
   'wheel',
   (e) => {
     e.preventDefault();
-    if (!camera) return;
-    camera.zoom(Math.exp(e.deltaY * 0.001));
+    if (!camera || !state.connected) return;
+    const [sx, sy] = cursorOffset(e.clientX, e.clientY);
+    camera.zoomAt(Math.exp(e.deltaY * kWheelZoomRate), sx, sy);
     queueCamera();
   },
   { passive: false },
@@ -891,12 +1121,16 @@ for (const id of ['interaction-quality', 'still-quality', 'png-stills']) {
 }
 for (const button of document.querySelectorAll('[data-view]')) button.addEventListener('click', () => viewPreset(button.dataset.view));
 $('reset-camera').addEventListener('click', () => viewPreset('reset'));
+$('fit-visible').addEventListener('click', fitVisible);
+$('zoom-box-button').addEventListener('click', () => zoomBox.arm());
 $('parallel').addEventListener('change', () => setParallel($('parallel').checked));
 $('copy-view').addEventListener('click', copyViewLink);
 $('save-size').addEventListener('change', () => ($('save-custom').hidden = $('save-size').value !== 'custom'));
 $('save-image').addEventListener('click', saveImage);
 $('upload-submit').addEventListener('click', () => jobs.uploadAndPreprocess().catch((e) => ($('job-status').textContent = String(e))));
 $('help-button').addEventListener('click', () => toggleHelp());
+$('stats-toggle').addEventListener('click', () => showStats(!statsShown()));
+initialStats();
 window.addEventListener('keydown', onKey);
 
 // the panel: beside the view on wide screens, a drawer over it on small ones

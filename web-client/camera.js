@@ -81,5 +81,51 @@ export class OrbitCamera {
     const distance = Math.hypot(...offset);
     const next = Math.min(Math.max(distance * factor, 1e-6), 1e9);
     this.eye = add(this.target, scale(offset, next / distance));
+    return next / distance;
+  }
+
+  // Zooms by `factor` keeping the point under the cursor where it is: (sx, sy) is the cursor's
+  // offset from the view's centre in view heights (x right, y down). Exact for the plane
+  // through the target facing the camera, in both projections: that plane's scale changes by
+  // 1/factor about the cursor instead of the centre.
+  zoomAt(factor, sx, sy) {
+    const applied = this.zoom(factor);
+    this.pan((sx * (1 - applied)) / applied, (sy * (1 - applied)) / applied);
+  }
+
+  // Makes `point` the rotation centre: the view slides sideways (its direction kept) until the
+  // point is in the middle, so orbit and zoom turn about it. Perspective keeps the point's
+  // scale on the screen (the new distance is its depth); parallel keeps the visible height.
+  centreOn(point) {
+    const { forward } = this.basis();
+    const depth = dot(sub(point, this.eye), forward);
+    const distance = this.orthographic || !(depth > 1e-9) ? Math.hypot(...sub(this.eye, this.target)) : depth;
+    this.target = [...point];
+    this.eye = sub(point, scale(forward, distance));
+  }
+
+  // Frames `points` (world positions, e.g. the corners of what is visible) along the current
+  // view direction: the target goes to the middle of their extent on the screen plane and the
+  // distance makes the extent fill the view (`aspect` = width / height; `margin` > 1 leaves
+  // room around them). Perspective takes each point's depth into account.
+  fit(points, aspect, margin = 1.1) {
+    if (!points.length) return;
+    const { right, up, forward } = this.basis();
+    const project = (p) => [dot(p, right), dot(p, up), dot(p, forward)];
+    const projected = points.map(project);
+    const lo = [0, 1, 2].map((k) => Math.min(...projected.map((p) => p[k])));
+    const hi = [0, 1, 2].map((k) => Math.max(...projected.map((p) => p[k])));
+    const middle = [0, 1, 2].map((k) => (lo[k] + hi[k]) / 2);
+    const centre = add(add(scale(right, middle[0]), scale(up, middle[1])), scale(forward, middle[2]));
+    const tanHalf = Math.tan((this.fov * Math.PI) / 360);
+    // the distance from the centre at which each point lies inside the view's frustum
+    let distance = 1e-6;
+    for (const p of projected) {
+      const x = Math.abs(p[0] - middle[0]) * margin, y = Math.abs(p[1] - middle[1]) * margin, z = p[2] - middle[2];
+      const need = this.orthographic ? Math.max(x / aspect, y) / tanHalf : Math.max(x / (aspect * tanHalf), y / tanHalf) - z;
+      distance = Math.max(distance, need);
+    }
+    this.target = centre;
+    this.eye = sub(centre, scale(forward, distance));
   }
 }

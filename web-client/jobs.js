@@ -1,13 +1,27 @@
 // Uploads and preprocessing jobs over the REST API (protocol/openapi.yaml): the name is
 // checked against the datasets and the running jobs before any byte is uploaded; the job
 // this tab started is followed (and survives a reload: its id is kept in sessionStorage);
-// the jobs panel lists GET /api/v1/jobs, with cancel (DELETE /api/v1/jobs/ID) and the log
-// tail of failed jobs; the dataset list is refreshed when a job ends.
+// the jobs panel lists GET /api/v1/jobs, with cancel (DELETE /api/v1/jobs/ID), the error of
+// failed jobs (once: the log tail shows only the lines the error does not already hold) and
+// Dismiss for ended jobs that did not make a dataset (the ids dismissed are kept in this
+// browser's localStorage; the server keeps its list); the dataset list is refreshed when a job
+// ends.
 const $ = (id) => document.getElementById(id);
 const kFollowKey = 'tetrascope.job';
 const kPollMs = 500;
 const kIdlePollMs = 10000;  // jobs started elsewhere show up within this
 const kNamePattern = /^[A-Za-z0-9_][A-Za-z0-9._-]{0,127}$/;  // the server's valid_name
+const kDismissedKey = 'tetrascope.dismissedJobs';
+const kMaxDismissed = 200;  // ids kept; job ids hold their creation time, so old ones do not return
+
+function loadDismissed() {
+  try {
+    const ids = JSON.parse(localStorage.getItem(kDismissedKey) ?? '[]');
+    return Array.isArray(ids) ? ids.filter((id) => typeof id === 'string').slice(-kMaxDismissed) : [];
+  } catch {
+    return [];  // no storage, or not ours: nothing dismissed
+  }
+}
 
 export class Jobs {
   // onDatasetsChanged(): reload the dataset list; onDone(name): a followed job made `name`
@@ -18,6 +32,23 @@ export class Jobs {
     this.known = new Map();  // id -> state, to see jobs end
     this.timer = null;
     this.following = null;
+    this.dismissed = loadDismissed();
+    this.last = [];  // the last list fetched
+  }
+
+  // Hides an ended job from the panel for good (in this browser).
+  dismiss(id) {
+    this.dismissed = [...this.dismissed.filter((x) => x !== id), id].slice(-kMaxDismissed);
+    try {
+      localStorage.setItem(kDismissedKey, JSON.stringify(this.dismissed));
+    } catch {
+      // no storage: dismissed for this page only
+    }
+    if ($('job-status').dataset.job === id) {
+      $('job-status').textContent = '';
+      $('job-progress').value = 0;
+    }
+    this.render(this.last);
   }
 
   async start() {
@@ -93,7 +124,9 @@ export class Jobs {
       }
       $('job-progress').value = job.percent;
       const eta = job.eta_s != null && job.state === 'running' ? `, ${Math.ceil(job.eta_s)} s left` : '';
-      status.textContent = `${job.name}: ${job.state}${job.stage ? ` (${job.stage})` : ''} ${job.percent.toFixed(0)}%${eta}${job.error ? `\n${job.error}` : ''}`;
+      // a failed job's error is shown once, in the jobs panel below, where it can be dismissed
+      status.dataset.job = id;
+      status.textContent = `${job.name}: ${job.state}${job.stage ? ` (${job.stage})` : ''} ${job.percent.toFixed(0)}%${eta}${job.error ? ': the error is under Jobs' : ''}`;
       this.poll();
       if (job.state === 'done' || job.state === 'failed' || job.state === 'cancelled') {
         sessionStorage.removeItem(kFollowKey);
@@ -133,8 +166,10 @@ export class Jobs {
     if (jobs.some((j) => j.state === 'queued' || j.state === 'running')) this.poll();
   }
 
-  render(jobs) {
+  render(all) {
+    this.last = all;
     const list = $('jobs');
+    const jobs = all.filter((job) => !this.dismissed.includes(job.id));
     if (!jobs.length) {
       list.replaceChildren(Object.assign(document.createElement('li'), { textContent: 'No jobs yet.' }));
       return;
@@ -161,9 +196,16 @@ export class Jobs {
         }
         if (job.state === 'failed') {
           const details = document.createElement('details');
-          details.append(Object.assign(document.createElement('summary'), { textContent: job.error ?? 'failed' }));
-          details.append(Object.assign(document.createElement('pre'), { textContent: (job.log_tail ?? []).slice(-8).join('\n') }));
+          const error = job.error ?? 'failed';
+          details.append(Object.assign(document.createElement('summary'), { textContent: error }));
+          const more = (job.log_tail ?? []).filter((line) => line.trim() && !error.includes(line.trim())).slice(-8);
+          if (more.length) details.append(Object.assign(document.createElement('pre'), { textContent: more.join('\n') }));
           item.append(details);
+        }
+        if (job.state === 'failed' || job.state === 'cancelled') {
+          const dismiss = Object.assign(document.createElement('button'), { textContent: 'Dismiss', className: 'job-dismiss', title: 'remove this job from the list (in this browser)' });
+          dismiss.addEventListener('click', () => this.dismiss(job.id));
+          line.append(' ', dismiss);
         }
         return item;
       }),

@@ -32,6 +32,12 @@ export class Probe {
     if (id >= 0) this.asked = { id, left: clientX - rect.left, top: clientY - rect.top };
   }
 
+  // Forgets the probe asked (a double-click's clicks): its answer shows nothing.
+  cancel() {
+    this.asked = null;
+    this.overlay.hidden = true;
+  }
+
   // a probe.result from the server
   show(message) {
     this.last = message;

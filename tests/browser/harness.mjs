@@ -12,9 +12,11 @@ export const binary = process.env.TETRA_BINARY ?? join(root, 'build', 'release',
 export const sample = join(root, 'data', 'samples', 'disk_out_ref.vtk');
 
 // Starts `tetrascope serve --data DATA` (one worker, `serveArgs` added) on a free port;
-// resolves to { server, url } once it prints its address.
+// resolves to { server, url } once it prints its address. TETRA_WEB: serve that copy of the
+// web client (e.g. another commit's, to see a test fail without a change).
 export async function startServer(data, serveArgs = []) {
-  const server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1', ...serveArgs], { stdio: ['ignore', 'pipe', 'inherit'] });
+  const web = process.env.TETRA_WEB ? ['--web', process.env.TETRA_WEB] : [];
+  const server = spawn(binary, ['serve', '--data', data, '--port', '0', '--workers', '1', ...web, ...serveArgs], { stdio: ['ignore', 'pipe', 'inherit'] });
   const url = await new Promise((resolve, reject) => {
     let out = '';
     server.stdout.on('data', (chunk) => {

@@ -6,6 +6,8 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { colorAt, PRESETS } from '../../web-client/colormaps.js';
 import { defaultView, rebin, sentAlpha, tfBody, viewFromHash, viewToHash } from '../../web-client/view-state.js';
+import { visibleCorners } from '../../web-client/visible.js';
+import { OrbitCamera } from '../../web-client/camera.js';
 
 const full = () => ({
   ...defaultView(),
@@ -116,4 +118,35 @@ test('a hostile stream-line fragment leaves the line defaults', () => {
     assert.equal(lines.depth, 1, hash);
     assert.equal(lines.field, null, hash);
   }
+});
+
+test('what is visible: the box, cut by the clip planes', () => {
+  const box = { min: [0, 0, 0], max: [2, 1, 1] };
+  const sorted = (points) => points.map((p) => p.map((v) => +v.toFixed(9))).sort((a, b) => a[0] - b[0] || a[1] - b[1] || a[2] - b[2]);
+  assert.equal(visibleCorners(box).length, 8);
+  // x <= 1 keeps the half box; inverted, the other half
+  assert.deepEqual(sorted(visibleCorners(box, [{ normal: [2, 0, 0], offset: 2, invert: false }])).map((p) => p[0]), [0, 0, 0, 0, 1, 1, 1, 1]);
+  assert.deepEqual(sorted(visibleCorners(box, [{ normal: [1, 0, 0], offset: 1, invert: true }])).map((p) => p[0]), [1, 1, 1, 1, 2, 2, 2, 2]);
+  // a diagonal cut through a unit cube's corner: a tetrahedron of 4 corners
+  assert.deepEqual(sorted(visibleCorners({ min: [0, 0, 0], max: [1, 1, 1] }, [{ normal: [1, 1, 1], offset: 1 }])), [[0, 0, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]]);
+  assert.deepEqual(visibleCorners(box, [{ normal: [1, 0, 0], offset: -1 }]), [], 'a clip that keeps nothing');
+});
+
+test('the camera: zoom at the cursor keeps the point there; fit frames the points', () => {
+  const camera = new OrbitCamera({ eye: [0, 0, 10], target: [0, 0, 0], up: [0, 1, 0], fov: 30 });
+  const height = camera.visibleHeight();
+  // the point at (0.25, -0.1) view heights from the middle, on the plane through the target
+  const point = [0.25 * height, 0.1 * height, 0];
+  camera.zoomAt(0.5, 0.25, -0.1);
+  const after = camera.visibleHeight();
+  assert.ok(Math.abs(after - height / 2) < 1e-9);
+  const offset = [(point[0] - camera.target[0]) / after, (point[1] - camera.target[1]) / after];
+  assert.ok(Math.abs(offset[0] - 0.25) < 1e-9 && Math.abs(offset[1] - 0.1) < 1e-9, `the point is still under the cursor: ${offset}`);
+  camera.centreOn([1, 2, -3]);
+  assert.deepEqual(camera.target, [1, 2, -3]);
+  assert.deepEqual(camera.basis().forward.map((v) => +v.toFixed(12)), [0, 0, -1], 'the direction is kept');
+  camera.fit([[-1, -1, -1], [1, 1, 1]], 2, 1);
+  assert.deepEqual(camera.target.map((v) => +v.toFixed(12)), [0, 0, 0]);
+  // the near corners (z = 1) just fit the height: distance 1 / tan(15°) + 1
+  assert.ok(Math.abs(camera.eye[2] - (1 / Math.tan(Math.PI / 12) + 1)) < 1e-9, `${camera.eye}`);
 });
