@@ -832,6 +832,7 @@ function onKey(e) {
   if (key === '?') return toggleHelp();
   if (key === 'Escape') {
     toggleHelp(false);
+    if (zoomBox.armed) zoomBox.arm(false);
     if (kSmallScreen.matches) setPanel(false);
     return;
   }

@@ -116,6 +116,31 @@ test('ctrl+drag zooms to the box drawn', async () => {
   assert.ok(Math.hypot(middle[0] - probe.pixel[0], middle[1] - probe.pixel[1]) < 2, `the new centre was under the box's middle: ${middle} vs ${probe.pixel}`);
 });
 
+test('the Zoom box button arms a box for the next drag; Escape disarms it', async () => {
+  await page.click('#zoom-box-button');
+  assert.equal(await page.getAttribute('#zoom-box-button', 'aria-pressed'), 'true');
+  await page.locator('#frame').focus();
+  await page.keyboard.press('Escape');
+  assert.equal(await page.getAttribute('#zoom-box-button', 'aria-pressed'), 'false');
+  await page.keyboard.press('b');
+  assert.equal(await page.getAttribute('#zoom-box-button', 'aria-pressed'), 'true', 'b arms it too');
+  await page.keyboard.press('r');
+  await settled();
+  const before = await view();
+  const box = await page.locator('#frame').boundingBox();
+  const [x, y] = [box.x + box.width / 2, box.y + box.height / 2];
+  await page.mouse.move(x - 60, y - 30);
+  await page.mouse.down();
+  await page.mouse.move(x + 60, y + 30, { steps: 4 });
+  await page.mouse.up();
+  await settled();
+  const ratio = distance((await view()).camera) / distance(before.camera);
+  assert.ok(Math.abs(ratio - Math.max(120 / box.width, 60 / box.height)) < 0.01, `a plain drag drew the box: the distance scaled by ${ratio.toFixed(3)}`);
+  assert.equal(await page.getAttribute('#zoom-box-button', 'aria-pressed'), 'false', 'one box a press');
+  await page.keyboard.press('r');
+  await settled();
+});
+
 test('f and the Fit button frame what is visible: the box, or the part the clips keep', async () => {
   for (let i = 0; i < 8; ++i) await page.keyboard.press('+');  // far in, somewhere off the middle
   await page.keyboard.press('ArrowRight');
