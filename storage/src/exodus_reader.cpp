@@ -1,4 +1,6 @@
-// Exodus II meshes (.exo .e .ex2 .exii .g .gen) through the Exodus II library (NetCDF):
+// Exodus II meshes (.exo .e .ex2 .exii .g .gen) through the Exodus II library (NetCDF), built
+// as a module of its own (libtetrascope_exodus.so) that tetrascope loads on the first Exodus
+// file, so that no other process maps NetCDF, HDF5 and their libraries:
 // element blocks of tets, hexahedra, wedges and pyramids (higher-order ones by their
 // corners; shells, bars and other lower-dimensional blocks counted and skipped), nodal
 // variables as point data and element variables as cell data at one time step (the last),
@@ -24,6 +26,12 @@ namespace {
 std::mutex& library_lock() {
   static std::mutex lock;
   return lock;
+}
+
+// ReadLimits::max_inflated_bytes, here too: the module links none of tetrascope's code.
+uint64_t inflate_limit(const ReadLimits& limits, uint64_t file_bytes) {
+  const double allowed = static_cast<double>(ReadLimits::kInflateAllowanceBytes) + limits.max_inflate_ratio * static_cast<double>(file_bytes);
+  return allowed >= 1.8e19 ? UINT64_MAX : static_cast<uint64_t>(allowed);
 }
 
 std::string upper(std::string s) {
@@ -240,7 +248,7 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path_, ec)) fail("not a regular file");
   const uint64_t file_bytes = std::filesystem::file_size(path_, ec);
-  if (const std::string problem = check_classic_header(path_, limits_.max_inflated_bytes(file_bytes)); !problem.empty()) fail(problem);
+  if (const std::string problem = check_classic_header(path_, inflate_limit(limits_, file_bytes)); !problem.empty()) fail(problem);
   {
     std::lock_guard<std::mutex> hold(library_lock());
     ex_opts(0);  // errors come back as status codes, never printed or fatal
@@ -312,7 +320,7 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
 }
 
 void ExodusReader::check_declared_size(uint64_t declared_bytes, uint64_t file_bytes) const {
-  const uint64_t limit = limits_.max_inflated_bytes(file_bytes);
+  const uint64_t limit = inflate_limit(limits_, file_bytes);
   if (declared_bytes > limit) {
     fail("Exodus II: its header declares " + std::to_string(declared_bytes) + " bytes of coordinates and connectivity, more than " + std::to_string(limit) +
          " allowed for a file of " + std::to_string(file_bytes) + " bytes (raise --max-inflate-ratio if the file is genuine)");
@@ -326,7 +334,7 @@ void ExodusReader::read_vertices(size_t count, float* xyz, std::span<float* cons
   for (size_t i = 0; i < count; ++i)
     for (int k = 0; k < 3; ++k) {
       if (!to_stored_float(scratch_[k][i], xyz[3 * i + static_cast<size_t>(k)])) {
-        fail("node " + std::to_string(vertices_given_ + i + 1) + ": " + not_a_float_message("point coordinate", scratch_[k][i]));
+        fail("node " + std::to_string(vertices_given_ + i + 1) + ": point coordinate " + std::to_string(scratch_[k][i]) + " is not a finite 32-bit float");
       }
     }
   for (size_t a = 0; a < nodal_.size(); ++a) {
@@ -404,8 +412,16 @@ void ExodusReader::read_cell_values(size_t count, std::span<float* const> values
 
 }  // namespace
 
-std::unique_ptr<FormatReader> make_exodus_reader(const std::filesystem::path& path, const ReadLimits& limits) {
-  return std::make_unique<ExodusReader>(path, limits);
-}
-
 }  // namespace tetrascope::storage::detail
+
+// The module's one entry point (storage/src/exodus_module.cpp loads it with dlopen): a new
+// reader, or null with `error` set when the reader cannot be made.
+extern "C" __attribute__((visibility("default"))) tetrascope::storage::detail::FormatReader* tetrascope_make_exodus_reader(
+    const char* path, const tetrascope::storage::ReadLimits* limits, std::string* error) {
+  try {
+    return new tetrascope::storage::detail::ExodusReader(path, *limits);
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return nullptr;
+  }
+}

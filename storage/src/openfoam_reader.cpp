@@ -347,6 +347,9 @@ class OpenFoamReader final : public FormatReader {
   std::vector<Field> fields_;
   uint64_t cells_ = 0, next_cell_ = 0, vertices_given_ = 0;
   std::vector<uint64_t> batch_cells_;          // per entry of the last batch: its cell
+  std::vector<uint64_t> order_offsets_{0};     // per cell: its VTK points (none for a polyhedron), CSR
+  std::vector<uint32_t> orders_;
+  mutable std::vector<std::pair<uint32_t, uint32_t>> edges_;  // vtk_order's scratch
 };
 
 void OpenFoamReader::read_mesh(const fs::path& mesh) {
@@ -405,8 +408,11 @@ void OpenFoamReader::classify(ReadStats& stats) {
   const uint32_t base = static_cast<uint32_t>(points_.size() / 3);
   uint32_t next = base;
   std::vector<uint32_t> order;
+  FaceCounts k;
+  order_offsets_.reserve(cells_ + 1);
   for (uint64_t c = 0; c < cells_; ++c) {
-    FaceCounts k;
+    k.triangles = k.quads = k.larger = 0;
+    k.points.clear();
     for (uint64_t i = cell_offsets_[c]; i < cell_offsets_[c + 1]; ++i) {
       const uint64_t f = cell_faces_[i], n = face_offsets_[f + 1] - face_offsets_[f];
       (n == 3 ? k.triangles : n == 4 ? k.quads : k.larger) += 1;
@@ -422,6 +428,8 @@ void OpenFoamReader::classify(ReadStats& stats) {
     else if (faces == 6 && k.quads == 6 && p == 8) shape = Shape::kHex;
     if (shape != Shape::kPolyhedron && !vtk_order(c, shape, order)) shape = Shape::kPolyhedron;
     shapes_[c] = shape;
+    if (shape != Shape::kPolyhedron) orders_.insert(orders_.end(), order.begin(), order.end());
+    order_offsets_.push_back(orders_.size());
     if (shape != Shape::kPolyhedron) continue;
     ++stats.polyhedra;
     double sum[3] = {0, 0, 0};
@@ -447,7 +455,8 @@ bool OpenFoamReader::vtk_order(uint64_t cell, Shape shape, std::vector<uint32_t>
   // the first face of the right size is the base; each base point's partner is the point
   // off the base it shares an edge with
   const size_t base_size = shape == Shape::kWedge || shape == Shape::kTet ? 3 : 4;
-  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  std::vector<std::pair<uint32_t, uint32_t>>& edges = edges_;
+  edges.clear();
   int64_t base = -1;
   for (uint64_t i = cell_offsets_[cell]; i < cell_offsets_[cell + 1]; ++i) {
     const uint64_t f = cell_faces_[i], a = face_offsets_[f], n = face_offsets_[f + 1] - a;
@@ -590,13 +599,12 @@ void OpenFoamReader::read_vertices(size_t count, float* xyz, std::span<float* co
 
 bool OpenFoamReader::read_cells(CellBatch& batch, size_t max_cells) {
   batch_cells_.clear();
-  std::vector<uint32_t> order;
   while (batch.size() < max_cells && next_cell_ < cells_) {
     const uint64_t c = next_cell_++;
     switch (shapes_[c]) {
       case Shape::kPolyhedron: decompose(c, batch); break;
       default: {
-        vtk_order(c, shapes_[c], order);
+        const std::span<const uint32_t> order(orders_.data() + order_offsets_[c], order_offsets_[c + 1] - order_offsets_[c]);
         const uint8_t type = shapes_[c] == Shape::kTet ? kVtkTetra : shapes_[c] == Shape::kPyramid ? kVtkPyramid : shapes_[c] == Shape::kWedge ? kVtkWedge : kVtkHexahedron;
         batch.push(type, order);
         if (!batch.same_cell.empty()) batch.same_cell.resize(batch.size(), 0);
