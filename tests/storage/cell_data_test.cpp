@@ -14,7 +14,6 @@
 namespace tetrascope::testing {
 namespace {
 
-using storage::MeshError;
 using storage::MeshFormat;
 using storage::TetMesh;
 
@@ -203,15 +202,6 @@ TEST(CellDataNames, FieldArraysEachFollowedByAMetadataBlockReadAsVtk9WritesThem)
   }
 }
 
-std::string read_error(const std::filesystem::path& path) {
-  try {
-    storage::load_mesh(path);
-    return "";
-  } catch (const MeshError& e) {
-    return e.what();
-  }
-}
-
 TEST(HostileCellData, ACellDataCountOtherThanTheCellsIsRefusedNamingBoth) {
   Fixture f = hybrid_block();
   const auto path = scratch_dir("hostile_cell_count") / "m.vtk";
@@ -220,7 +210,7 @@ TEST(HostileCellData, ACellDataCountOtherThanTheCellsIsRefusedNamingBoth) {
   const std::string count = "CELL_DATA " + std::to_string(f.mesh.cell_count());
   text.replace(text.find(count), count.size(), "CELL_DATA 3");
   write_file(path, text);
-  const std::string error = read_error(path);
+  const std::string error = mesh_read_error(path);
   EXPECT_NE(error.find("CELL_DATA has 3 values but CELLS has 8"), std::string::npos) << error;
 }
 
@@ -236,7 +226,7 @@ TEST(HostileCellData, ElementDataGivingAnElementTwiceIsRefused) {
   ASSERT_NE(entry, std::string::npos);
   text.replace(entry + 1, 1, "7");
   write_file(path, text);
-  const std::string error = read_error(path);
+  const std::string error = mesh_read_error(path);
   EXPECT_NE(error.find("gives element 7 twice"), std::string::npos) << error;
 }
 
@@ -250,7 +240,7 @@ TEST(HostileCellData, TruncatedCellDataIsRefusedNamingTheArray) {
   text.erase(values, text.find("</DataArray>", values) - values);
   text.insert(values, "1 2 3");
   write_file(path, text);
-  const std::string error = read_error(path);
+  const std::string error = mesh_read_error(path);
   EXPECT_NE(error.find("pressure"), std::string::npos) << error;
 }
 

@@ -197,19 +197,10 @@ TEST(Exodus, AStoreBuiltFromItHoldsTheElementVariablesAtTheVertices) {
   EXPECT_EQ(store->manifest().tet_count, 27u);
 }
 
-std::string read_error(const std::filesystem::path& path) {
-  try {
-    storage::load_mesh(path);
-    return "";
-  } catch (const MeshError& e) {
-    return e.what();
-  }
-}
-
 TEST(HostileExodus, AFileThatIsNotExodusIsRefusedNamingIt) {
   const auto path = scratch_dir("exodus_not") / "m.exo";
   write_file(path, "this is not a NetCDF file\n");
-  EXPECT_NE(read_error(path).find("m.exo: not an Exodus II file"), std::string::npos) << read_error(path);
+  EXPECT_NE(mesh_read_error(path).find("m.exo: not an Exodus II file"), std::string::npos) << mesh_read_error(path);
 }
 
 TEST(HostileExodus, ANodeIndexPastTheNodesIsRefusedNamingTheElement) {
@@ -217,7 +208,7 @@ TEST(HostileExodus, ANodeIndexPastTheNodesIsRefusedNamingTheElement) {
   f.mesh.connectivity.back() = 999;  // the tet's last node
   const auto path = scratch_dir("exodus_node_range") / "m.exo";
   write_exodus(path, f.mesh);
-  const std::string error = read_error(path);
+  const std::string error = mesh_read_error(path);
   EXPECT_NE(error.find("node 1000 out of range"), std::string::npos) << error;
 }
 

@@ -18,7 +18,6 @@
 namespace tetrascope::testing {
 namespace {
 
-using storage::MeshError;
 using storage::TetMesh;
 
 struct Case {
@@ -202,21 +201,12 @@ TEST(OpenFoamCase, TheCaseFolderItselfOpensAndInfoSaysWhatItRead) {
   EXPECT_NE(s.header.description.find("time 0.5"), std::string::npos) << s.header.description;
 }
 
-std::string read_error(const std::filesystem::path& path) {
-  try {
-    storage::load_mesh(path);
-    return "";
-  } catch (const MeshError& e) {
-    return e.what();
-  }
-}
-
 TEST(HostileOpenFoam, AFaceNamingAPointPastThePointsIsRefused) {
   Case c = three_cells();
   c.faces[3][2] = 99;
   const auto dir = scratch_dir("openfoam_bad_point");
   write_case(dir, c, false);
-  EXPECT_NE(read_error(dir).find("names point 99 of 15"), std::string::npos) << read_error(dir);
+  EXPECT_NE(mesh_read_error(dir).find("names point 99 of 15"), std::string::npos) << mesh_read_error(dir);
 }
 
 TEST(HostileOpenFoam, AnOwnerListShorterThanTheFacesIsRefused) {
@@ -224,7 +214,7 @@ TEST(HostileOpenFoam, AnOwnerListShorterThanTheFacesIsRefused) {
   c.owner.pop_back();
   const auto dir = scratch_dir("openfoam_short_owner");
   write_case(dir, c, true);
-  EXPECT_NE(read_error(dir).find("owner has 15 entries for 16 faces"), std::string::npos) << read_error(dir);
+  EXPECT_NE(mesh_read_error(dir).find("owner has 15 entries for 16 faces"), std::string::npos) << mesh_read_error(dir);
 }
 
 TEST(HostileOpenFoam, ABinaryListCutShortAndAHugeCountAreRefused) {
@@ -233,19 +223,19 @@ TEST(HostileOpenFoam, ABinaryListCutShortAndAHugeCountAreRefused) {
   const auto faces = dir / "constant" / "polyMesh" / "neighbour";
   std::string text = read_file(faces);
   write_file(faces, text.substr(0, text.size() - 6));
-  EXPECT_NE(read_error(dir).find("ends inside the binary list"), std::string::npos) << read_error(dir);
+  EXPECT_NE(mesh_read_error(dir).find("ends inside the binary list"), std::string::npos) << mesh_read_error(dir);
   const auto points = dir / "constant" / "polyMesh" / "owner";
   text = read_file(points);
   text.replace(text.find("16\n("), 2, "99999999999");
   write_file(points, text);
-  EXPECT_NE(read_error(dir).find("does not fit in the file"), std::string::npos) << read_error(dir);
+  EXPECT_NE(mesh_read_error(dir).find("does not fit in the file"), std::string::npos) << mesh_read_error(dir);
 }
 
 TEST(HostileOpenFoam, AFolderWithoutAMeshIsNotACase) {
   const auto dir = scratch_dir("openfoam_none");
   std::filesystem::create_directories(dir / "constant");
   write_file(dir / "case.foam", "");
-  EXPECT_NE(read_error(dir / "case.foam").find("not an OpenFOAM case"), std::string::npos) << read_error(dir / "case.foam");
+  EXPECT_NE(mesh_read_error(dir / "case.foam").find("not an OpenFOAM case"), std::string::npos) << mesh_read_error(dir / "case.foam");
 }
 
 }  // namespace

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "tetrascope/storage/mesh_stream.h"
+
 namespace tetrascope::testing {
 
 void CellMesh::add_cell(uint8_t type, std::initializer_list<uint32_t> nodes) {
@@ -35,6 +37,15 @@ std::string read_file(const std::filesystem::path& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+std::string mesh_read_error(const std::filesystem::path& path) {
+  try {
+    storage::load_mesh(path);
+    return "";
+  } catch (const storage::MeshError& e) {
+    return e.what();
+  }
 }
 
 void write_file(const std::filesystem::path& path, const std::string& bytes) {

@@ -61,6 +61,9 @@ void write_tetgen(const std::filesystem::path& base, const CellMesh& mesh);
 void write_off(const std::filesystem::path& path, const CellMesh& mesh);
 
 std::string read_file(const std::filesystem::path& path);
+// Loads the mesh at `path` whole: "" when it reads, else the MeshError's message (any other
+// exception passes through).
+std::string mesh_read_error(const std::filesystem::path& path);
 void write_file(const std::filesystem::path& path, const std::string& bytes);
 
 }  // namespace tetrascope::testing
