@@ -231,8 +231,10 @@ void MeshStream::convert_cell_data() {
     any_flat |= marks[v] != 0;
   }
   if (any_flat) {
+    const uint64_t counted = stats_.nonfinite_attribute_values;  // the values were counted once
     accumulate_cell_data(sums, weights, marks, true);
     reader_->rewind_cells();
+    stats_.nonfinite_attribute_values = counted;
   }
   uint64_t alone = 0;
   for (size_t v = 0; v < V; ++v) alone += weights[v] == 0;
