@@ -290,8 +290,9 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   check_declared_size(declared, file_bytes);
   const int64_t steps = ex_inquire_int(exoid_, EX_INQ_TIME);
   nodal_ = join_components(variable_names(EX_NODAL));
-  const size_t element_variables = variable_names(EX_ELEM_BLOCK).size();
-  element_ = join_components(variable_names(EX_ELEM_BLOCK));
+  const std::vector<std::string> element_names = variable_names(EX_ELEM_BLOCK);
+  const size_t element_variables = element_names.size();
+  element_ = join_components(element_names);
   std::string when = "no time step";
   if (steps > 0) {
     step_ = static_cast<int>(std::min<int64_t>(steps, std::numeric_limits<int>::max()));
