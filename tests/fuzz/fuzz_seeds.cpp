@@ -11,6 +11,29 @@
 
 using namespace tetrascope::testing;
 
+namespace {
+// Cell data for the VTK, VTU and Gmsh readers, and an OpenFOAM case of one tet
+// (fuzz_openfoam: its files joined after "#NAME" lines).
+void write_cell_data_seeds(const std::filesystem::path& out, const CellMesh& m) {
+  // cell data: the cells' values averaged at the vertices
+  CellMesh cells = m;
+  tetrascope::storage::Attribute p{{"p", 1}, {1.0f, 2.0f, 3.0f}}, u{{"u", 3}, {1, 0, 0, 0, 1, 0, 0, 0, 1}};
+  cells.cell_attributes = {p, u};
+  write_vtk_legacy(out / "vtk/cell_data.vtk", cells, {.binary = true});
+  write_vtu(out / "vtu/cell_data_zlib.vtu", cells, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 64});
+  write_gmsh(out / "msh/cell_data41.msh", cells, {.version4 = true, .binary = false});
+  // an OpenFOAM case of one tet (fuzz_openfoam: its files joined after "#NAME" lines)
+  std::filesystem::create_directories(out / "openfoam");
+  const std::string head = "FoamFile\n{\n    version 2.0;\n    format ascii;\n    class ";
+  write_file(out / "openfoam" / "tet",
+             "#points\n" + head + "vectorField;\n    object points;\n}\n4\n(\n(0 0 0)\n(1 0 0)\n(0 1 0)\n(0 0 1)\n)\n" +
+             "#faces\n" + head + "faceList;\n    object faces;\n}\n4\n(\n3(0 2 1)\n3(0 1 3)\n3(0 3 2)\n3(1 2 3)\n)\n" +
+             "#owner\n" + head + "labelList;\n    object owner;\n}\n4\n(\n0\n0\n0\n0\n)\n" +
+             "#neighbour\n" + head + "labelList;\n    object neighbour;\n}\n0\n(\n)\n" +
+             "#p\n" + head + "volScalarField;\n    object p;\n}\ndimensions [0 2 -2 0 0 0 0];\ninternalField nonuniform List<scalar> 1(2.5);\nboundaryField\n{\n}\n");
+}
+}  // namespace
+
 int main(int argc, char** argv) {
   if (argc != 2) {
     std::cerr << "usage: fuzz_seeds OUTDIR\n";
@@ -52,22 +75,7 @@ int main(int argc, char** argv) {
   write_gmsh(out / "msh/b22.msh", m, {.version4 = false, .binary = true});
   write_gmsh(out / "msh/a41.msh", m, {.version4 = true, .binary = false});
   write_gmsh(out / "msh/b41.msh", m, {.version4 = true, .binary = true});
-  // cell data: the cells' values averaged at the vertices
-  CellMesh cells = m;
-  tetrascope::storage::Attribute p{{"p", 1}, {1.0f, 2.0f, 3.0f}}, u{{"u", 3}, {1, 0, 0, 0, 1, 0, 0, 0, 1}};
-  cells.cell_attributes = {p, u};
-  write_vtk_legacy(out / "vtk/cell_data.vtk", cells, {.binary = true});
-  write_vtu(out / "vtu/cell_data_zlib.vtu", cells, {.encoding = VtuEncoding::kAppendedRaw, .zlib = true, .block_size = 64});
-  write_gmsh(out / "msh/cell_data41.msh", cells, {.version4 = true, .binary = false});
-  // an OpenFOAM case of one tet (fuzz_openfoam: its files joined after "#NAME" lines)
-  std::filesystem::create_directories(out / "openfoam");
-  const std::string head = "FoamFile\n{\n    version 2.0;\n    format ascii;\n    class ";
-  write_file(out / "openfoam" / "tet",
-             "#points\n" + head + "vectorField;\n    object points;\n}\n4\n(\n(0 0 0)\n(1 0 0)\n(0 1 0)\n(0 0 1)\n)\n" +
-             "#faces\n" + head + "faceList;\n    object faces;\n}\n4\n(\n3(0 2 1)\n3(0 1 3)\n3(0 3 2)\n3(1 2 3)\n)\n" +
-             "#owner\n" + head + "labelList;\n    object owner;\n}\n4\n(\n0\n0\n0\n0\n)\n" +
-             "#neighbour\n" + head + "labelList;\n    object neighbour;\n}\n0\n(\n)\n" +
-             "#p\n" + head + "volScalarField;\n    object p;\n}\ndimensions [0 2 -2 0 0 0 0];\ninternalField nonuniform List<scalar> 1(2.5);\nboundaryField\n{\n}\n");
+  write_cell_data_seeds(out, m);
   write_off(out / "off/a.off", tets);
   write_tetgen(out / "tetgen/t", tets);
   write_file(out / "tetgen/pair", read_file(out / "tetgen/t.node") + "#ele\n" + read_file(out / "tetgen/t.ele"));
