@@ -28,14 +28,6 @@ const char* format_name(MeshFormat format) {
   return "?";
 }
 
-bool exodus_supported() {
-#ifdef TETRA_HAVE_EXODUS
-  return true;
-#else
-  return false;
-#endif
-}
-
 MeshFormat format_from_path(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path / "constant" / "polyMesh", ec)) return MeshFormat::kOpenFoam;
@@ -66,10 +58,7 @@ std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path, 
     case MeshFormat::kVtu: reader = detail::make_vtu_reader(open_file(path)); break;
     case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(open_file(path)); break;
     case MeshFormat::kOff: reader = detail::make_off_reader(open_file(path)); break;
-    case MeshFormat::kExodus:
-      if (!exodus_supported()) throw MeshError(path.string() + ": this build of tetrascope reads no Exodus II (the Exodus II library was not found)");
-      reader = detail::make_exodus_reader(path, limits);
-      break;
+    case MeshFormat::kExodus: reader = detail::make_exodus_reader(path, limits); break;  // refuses when built without the library
     case MeshFormat::kOpenFoam: reader = detail::make_openfoam_reader(path, limits); break;
     case MeshFormat::kTetgen: {
       std::filesystem::path node = path, ele = path;

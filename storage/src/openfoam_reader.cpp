@@ -19,7 +19,6 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
-#include <map>
 
 #include "format_reader.h"
 

@@ -5,7 +5,6 @@
 
 #include <cmath>
 #include <functional>
-#include <map>
 
 #include "fixture_writers.h"
 #include "test_paths.h"

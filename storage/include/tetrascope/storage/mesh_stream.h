@@ -27,8 +27,6 @@ const char* format_name(MeshFormat format);
 // .g .gen, an OpenFOAM case folder or a .foam/.OpenFOAM file in it); throws MeshError
 // otherwise.
 MeshFormat format_from_path(const std::filesystem::path& path);
-// Whether this build reads Exodus II (the Exodus II library was found).
-bool exodus_supported();
 
 struct MeshHeader {
   MeshFormat format = MeshFormat::kVtkLegacy;
