@@ -1,5 +1,5 @@
 // Loads the Exodus II reader module (exodus_reader.cpp, libtetrascope_exodus.so) on the first
-// Exodus file: its libraries (NetCDF, HDF5, curl, ICU: about 60 MB of address space) are
+// Exodus file: its libraries (NetCDF, HDF5, curl, ICU: 54 MB of library files mapped) are
 // mapped only by a process that reads Exodus. The module is found at TETRASCOPE_EXODUS_MODULE
 // when that is set, else where the build put it.
 #include <dlfcn.h>
