@@ -415,7 +415,7 @@ void ExodusReader::read_cell_values(size_t count, std::span<float* const> values
 
 }  // namespace tetrascope::storage::detail
 
-// The module's one entry point (storage/src/exodus_module.cpp loads it with dlopen): a new
+// The module's one entry point (storage/src/reader_modules.cpp loads it with dlopen): a new
 // reader, or null with `error` set when the reader cannot be made.
 extern "C" __attribute__((visibility("default"))) tetrascope::storage::detail::FormatReader* tetrascope_make_exodus_reader(
     const char* path, const tetrascope::storage::ReadLimits* limits, std::string* error) {

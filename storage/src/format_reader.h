@@ -99,6 +99,7 @@ std::unique_ptr<FormatReader> make_tetgen_reader(std::shared_ptr<InputFile> node
                                                  std::shared_ptr<InputFile> ele_file);
 std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);
 std::unique_ptr<FormatReader> make_exodus_reader(const std::filesystem::path& path, const ReadLimits& limits);
+std::unique_ptr<FormatReader> make_cgns_reader(const std::filesystem::path& path, const ReadLimits& limits);
 std::unique_ptr<FormatReader> make_openfoam_reader(const std::filesystem::path& path, const ReadLimits& limits);
 
 // ---- typed values -------------------------------------------------------------------

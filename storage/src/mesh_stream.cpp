@@ -24,6 +24,7 @@ const char* format_name(MeshFormat format) {
     case MeshFormat::kOff: return "off";
     case MeshFormat::kExodus: return "exodus";
     case MeshFormat::kOpenFoam: return "openfoam";
+    case MeshFormat::kCgns: return "cgns";
   }
   return "?";
 }
@@ -39,9 +40,10 @@ MeshFormat format_from_path(const std::filesystem::path& path) {
   if (ext == ".node" || ext == ".ele") return MeshFormat::kTetgen;
   if (ext == ".off") return MeshFormat::kOff;
   if (ext == ".foam" || ext == ".openfoam") return MeshFormat::kOpenFoam;
+  if (ext == ".cgns" || ext == ".adf") return MeshFormat::kCgns;
   if (ext == ".exo" || ext == ".e" || ext == ".ex2" || ext == ".exii" || ext == ".g" || ext == ".gen") return MeshFormat::kExodus;
   throw MeshError(path.string() + ": unknown mesh format '" + ext +
-                  "' (expected .vtk, .vtu, .msh, .node/.ele, .off, Exodus II .exo/.e/.ex2/.exii/.g/.gen or an OpenFOAM case)");
+                  "' (expected .vtk, .vtu, .msh, .node/.ele, .off, Exodus II .exo/.e/.ex2/.exii/.g/.gen, CGNS .cgns/.adf or an OpenFOAM case)");
 }
 
 uint64_t ReadLimits::max_inflated_bytes(uint64_t file_bytes) const {
@@ -60,6 +62,7 @@ std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path, 
     case MeshFormat::kOff: reader = detail::make_off_reader(open_file(path)); break;
     case MeshFormat::kExodus: reader = detail::make_exodus_reader(path, limits); break;  // refuses when built without the library
     case MeshFormat::kOpenFoam: reader = detail::make_openfoam_reader(path, limits); break;
+    case MeshFormat::kCgns: reader = detail::make_cgns_reader(path, limits); break;  // refuses when built without the library
     case MeshFormat::kTetgen: {
       std::filesystem::path node = path, ele = path;
       node.replace_extension(".node");
@@ -82,6 +85,7 @@ std::unique_ptr<MeshStream> MeshStream::open_memory(MeshFormat format, std::stri
     case MeshFormat::kOff: reader = detail::make_off_reader(file); break;
     case MeshFormat::kExodus: throw MeshError(name + ": Exodus II is read from files, not from memory");
     case MeshFormat::kOpenFoam: throw MeshError(name + ": an OpenFOAM case is read from its folder, not from memory");
+    case MeshFormat::kCgns: throw MeshError(name + ": CGNS is read from files, not from memory");
     case MeshFormat::kTetgen:
       reader = detail::make_tetgen_reader(file, detail::InputFile::from_memory(name + ".ele", second_bytes));
       break;

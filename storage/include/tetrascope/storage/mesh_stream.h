@@ -18,14 +18,14 @@
 
 namespace tetrascope::storage {
 
-enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff, kExodus, kOpenFoam };
+enum class MeshFormat { kVtkLegacy, kVtu, kGmsh, kTetgen, kOff, kExodus, kOpenFoam, kCgns };
 
-// "vtk", "vtu", "msh", "tetgen", "off", "exodus", "openfoam".
+// "vtk", "vtu", "msh", "tetgen", "off", "exodus", "openfoam", "cgns".
 const char* format_name(MeshFormat format);
 
 // The format from the file name (.vtk .vtu .msh .node .ele .off, Exodus II .exo .e .ex2 .exii
-// .g .gen, an OpenFOAM case folder or a .foam/.OpenFOAM file in it); throws MeshError
-// otherwise.
+// .g .gen, an OpenFOAM case folder or a .foam/.OpenFOAM file in it, CGNS .cgns .adf); throws
+// MeshError otherwise.
 MeshFormat format_from_path(const std::filesystem::path& path);
 
 struct MeshHeader {
