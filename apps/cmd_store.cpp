@@ -17,9 +17,15 @@
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::apps {
 namespace {
+
+void print_store_attribute(const storage::StoreAttribute& a) {
+  storage::AttributeInfo info{a.name, a.components, a.kind, a.positive_semidefinite, a.derived_from};
+  std::printf("  %-24s %s  %g .. %g\n", a.name.c_str(), storage::attribute_kind_text(info).c_str(), a.min, a.max);
+}
 
 int print_store_info(const std::string& path, bool json) {
   auto store = storage::Store::open(path);
@@ -56,7 +62,7 @@ int print_store_info(const std::string& path, bool json) {
       std::printf("  level %-3u %6u segments %10llu tets %9llu vertices %7u patches to the level above\n", l["level"].get<unsigned>(), l["segments"].get<unsigned>(),
                   l["tets"].get<unsigned long long>(), l["vertices"].get<unsigned long long>(), l["patches"].get<unsigned>());
     std::printf("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", m.bounds.min[0], m.bounds.max[0], m.bounds.min[1], m.bounds.max[1], m.bounds.min[2], m.bounds.max[2]);
-    for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
+    for (const auto& a : m.attributes) print_store_attribute(a);
     const double input_tets = mr["input"]["tetrahedra"].get<double>();
     const double bytes = j["files"]["segments.bin"]["bytes"].get<double>() + j["files"]["dag.bin"]["bytes"].get<double>();
     std::printf("files       segments.bin %.1f MB (segments: %s), dag.bin %.1f MB (%.1f bytes per input tet)\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6,
@@ -76,7 +82,7 @@ int print_store_info(const std::string& path, bool json) {
               (seg["tets_per_segment"]["min"].dump() + "/" + std::to_string(seg["tets_per_segment"]["avg"].get<double>()).substr(0, 8) + "/" + seg["tets_per_segment"]["max"].dump()).c_str());
   std::printf("streaming   at most %u segments active (%.1f%%)\n", m.max_workload_segments, 100.0 * m.max_workload_segments / m.segment_count);
   std::printf("bounds      [%g, %g] x [%g, %g] x [%g, %g]\n", m.bounds.min[0], m.bounds.max[0], m.bounds.min[1], m.bounds.max[1], m.bounds.min[2], m.bounds.max[2]);
-  for (const auto& a : m.attributes) std::printf("  %-24s %u  %g .. %g\n", a.name.c_str(), a.components, a.min, a.max);
+  for (const auto& a : m.attributes) print_store_attribute(a);
   std::printf("files       segments.bin %.1f MB\n", j["files"]["segments.bin"]["bytes"].get<double>() / 1e6);
   return 0;
 }

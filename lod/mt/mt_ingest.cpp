@@ -124,6 +124,7 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
       base += c;
     }
   }
+  for (size_t a = 0; a < out.attributes.size(); ++a) out.attributes[a] = header.attributes[a];  // tensors' flags, known now
   const std::span<const float> xyz = stream->xyz();
   table.xyz.assign(xyz.begin(), xyz.end());
   if (table.size() >= 0x7FFFFFFFu) throw std::runtime_error(mesh_path.string() + ": too many vertices for one store");

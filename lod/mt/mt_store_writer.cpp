@@ -12,6 +12,7 @@
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/core/parallel_for.h"
 #include "tetrascope/storage/store_writer.h"
+#include "tetrascope/storage/tensor.h"
 #include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::lod::mt {
@@ -264,6 +265,7 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
     attribute_list.push_back({{"name", mesh.attributes[a].name}, {"components", mesh.attributes[a].components}, {"min", lo}, {"max", hi},
                               {"range_of", mesh.attributes[a].components == 1 ? "value" : "magnitude"},
                               {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
+    storage::add_attribute_kind_json(attribute_list.back(), mesh.attributes[a]);
   }
   manifest["attributes"] = attribute_list;
   const storage::Bounds& bounds = mesh.bounds;

@@ -34,6 +34,7 @@
 #include "tetrascope/storage/sha256.h"
 #include "tetrascope/storage/store_format.h"
 #include "tetrascope/storage/store_writer.h"
+#include "tetrascope/storage/tensor.h"
 #include "tetrascope/core/tet_topology.h"
 
 namespace tetrascope::lod {
@@ -153,6 +154,7 @@ struct Segmentation {
       }
       report_progress("read vertices", double(chunk.first + chunk.count) / double(vertex_count));
     }
+    header = stream->header();  // tensors' flags are known once every vertex was read
     xyz = stream->xyz();
   }
 
@@ -421,6 +423,7 @@ struct Segmentation {
                                 {"range_of", header.attributes[a].components == 1 ? "value" : "magnitude"},
                                 // normalised = (value - offset) * scale maps the range to [0, 1]
                                 {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
+      storage::add_attribute_kind_json(attribute_list.back(), header.attributes[a]);
     }
     manifest["attributes"] = attribute_list;
     std::array<double, 6> all{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),

@@ -13,6 +13,7 @@
 
 #include "simplifier.h"
 #include "tetrascope/core/tet_topology.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::lod {
 namespace detail {
@@ -377,6 +378,7 @@ void Simplifier::compacted(storage::TetMesh& out, std::vector<uint32_t>& source)
     if (!tet_alive_[t]) continue;
     for (int k = 0; k < 4; ++k) out.tets.push_back(remap[tets_[4 * t + k]]);
   }
+  storage::refresh_tensor_attributes(out);  // interpolated tensors: kept PSD where the input was, derived scalars recomputed
   source.assign(next, 0);
   for (size_t v = 0; v < n; ++v)
     if (remap[v] != kNone) source[remap[v]] = static_cast<uint32_t>(v);

@@ -26,6 +26,7 @@
 #include "tetrascope/lod/simplify/border_intersection.h"
 #include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/storage/sanitizer.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::lod {
 namespace {
@@ -554,6 +555,7 @@ storage::TetMesh assemble_output(const storage::TetMesh& mesh, const std::vector
     uint32_t* v = &out.tets[4 * t];
     if (storage::signed_volume(out, v[0], v[1], v[2], v[3]) < 0) std::swap(v[2], v[3]);
   }
+  storage::refresh_tensor_attributes(out);  // Steiner points' tensors: kept PSD where the input was, derived scalars recomputed
   return out;
 }
 

@@ -111,6 +111,11 @@ class GmshReader final : public FormatReader {
   // The size of an entity tag in a binary data section (MSH 4.1 writers differ: int or size_t):
   // the one whose payload ends at $End<section>.
   size_t binary_tag_bytes(const std::string& section, int64_t count, int64_t components);
+  // Fails at the value just read: its line in an ASCII file, its byte in a binary one.
+  [[noreturn]] void fail_here(const std::string& what) const {
+    if (binary_) cursor_.fail_byte(what);
+    cursor_.fail(what);
+  }
   void read_node_data(ReadStats& stats);
   void read_element_data(ReadStats& stats);
   void skip_elements();
@@ -293,7 +298,7 @@ DataHeader GmshReader::read_data_header(const std::string& section, uint64_t mos
   for (uint32_t i = 0; i < ints; ++i) int_tags[i] = cursor_.parse_int<int64_t>("integer tag");
   h.components = int_tags[1];
   h.count = int_tags[2];
-  if (h.components != 1 && h.components != 3 && h.components != 9) cursor_.fail("$" + section + " '" + h.name + "' has " + std::to_string(h.components) + " components, expected 1, 3 or 9");
+  if (h.components != 1 && h.components != 3 && h.components != 9) cursor_.fail("$" + section + " '" + h.name + "' has " + std::to_string(h.components) + " components, expected 1 (scalar), 3 (vector) or 9 (tensor)");
   if (h.count < 0 || static_cast<uint64_t>(h.count) > most) cursor_.fail("$" + section + " '" + h.name + "' has " + std::to_string(h.count) + " values for " + std::to_string(most) + (section == "NodeData" ? " nodes" : " elements"));
   return h;
 }
@@ -318,7 +323,8 @@ void GmshReader::read_node_data(ReadStats& stats) {
   const DataHeader h = read_data_header("NodeData", node_tags_.size());
   const std::string& name = h.name;
   const int64_t components = h.components, count = h.count;
-  Field field{{name, static_cast<uint32_t>(components)}, {}};
+  // 9 components are a tensor (Gmsh's views: row-major 3x3), kept symmetric by MeshStream
+  Field field{{name, static_cast<uint32_t>(components), components == 9 ? AttributeKind::kTensor : AttributeKind::kValue}, {}};
   field.values.assign(node_tags_.size() * static_cast<size_t>(components), std::numeric_limits<float>::quiet_NaN());
   std::vector<uint8_t> seen(node_tags_.size(), 0);
   const size_t tag_bytes = binary_tag_bytes("NodeData", count, components);
@@ -329,7 +335,10 @@ void GmshReader::read_node_data(ReadStats& stats) {
     seen[index] = 1;
     for (int64_t k = 0; k < components; ++k) {
       double v = binary_ ? binary<double>("field value") : cursor_.parse_double("field value");
-      if (!to_stored_float(v, field.values[index * static_cast<size_t>(components) + static_cast<size_t>(k)])) ++stats.nonfinite_attribute_values;
+      if (!to_stored_float(v, field.values[index * static_cast<size_t>(components) + static_cast<size_t>(k)])) {
+        if (components == 9) fail_here("$NodeData '" + name + "': tensor value " + std::to_string(v) + " is not a finite 32-bit float");
+        ++stats.nonfinite_attribute_values;
+      }
     }
   }
   expect_end("NodeData");
@@ -363,12 +372,15 @@ void GmshReader::read_element_data(ReadStats& stats) {
     order[i] = {tag, i};
     for (size_t k = 0; k < components; ++k) {
       double v = binary_ ? binary<double>("field value") : cursor_.parse_double("field value");
-      if (!to_stored_float(v, raw[i * components + k])) ++stats.nonfinite_attribute_values;
+      if (!to_stored_float(v, raw[i * components + k])) {
+        if (components == 9) fail_here("$ElementData '" + h.name + "': tensor value " + std::to_string(v) + " is not a finite 32-bit float");
+        ++stats.nonfinite_attribute_values;
+      }
     }
   }
   expect_end("ElementData");
   std::sort(order.begin(), order.end());
-  ElementField field{{h.name, static_cast<uint32_t>(components)}, {}, {}};
+  ElementField field{{h.name, static_cast<uint32_t>(components), components == 9 ? AttributeKind::kTensor : AttributeKind::kValue}, {}, {}};
   field.tags.reserve(count);
   field.values.reserve(count * components);
   for (size_t i = 0; i < count; ++i) {

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "tetrascope/storage/tensor.h"
+
 namespace tetrascope::storage {
 
 MeshSummary summarize_stream(MeshStream& stream) {
@@ -58,6 +60,8 @@ MeshSummary summarize_stream(MeshStream& stream) {
       }
     }
   }
+  s.header = stream.header();  // tensors' flags are known once every vertex was read
+  for (size_t a = 0; a < s.attributes.size(); ++a) s.attributes[a].info = s.header.attributes[a];
   TetChunk tets;
   while (stream.next_tets(tets)) {
   }
@@ -109,6 +113,7 @@ nlohmann::json summary_json(const MeshSummary& s) {
                           {"range_of", a.info.components == 1 ? "value" : "magnitude"}, {"component_ranges", ranges},
                           {"nonfinite", a.nonfinite}, {"association", k < points ? "point" : "cell"}});
     if (k >= points) attributes.back()["cell_name"] = s.header.cell_attributes[k - points].name;
+    add_attribute_kind_json(attributes.back(), a.info);
   }
   j["attributes"] = attributes;
   j["bounds"] = {{"min", {s.bounds.min[0], s.bounds.min[1], s.bounds.min[2]}}, {"max", {s.bounds.max[0], s.bounds.max[1], s.bounds.max[2]}}};
@@ -147,7 +152,7 @@ std::string summary_text(const MeshSummary& s) {
   appendf(out, "attributes  %zu\n", s.attributes.size());
   for (size_t k = 0; k < s.attributes.size(); ++k) {
     const AttributeSummary& a = s.attributes[k];
-    appendf(out, "  %-24s %s  %g .. %g%s%s\n", a.info.name.c_str(), a.info.components == 1 ? "scalar" : (std::to_string(a.info.components) + "-vector").c_str(),
+    appendf(out, "  %-24s %s  %g .. %g%s%s\n", a.info.name.c_str(), attribute_kind_text(a.info).c_str(),
         a.min, a.max, a.info.components == 1 ? "" : " (magnitude)", k < s.header.point_attribute_count() ? "" : "  (cell data, volume-weighted at the vertices)");
   }
   appendf(out, "degenerate  %llu tets of zero volume\n", static_cast<unsigned long long>(s.stats.degenerate));

@@ -6,6 +6,7 @@
 
 #include "cell_split.h"
 #include "format_reader.h"
+#include "tensor_stream.h"
 
 namespace tetrascope::storage {
 
@@ -109,6 +110,8 @@ MeshStream::MeshStream(std::unique_ptr<detail::FormatReader> reader)
     header_.attributes.push_back(std::move(info));
   }
   attribute_scratch_.resize(header_.attributes.size());
+  tensors_ = std::make_unique<detail::TensorExpansion>();
+  public_header_ = tensors_->plan(header_, stats_);
 }
 
 MeshStream::~MeshStream() = default;
@@ -141,12 +144,14 @@ bool MeshStream::next_vertices(VertexChunk& chunk, size_t max_vertices) {
     soa_scratch_[count + i] = xyz_[base + 3 * i + 1];
     soa_scratch_[2 * count + i] = xyz_[base + 3 * i + 2];
   }
+  if (tensors_->active()) tensors_->expand(count, chunk.attributes);
   chunk.first = vertices_read_;
   chunk.count = count;
   chunk.x = std::span<const float>(soa_scratch_).subspan(0, count);
   chunk.y = std::span<const float>(soa_scratch_).subspan(count, count);
   chunk.z = std::span<const float>(soa_scratch_).subspan(2 * count, count);
   vertices_read_ += count;
+  if (vertices_read_ == header_.vertex_count && tensors_->active()) tensors_->finish(public_header_, stats_);
   return true;
 }
 
@@ -414,6 +419,7 @@ TetMesh load_stream(MeshStream& stream) {
       mesh.attributes[a].values.insert(mesh.attributes[a].values.end(), chunk.attributes[a].begin(), chunk.attributes[a].end());
     }
   }
+  for (size_t a = 0; a < mesh.attributes.size(); ++a) mesh.attributes[a].info = header.attributes[a];  // tensors' flags, known now
   std::span<const float> xyz = stream.xyz();
   const size_t n = xyz.size() / 3;
   mesh.x.resize(n);

@@ -1,6 +1,7 @@
 #include "tetrascope/storage/store.h"
 
 #include "tetrascope/storage/segment_codec.h"
+#include "tetrascope/storage/tensor.h"
 
 #include <fcntl.h>
 #include <libdeflate.h>
@@ -104,6 +105,7 @@ std::string parse_manifest(const std::string& text, const std::filesystem::path&
     m.segment_count = j.at("counts").at("segments").get<uint32_t>();
     for (const auto& a : j.at("attributes")) {
       m.attributes.push_back({a.at("name").get<std::string>(), a.at("components").get<uint32_t>(), a.at("min").get<double>(), a.at("max").get<double>()});
+      read_attribute_kind_json(a, m.attributes.back().kind, m.attributes.back().positive_semidefinite, m.attributes.back().derived_from);
     }
     for (int k = 0; k < 3; ++k) {
       m.bounds.min[k] = j.at("bounds").at("min").at(k).get<double>();

@@ -29,6 +29,13 @@ struct PointArray {
   ArrayLocation location;
 };
 
+// `count` tuples of an array. A NaN or infinite value is counted, except in a tensor: there it
+// fails, naming the line (ASCII) or byte (BINARY), since no eigen-analysis can use it.
+uint64_t read_array(ValueStream& values, float* out, size_t count, const AttributeInfo& info) {
+  if (info.kind == AttributeKind::kTensor) return values.read_float(out, count * info.components, true, "tensor '" + info.name + "' value");
+  return values.read_float(out, count * info.components, false, info.name);
+}
+
 class VtkLegacyReader final : public FormatReader {
  public:
   explicit VtkLegacyReader(std::shared_ptr<InputFile> file) : file_(std::move(file)), cursor_(file_) {}
@@ -173,14 +180,14 @@ void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, R
     cursor_.fail("CELL_DATA has " + std::to_string(tuples) + " values but CELLS has " + std::to_string(cell_count_));
   }
   std::vector<PointArray>& arrays = point_data ? point_arrays_ : cell_arrays_;
-  auto add = [&](std::string name, uint32_t components, const ArrayLocation& location) {
+  auto add = [&](std::string name, uint32_t components, const ArrayLocation& location, AttributeKind kind = AttributeKind::kValue) {
     for (const PointArray& a : arrays) {
       if (a.info.name == name) {
         stats.warnings.push_back(std::string("duplicate ") + (point_data ? "point" : "cell") + " array '" + name + "' ignored");
         return;
       }
     }
-    arrays.push_back({{std::move(name), components}, location});
+    arrays.push_back({{std::move(name), components, kind}, location});
   };
   for (;;) {
     cursor_.skip_whitespace();
@@ -229,9 +236,10 @@ void VtkLegacyReader::read_attribute_section(bool point_data, uint64_t tuples, R
     } else if (keyword == "TENSORS" || keyword == "TENSORS6") {
       std::string name(cursor_.expect_token("tensor name"));
       std::string type(cursor_.expect_token("tensor data type"));
+      // TENSORS: row-major 3x3; TENSORS6: xx yy zz xy yz xz. Both become symmetric tensors.
       uint32_t components = keyword == "TENSORS" ? 9 : 6;
       ArrayLocation loc = skip_array(tuples * components, type, keyword + " '" + name + "'");
-      if (upper(type) != "BIT") add(name, components, loc);
+      if (upper(type) != "BIT") add(name, components, loc, AttributeKind::kTensor);
     } else if (keyword == "TEXTURE_COORDINATES") {
       std::string name(cursor_.expect_token("texture coordinate name"));
       uint32_t dim = cursor_.parse_int<uint32_t>("texture coordinate dimension");
@@ -341,8 +349,7 @@ void VtkLegacyReader::read_vertices(size_t count, float* xyz, std::span<float* c
   }
   point_values_->read_float(xyz, count * 3, /*finite_only=*/true, "point coordinate");
   for (size_t a = 0; a < point_arrays_.size(); ++a) {
-    stats.nonfinite_attribute_values += attribute_values_[a]->read_float(
-        attributes[a], count * point_arrays_[a].info.components, false, point_arrays_[a].info.name);
+    stats.nonfinite_attribute_values += read_array(*attribute_values_[a], attributes[a], count, point_arrays_[a].info);
   }
 }
 
@@ -427,7 +434,7 @@ void VtkLegacyReader::read_cell_values(size_t count, std::span<float* const> val
   if (cell_values_.empty())
     for (const PointArray& a : cell_arrays_) cell_values_.push_back(stream_at(a.location));
   for (size_t a = 0; a < cell_arrays_.size(); ++a) {
-    stats.nonfinite_attribute_values += cell_values_[a]->read_float(values[a], count * cell_arrays_[a].info.components, false, cell_arrays_[a].info.name);
+    stats.nonfinite_attribute_values += read_array(*cell_values_[a], values[a], count, cell_arrays_[a].info);
   }
 }
 

@@ -30,12 +30,20 @@ struct DataArray {
   std::string name;
   ScalarType type = ScalarType::kFloat32;
   uint32_t components = 1;
+  bool tensor = false;  // 9 components (row-major 3x3) or 6 (xx yy zz xy yz xz)
   enum class Format { kAscii, kBinary, kAppended } format = Format::kAscii;
   uint64_t content_offset = 0, content_line = 0;  // inline content
   uint64_t appended_offset = 0;
   uint64_t ascii_tokens = 0;
   uint64_t line = 0;
 };
+
+// `count` tuples of an array. A NaN or infinite value is counted, except in a tensor: there it
+// fails, naming the array and where its values are, since no eigen-analysis can use it.
+uint64_t read_array(ValueStream& values, float* out, size_t count, const DataArray& a) {
+  if (a.tensor) return values.read_float(out, count * a.components, true, "tensor '" + a.name + "' value");
+  return values.read_float(out, count * a.components, false, a.name);
+}
 
 std::string decode_entities(std::string_view v) {
   std::string out;
@@ -88,7 +96,8 @@ class VtuReader final : public FormatReader {
   [[noreturn]] void fail_line(uint64_t line, const std::string& what) const {
     throw MeshError(file_->name() + ": line " + std::to_string(line) + ": " + what);
   }
-  DataArray parse_array(const Tag& tag);
+  // `tensors_name`: the array the enclosing PointData/CellData names as its Tensors, if any.
+  DataArray parse_array(const Tag& tag, const std::string& tensors_name);
   // Opens the values of `array`, which must hold exactly `values` numbers.
   std::unique_ptr<ValueStream> open_values(const DataArray& array, uint64_t values) const;
   // Number of values an integer array holds, from its encoding header or token count.
@@ -185,7 +194,7 @@ bool VtuReader::next_tag(Tag& tag) {
   }
 }
 
-DataArray VtuReader::parse_array(const Tag& tag) {
+DataArray VtuReader::parse_array(const Tag& tag, const std::string& tensors_name) {
   DataArray a;
   a.line = tag.line;
   if (const std::string* name = tag.find("Name")) a.name = *name;
@@ -199,6 +208,10 @@ DataArray VtuReader::parse_array(const Tag& tag) {
     if (!parse_number(*nc, n) || n == 0 || n > 64) fail_line(tag.line, "DataArray '" + a.name + "': NumberOfComponents must be 1 to 64, got " + quote_text(*nc));
     a.components = static_cast<uint32_t>(n);
   }
+  // ParaView's convention: 9 components are a tensor, 6 a symmetric one in VTK's order
+  if (!tensors_name.empty() && a.name == tensors_name && a.components != 9 && a.components != 6)
+    fail_line(tag.line, "DataArray '" + a.name + "' is the Tensors array but has " + std::to_string(a.components) + " components, expected 9 (3x3) or 6 (xx yy zz xy yz xz)");
+  a.tensor = a.components == 9 || a.components == 6;
   std::string format = tag.find("format") ? *tag.find("format") : "ascii";
   if (format == "ascii") {
     a.format = DataArray::Format::kAscii;
@@ -225,6 +238,7 @@ MeshHeader VtuReader::index(ReadStats& stats) {
   Tag tag;
   enum class Section { kNone, kPoints, kCells, kPointData, kCellData, kOther } section = Section::kNone;
   bool have_piece = false, have_root = false;
+  std::string tensors_name;  // the enclosing PointData/CellData's Tensors="..."
   while (next_tag(tag)) {
     if (tag.name == "VTKFile" && !tag.closing) {
       have_root = true;
@@ -270,15 +284,15 @@ MeshHeader VtuReader::index(ReadStats& stats) {
       section = tag.closing ? Section::kNone : Section::kPoints;
     } else if (tag.name == "Cells") {
       section = tag.closing ? Section::kNone : Section::kCells;
-    } else if (tag.name == "PointData") {
-      section = tag.closing || tag.self_closing ? Section::kNone : Section::kPointData;
-    } else if (tag.name == "CellData") {
-      section = tag.closing || tag.self_closing ? Section::kNone : Section::kCellData;
+    } else if (tag.name == "PointData" || tag.name == "CellData") {
+      const Section data = tag.name == "PointData" ? Section::kPointData : Section::kCellData;
+      section = tag.closing || tag.self_closing ? Section::kNone : data;
+      tensors_name = !tag.closing && tag.find("Tensors") ? *tag.find("Tensors") : std::string();
     } else if (tag.name == "FieldData") {
       section = tag.closing || tag.self_closing ? Section::kNone : Section::kOther;
     } else if (tag.name == "DataArray" && !tag.closing) {
       if (!have_piece) fail_line(tag.line, "DataArray outside a Piece");
-      DataArray a = parse_array(tag);
+      DataArray a = parse_array(tag, section == Section::kPointData || section == Section::kCellData ? tensors_name : std::string());
       switch (section) {
         case Section::kPoints:
           if (a.components != 3) fail_line(tag.line, "Points must have 3 components, got " + std::to_string(a.components));
@@ -322,10 +336,10 @@ MeshHeader VtuReader::index(ReadStats& stats) {
   for (const DataArray* a : {&*points_, &*connectivity_, &*offsets_, &*types_}) {
     if (a->format == DataArray::Format::kAppended && !appended_offset_) fail_line(a->line, "DataArray '" + a->name + "' is appended but the file has no AppendedData");
   }
-  for (const DataArray& a : point_arrays_) header_.attributes.push_back({a.name, a.components});
+  for (const DataArray& a : point_arrays_) header_.attributes.push_back({a.name, a.components, a.tensor ? AttributeKind::kTensor : AttributeKind::kValue});
   for (const DataArray& a : cell_arrays_) {
     if (a.format == DataArray::Format::kAppended && !appended_offset_) fail_line(a.line, "DataArray '" + a.name + "' is appended but the file has no AppendedData");
-    header_.cell_attributes.push_back({a.name, a.components});
+    header_.cell_attributes.push_back({a.name, a.components, a.tensor ? AttributeKind::kTensor : AttributeKind::kValue});
   }
   if (compressed_) check_inflated_size();
   return header_;
@@ -433,8 +447,7 @@ void VtuReader::read_vertices(size_t count, float* xyz, std::span<float* const> 
   }
   point_values_->read_float(xyz, count * 3, true, "point coordinate");
   for (size_t a = 0; a < point_arrays_.size(); ++a) {
-    stats.nonfinite_attribute_values +=
-        attribute_values_[a]->read_float(attributes[a], count * point_arrays_[a].components, false, point_arrays_[a].name);
+    stats.nonfinite_attribute_values += read_array(*attribute_values_[a], attributes[a], count, point_arrays_[a]);
   }
 }
 
@@ -492,7 +505,7 @@ void VtuReader::read_cell_values(size_t count, std::span<float* const> values, R
   if (cell_values_.empty())
     for (const DataArray& a : cell_arrays_) cell_values_.push_back(open_values(a, header_.cell_count * a.components));
   for (size_t a = 0; a < cell_arrays_.size(); ++a) {
-    stats.nonfinite_attribute_values += cell_values_[a]->read_float(values[a], count * cell_arrays_[a].components, false, cell_arrays_[a].name);
+    stats.nonfinite_attribute_values += read_array(*cell_values_[a], values[a], count, cell_arrays_[a]);
   }
 }
 

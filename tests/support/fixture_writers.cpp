@@ -142,6 +142,13 @@ void write_vtk_legacy(const std::filesystem::path& path, const CellMesh& m, cons
     for (const auto& a : arrays) {
       if (o.field) out += a.info.name + " " + std::to_string(a.info.components) + " " + std::to_string(tuples) + " " + real + "\n";
       else if (a.info.components == 3) out += "VECTORS " + a.info.name + " " + real + "\n";
+      else if (a.info.kind == storage::AttributeKind::kTensor) {
+        out += a.info.components == 9 ? "TENSORS " : "TENSORS6 ";
+        out += a.info.name;
+        out += " ";
+        out += real;
+        out += "\n";
+      }
       else out += "SCALARS " + a.info.name + " " + real + " " + std::to_string(a.info.components) + "\nLOOKUP_TABLE default\n";
       values(std::vector<double>(a.values.begin(), a.values.end()));
     }

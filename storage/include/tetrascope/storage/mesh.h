@@ -8,10 +8,25 @@
 
 namespace tetrascope::storage {
 
+// What an attribute holds beyond its component count (see tensor.h and docs/formats.md).
+enum class AttributeKind : uint8_t {
+  kValue,           // a scalar (1 component) or a vector or plain array (more)
+  // A tensor. From a reader: 9 components (row-major 3x3) or 6 (symmetric, in VTK's order xx yy
+  // zz xy yz xz). From MeshStream and in stores: always the 6 symmetric components, the 3x3
+  // symmetrised as (A + A^T) / 2.
+  kTensor,
+  kTensorDerived,   // a scalar computed from the tensor `derived_from` (eigenvalue, von Mises, ...)
+};
+
 // One per-vertex field. Scalars have 1 component, vectors 3.
 struct AttributeInfo {
   std::string name;
   uint32_t components = 1;
+  AttributeKind kind = AttributeKind::kValue;
+  // kTensor: every finite tensor of the attribute has eigenvalues >= 0 (a diffusion tensor;
+  // stress tensors are indefinite). Known once every vertex was read.
+  bool positive_semidefinite = false;
+  std::string derived_from{};  // kTensorDerived: the tensor attribute's name
 };
 
 struct Attribute {

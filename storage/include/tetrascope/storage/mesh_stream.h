@@ -74,6 +74,7 @@ struct ReadLimits {
 
 namespace detail {
 class FormatReader;
+class TensorExpansion;
 }
 
 class MeshStream {
@@ -92,7 +93,9 @@ class MeshStream {
   MeshStream(const MeshStream&) = delete;
   MeshStream& operator=(const MeshStream&) = delete;
 
-  const MeshHeader& header() const { return header_; }
+  // Tensor attributes appear as 6 symmetric components followed by their derived scalars
+  // (tensor.h); their positive_semidefinite flags are set once the last vertex was read.
+  const MeshHeader& header() const { return public_header_; }
 
   // Next run of at most `max_vertices` vertices; false when all were delivered.
   bool next_vertices(VertexChunk& chunk, size_t max_vertices = kDefaultChunk);
@@ -118,7 +121,9 @@ class MeshStream {
   static constexpr size_t kParallelOrientTets = 16384;
 
   std::unique_ptr<detail::FormatReader> reader_;
-  MeshHeader header_;
+  MeshHeader header_;         // as the reader gives it (tensors of 9 or 6 components)
+  MeshHeader public_header_;  // as delivered
+  std::unique_ptr<detail::TensorExpansion> tensors_;
   ReadStats stats_;
   std::vector<float> xyz_;
   uint64_t vertices_read_ = 0;

@@ -39,6 +39,10 @@ struct StoreAttribute {
   std::string name;
   uint32_t components = 1;
   double min = 0, max = 0;  // of the value (scalars) or the magnitude (vectors), original units
+  // As in AttributeInfo: a symmetric tensor (6 components) or a scalar derived from one.
+  AttributeKind kind = AttributeKind::kValue;
+  bool positive_semidefinite = false;
+  std::string derived_from{};
 };
 
 struct StoreManifest {
