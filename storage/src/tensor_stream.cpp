@@ -34,9 +34,16 @@ MeshHeader TensorExpansion::plan(const MeshHeader& raw, ReadStats& stats) {
     out.attributes.push_back(tensor);
     if (cell) out.cell_attributes.push_back({cell->name, 6, AttributeKind::kTensor});
     const auto derived = derived_attribute_infos(info.name);
-    bool clash = false;
-    for (const AttributeInfo& d : derived) clash |= std::find(taken.begin(), taken.end(), d.name) != taken.end();
-    if (clash) {
+    size_t clashes = 0, carried = 0;
+    for (const AttributeInfo& d : derived) {
+      clashes += std::find(taken.begin(), taken.end(), d.name) != taken.end();
+      for (const AttributeInfo& r : raw.attributes) carried += r.name == d.name && r.components == 1 && r.kind == AttributeKind::kValue;
+    }
+    if (carried == kTensorQuantityCount) {  // a file tetrascope wrote (simplify, cut): its derived scalars are taken as they are
+      carried_.push_back(info.name);
+      continue;
+    }
+    if (clashes > 0) {
       stats.warnings.push_back("tensor '" + info.name + "': its derived scalars are not added (an attribute has one of their names, '" + info.name + ".*')");
       continue;
     }
@@ -47,6 +54,15 @@ MeshHeader TensorExpansion::plan(const MeshHeader& raw, ReadStats& stats) {
       out.attributes.push_back(derived[k]);
       taken.push_back(derived[k].name);
       if (cell) out.cell_attributes.push_back(cell_derived[k]);
+    }
+  }
+  for (const std::string& tensor : carried_) {
+    for (const AttributeInfo& d : derived_attribute_infos(tensor)) {
+      for (AttributeInfo& a : out.attributes) {
+        if (a.name != d.name) continue;
+        a.kind = AttributeKind::kTensorDerived;
+        a.derived_from = tensor;
+      }
     }
   }
   return out;

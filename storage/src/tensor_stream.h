@@ -47,7 +47,7 @@ class TensorExpansion {
   uint64_t vertices_done_ = 0;
   std::vector<Output> outputs_;
   std::vector<TensorState> tensors_;
-  std::vector<std::string> names_;
+  std::vector<std::string> carried_;  // tensors whose file has all nine derived scalars already
 };
 
 }  // namespace tetrascope::storage::detail

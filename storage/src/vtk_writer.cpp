@@ -96,6 +96,8 @@ void write_vtk(const std::filesystem::path& path, const TetMesh& mesh, const std
           out.text("SCALARS " + safe_name(a.info.name) + " float 1\nLOOKUP_TABLE default\n");
         } else if (a.info.components == 3) {
           out.text("VECTORS " + safe_name(a.info.name) + " float\n");
+        } else if (a.info.kind == AttributeKind::kTensor && a.info.components == 6) {
+          out.text("TENSORS6 " + safe_name(a.info.name) + " float\n");  // read back as a tensor
         } else {
           other.push_back(&a);
           continue;

@@ -32,6 +32,25 @@ void write_cell_data_seeds(const std::filesystem::path& out, const CellMesh& m) 
              "#neighbour\n" + head + "labelList;\n    object neighbour;\n}\n0\n(\n)\n" +
              "#p\n" + head + "volScalarField;\n    object p;\n}\ndimensions [0 2 -2 0 0 0 0];\ninternalField nonuniform List<scalar> 1(2.5);\nboundaryField\n{\n}\n");
 }
+
+// Tensors: a 3x3 (VTK TENSORS, VTU and Gmsh 9 components) and a symmetric one (VTK TENSORS6,
+// VTU 6 components), as point data.
+void write_tensor_seeds(const std::filesystem::path& out, const CellMesh& m) {
+  CellMesh tensors = m;
+  tetrascope::storage::Attribute full{{"stress", 9, tetrascope::storage::AttributeKind::kTensor}, {}};
+  tetrascope::storage::Attribute symmetric{{"diffusion", 6, tetrascope::storage::AttributeKind::kTensor}, {}};
+  for (size_t i = 0; i < m.x.size(); ++i) {
+    const float f = static_cast<float>(i);
+    full.values.insert(full.values.end(), {f, 1, 0, 1.5f, -f, 2, 0, 2, 3});
+    symmetric.values.insert(symmetric.values.end(), {2, 1, 0.5f + f, 0.25f, 0, 0});
+  }
+  tensors.attributes = {full, symmetric};
+  write_vtk_legacy(out / "vtk/tensors.vtk", tensors, {.binary = true});
+  write_vtk_legacy(out / "vtk/tensors_ascii.vtk", tensors, {.binary = false});
+  write_vtu(out / "vtu/tensors.vtu", tensors, {.encoding = VtuEncoding::kAppendedRaw});
+  tensors.attributes = {full};
+  write_gmsh(out / "msh/tensors22.msh", tensors, {.version4 = false, .binary = false});
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -76,6 +95,7 @@ int main(int argc, char** argv) {
   write_gmsh(out / "msh/a41.msh", m, {.version4 = true, .binary = false});
   write_gmsh(out / "msh/b41.msh", m, {.version4 = true, .binary = true});
   write_cell_data_seeds(out, m);
+  write_tensor_seeds(out, m);
   write_off(out / "off/a.off", tets);
   write_tetgen(out / "tetgen/t", tets);
   write_file(out / "tetgen/pair", read_file(out / "tetgen/t.node") + "#ele\n" + read_file(out / "tetgen/t.ele"));

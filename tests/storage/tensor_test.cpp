@@ -12,6 +12,7 @@
 #include "test_paths.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/tensor.h"
+#include "tetrascope/storage/vtk_writer.h"
 
 namespace tetrascope::testing {
 namespace {
@@ -339,6 +340,32 @@ TEST(TensorRefresh, ClampsOnlyPositiveSemidefiniteAttributesAndRecomputesDerived
   EXPECT_EQ(mesh.find_attribute("stress")->values[2], -0.5f) << "an indefinite attribute is left as it is";
   EXPECT_EQ(mesh.find_attribute("stress.lambda3")->values[1], -0.5f);
   EXPECT_NEAR(mesh.find_attribute("stress.von_mises")->values[0], quantity({2, 1, -0.5, 0, 0, 0}, TensorQuantity::kVonMises), 1e-6);
+}
+
+}  // namespace
+}  // namespace tetrascope::testing
+
+namespace tetrascope::testing {
+namespace {
+
+TEST(TensorWriter, AMeshWrittenAsVtkReadsBackWithItsTensorsAndDerivedScalarsAndNoWarning) {
+  const auto dir = scratch_dir("tensor_writer");
+  write_vtk_legacy(dir / "in.vtk", tensor_cube(6), {.binary = false});
+  const storage::TetMesh mesh = storage::load_mesh(dir / "in.vtk");
+  storage::write_vtk(dir / "out.vtk", mesh);
+  storage::ReadStats stats;
+  const storage::TetMesh again = storage::load_mesh(dir / "out.vtk", &stats);
+  ASSERT_EQ(again.attributes.size(), mesh.attributes.size());
+  for (size_t a = 0; a < mesh.attributes.size(); ++a) {
+    const storage::AttributeInfo& before = mesh.attributes[a].info;
+    const storage::Attribute* after = again.find_attribute(before.name);
+    ASSERT_TRUE(after) << before.name;
+    EXPECT_EQ(after->info.kind, before.kind) << before.name;
+    EXPECT_EQ(after->info.derived_from, before.derived_from) << before.name;
+    EXPECT_EQ(after->info.positive_semidefinite, before.positive_semidefinite) << before.name;
+    EXPECT_EQ(after->values, mesh.attributes[a].values) << before.name;
+  }
+  EXPECT_TRUE(stats.warnings.empty()) << ::testing::PrintToString(stats.warnings);
 }
 
 }  // namespace
