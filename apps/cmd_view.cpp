@@ -26,6 +26,7 @@
 #include "tetrascope/storage/mesh.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store.h"
+#include "tetrascope/storage/tensor.h"
 #include "tetrascope/storage/vtk_writer.h"
 
 namespace tetrascope::apps {
@@ -274,7 +275,7 @@ double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const 
 
 // `tetrascope cut` on the store's vertex hierarchy: the front for the view under the budget.
 int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, const view::TransferFunction& tf, std::span<const double> isovalues,
-                    const lod::CutCriteria& view, const protocol::ClipSpec& clip, uint64_t budget) {
+                    const lod::CutCriteria& view, const protocol::ClipSpec& clip, uint64_t budget, const storage::StoreManifest& manifest) {
   lod::FrontCriteria criteria = lod::front_criteria(vertices, tf, isovalues);
   criteria.camera = view.camera;
   criteria.clip = view.clip;
@@ -283,6 +284,10 @@ int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, cons
   const lod::FrontChanges changes = front.update(criteria, budget);
   const double update_ms = ms_since(start);
   storage::TetMesh mesh = front.mesh();
+  for (storage::Attribute& a : mesh.attributes)  // tensors and their derived scalars, as the manifest keeps them
+    for (const storage::StoreAttribute& m : manifest.attributes)
+      if (m.name == a.info.name) a.info = {m.name, m.components, m.kind, m.positive_semidefinite, m.derived_from};
+  storage::refresh_tensor_attributes(mesh);  // the front's collapsed vertices: PSD kept, derived scalars from their tensors
   if (!clip.empty()) mesh = r::clip_mesh(mesh, clip);
   storage::write_vtk(args.get("--output"), mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.tet_count()}, {"vertices", mesh.vertex_count()}, {"budget", budget}, {"by", "vertices"}, {"splits", changes.splits},
@@ -323,7 +328,7 @@ int run_cut(const Arguments& all) {
   }
   criteria.clip = clip.half_spaces();
   const auto vertices = args.get("--lod", "vertices") == "vertices" ? lod::open_vertex_hierarchy(store.path()) : nullptr;
-  if (vertices) return write_front_cut(args, *vertices, tf, isovalues, criteria, clip, budget);
+  if (vertices) return write_front_cut(args, *vertices, tf, isovalues, criteria, clip, budget, store.manifest());
   lod::Cut cut(*opened.dag);
   const std::unique_ptr<lod::Variants> variants = lod::Variants::open(store, *opened.dag);  // as render shows the cut
   cut.attach_variants(variants.get());

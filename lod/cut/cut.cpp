@@ -583,7 +583,7 @@ CutMesh assemble_cut(const storage::Store& store, storage::SegmentCache& cache, 
   choose_patches(cut, clip, out);
   const std::vector<uint32_t>& shown_variants = out.variant_segments;  // their patches left out
   const auto& attributes = store.manifest().attributes;
-  for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components}, {}});
+  for (const auto& a : attributes) out.mesh.attributes.push_back({{a.name, a.components, a.kind, a.positive_semidefinite, a.derived_from}, {}});
   std::unordered_map<uint32_t, uint32_t> vertex_of;
   // A vertex appended: its position, global id and every attribute's components, value(offset,
   // components, q) giving component q of the attribute `offset` floats into a vertex's.

@@ -83,6 +83,16 @@ TEST(TensorCli, InfoListsTheTensorAndItsDerivedScalarsForTheFileAndTheStore) {
   expect_tensor_attributes(nlohmann::json::parse(info.out)["attributes"], "store");
   CliResult store_text = run_cli("info " + store);
   EXPECT_NE(store_text.out.find("tensor (xx yy zz xy yz xz)"), std::string::npos) << store_text.out;
+
+  // a cut written as VTK reads back with its tensor and derived scalars, without warnings
+  const std::string cut = (dir / "cut.vtk").string();
+  ASSERT_EQ(run_cli("cut " + store + " --budget 3000 -o " + cut).status, 0);
+  CliResult cut_info = run_cli("info --json " + cut);
+  ASSERT_EQ(cut_info.status, 0) << cut_info.out;
+  const auto j = nlohmann::json::parse(cut_info.out);
+  EXPECT_EQ((*find(j["attributes"], "stress"))["kind"], "tensor");
+  EXPECT_EQ((*find(j["attributes"], "stress.von_mises"))["kind"], "derived");
+  EXPECT_TRUE(j["warnings"].empty()) << j["warnings"].dump();
 }
 
 TEST(TensorCli, ADerivedScalarRendersFromTheMeshAndTheStore) {
