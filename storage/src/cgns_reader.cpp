@@ -1,5 +1,5 @@
-// CGNS meshes (.cgns, .adf) through the CGNS mid-level library (HDF5 and ADF files), built as
-// a module of its own (libtetrascope_cgns.so) that tetrascope loads on the first CGNS file, so
+// CGNS meshes (.cgns, .adf; HDF5 and ADF files) through the CGNS library's node layer (cgio),
+// built as a module of its own (libtetrascope_cgns.so) that tetrascope loads on the first CGNS file, so
 // that no other process maps the CGNS and HDF5 libraries:
 // the unstructured zones of the first base, joined in file order (vertex ids offset by the
 // zones before; points shared by two zones stay two vertices), element sections of tets,
@@ -7,9 +7,12 @@
 // surface, line and point sections counted and skipped; a FlowSolution at Vertex as point data
 // and one at CellCenter as cell data (the last of each location, or the one the zone's
 // ZoneIterativeData names for the last step), fields NAMEX NAMEY NAMEZ joined into a vector
-// NAME as ParaView does. Coordinates, connectivity and values are read in chunks (the
-// library's partial reads), so memory follows the chunk, not the file. The CGNS library keeps
-// global state and is not thread-safe: every call into it holds one process-wide lock.
+// NAME as ParaView does. Coordinates, connectivity and values are read in chunks (partial
+// reads of the arrays), so memory follows the chunk, not the file. The node layer rather than
+// the mid-level library: the mid-level library of Debian 12 (CGNS 3.4) refuses every file
+// written by CGNS 4 (ParaView's writer, current solvers) although the layout it reads is the
+// same, and its partial read of MIXED sections trusts stored offsets. The library keeps global
+// state and is not thread-safe: every call into it holds one process-wide lock.
 // SIDS (the CGNS Standard Interface Data Structures), sections 6 (zones), 7 (elements), 11
 // (flow solutions) and 12.5 (ZoneIterativeData).
 #include <cgns_io.h>
@@ -30,7 +33,6 @@ namespace {
 
 // What one file may declare, whatever its size: as many zones, sections, solutions and fields
 // as any real file has, bounded so that a hostile header costs no memory.
-constexpr int kMaxZones = 100000;
 constexpr int kMaxSections = 100000;
 constexpr int kMaxFields = 10000;
 constexpr cgsize_t kMaxTimeSteps = 1000000;
@@ -44,14 +46,6 @@ std::mutex& library_lock() {
 uint64_t inflate_limit(const ReadLimits& limits, uint64_t file_bytes) {
   const double allowed = static_cast<double>(ReadLimits::kInflateAllowanceBytes) + limits.max_inflate_ratio * static_cast<double>(file_bytes);
   return allowed >= 1.8e19 ? UINT64_MAX : static_cast<uint64_t>(allowed);
-}
-
-// The library reports errors through cg_get_error; its warnings would otherwise go to stderr.
-void quiet_handler(int, char*) {}
-
-std::string library_error() {
-  const char* e = cg_get_error();
-  return e && *e ? std::string(" (") + e + ")" : std::string();
 }
 
 // The VTK type and corner count of a CGNS element type, by its name; corners 0 for an element
@@ -101,7 +95,7 @@ std::vector<Variable> join_components(const std::vector<std::string>& names) {
   return out;
 }
 
-// The file's first bytes: an HDF5 file (signature at 0, 512, 1024, ...) or an ADF one.
+// The file's first bytes: an HDF5 file (signature at 0) or an ADF one.
 bool looks_like_cgns(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   char head[32] = {};
@@ -110,38 +104,57 @@ bool looks_like_cgns(const std::filesystem::path& path) {
   return std::memcmp(head + 4, "ADF Database Version", 20) == 0;  // after "@(#)", high bits set
 }
 
+// A DataArray_t of the file: its node, type ("I4", "I8", "R4", "R8") and length.
+struct Array {
+  double node = 0;
+  std::string type;
+  int64_t length = 0;
+};
+
 struct Section {
-  int index = 0;  // 1-based CGNS section
   std::string name;
   CGNS_ENUMT(ElementType_t) type = CGNS_ENUMV(ElementTypeNull);
-  cgsize_t start = 0, count = 0;
+  int64_t start = 0, count = 0;
   int vtk_type = 0, corners = 0, nodes = 0;  // nodes: per element, 0 for MIXED
-  double connectivity_node = 0;               // MIXED: its ElementConnectivity node (cgio)
-  bool wide = false;                          // MIXED: 64-bit values
-  int64_t values = 0;                         // MIXED: their count
+  Array connectivity;
+};
+
+struct Field {
+  std::string name;
+  Array values;
 };
 
 struct Solution {
-  int index = 0;  // 1-based CGNS FlowSolution; 0: none
-  std::vector<std::string> fields;
+  std::string name;  // "": none
+  std::vector<Field> fields;
+  const Array* find(const std::string& field) const {
+    for (const Field& f : fields)
+      if (f.name == field) return &f.values;
+    return nullptr;
+  }
 };
 
 struct Zone {
-  int index = 0;
   std::string name;
-  cgsize_t vertices = 0, cells = 0;
+  int64_t vertices = 0, cells = 0;
   uint64_t first_vertex = 0;
+  Array coordinates[3];
   std::vector<Section> sections;
   Solution vertex_solution, cell_solution;
+};
+
+struct Node {
+  double id = 0;
+  std::string name, label;
 };
 
 class CgnsReader final : public FormatReader {
  public:
   CgnsReader(std::filesystem::path path, const ReadLimits& limits) : path_(std::move(path)), name_(path_.filename().string()), limits_(limits) {}
   ~CgnsReader() override {
-    if (file_ >= 0) {
+    if (cgio_ >= 0) {
       std::lock_guard<std::mutex> hold(library_lock());
-      cg_close(file_);
+      cgio_close_file(cgio_);
     }
   }
   MeshHeader index(ReadStats& stats) override;
@@ -159,126 +172,244 @@ class CgnsReader final : public FormatReader {
 
  private:
   [[noreturn]] void fail(const std::string& what) const { throw MeshError(name_ + ": " + what); }
-  // Runs one library call under the lock; a status other than CG_OK fails naming `what`.
-  template <typename Call>
-  void call(const std::string& what, Call&& c) const {
-    std::lock_guard<std::mutex> hold(library_lock());
-    if (c() != CG_OK) {
-      std::string message = "CGNS: cannot read ";
-      message += what;
-      message += library_error();
-      fail(message);
-    }
-  }
+  // The node layer, each call under the lock; a failure names `what`.
+  std::vector<Node> children(double parent, const std::string& what) const;
+  Array array(const Node& node, const std::string& what) const;
+  std::string text(double node, const std::string& what) const;
+  // `count` values from 0-based `first` of an integer or real array, converted.
+  void read_values(const Array& a, int64_t first, size_t count, const std::string& what, int64_t* ints, double* reals);
+  std::vector<int64_t> small_ints(const Node& node, size_t most, const std::string& what);
+
   void open_file();
-  Zone read_zone(int index, uint64_t& declared_bytes, uint64_t& cells);
-  Section read_section(const Zone& zone, int index, uint64_t& declared_bytes);
-  void find_connectivity(const Zone& zone, Section& s, const std::string& named);
-  void choose_solutions(Zone& zone, ReadStats& stats);
-  std::string pointed_solution(const Zone& zone);
-  std::vector<std::string> field_names(const Zone& zone, int solution);
-  // Reads `count` values of field `field` of `solution` in `zone` from 0-based `first`
-  // into out, or NaN when the zone's solution lacks the field.
-  void read_field(const Zone& zone, const Solution& solution, const std::string& field, cgsize_t first, size_t count, std::vector<double>& out);
-  void read_section_cells(const Zone& zone, const Section& s, cgsize_t n, CellBatch& batch);
-  void read_mixed_cells(const Zone& zone, const Section& s, cgsize_t low, cgsize_t n, CellBatch& batch);
-  void append_element(const Zone& zone, const Section& s, cgsize_t element, int vtk_type, int corners, std::span<const cgsize_t> nodes, CellBatch& batch);
+  Zone read_zone(const Node& node, uint64_t& declared_bytes, uint64_t& cells);
+  Section read_section(const Zone& zone, const Node& node, uint64_t& declared_bytes);
+  void read_solutions(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats);
+  std::string last_step(const std::vector<Node>& iterative, const char* pointers);
+  void read_field(const Zone& zone, const Solution& solution, const std::string& field, int64_t first, size_t count, std::vector<double>& out);
+  void read_section_cells(const Zone& zone, const Section& s, int64_t n, CellBatch& batch);
+  void read_mixed_cells(const Zone& zone, const Section& s, int64_t low, int64_t n, CellBatch& batch);
+  void append_element(const Zone& zone, const Section& s, int64_t element, int vtk_type, int corners, std::span<const int64_t> nodes, CellBatch& batch);
 
   std::filesystem::path path_;
   std::string name_;
   ReadLimits limits_;
-  int file_ = -1;
-  int base_ = 1;
-  std::string base_name_;
-  int cgio_ = 0;  // the file's node-layer handle
+  uint64_t file_bytes_ = 0;
+  int cgio_ = -1;
   MeshHeader header_;
   std::vector<Zone> zones_;
   std::vector<Variable> point_variables_, cell_variables_;
   uint64_t vertex_total_ = 0;
   // vertices
   size_t vertex_zone_ = 0;
-  cgsize_t in_vertex_zone_ = 0;
+  int64_t in_vertex_zone_ = 0;
   // cells
   size_t zone_ = 0, section_ = 0;
-  cgsize_t in_section_ = 0;
-  cgsize_t volume_in_zone_ = 0;  // volume elements of the zone delivered so far
+  int64_t in_section_ = 0;
+  int64_t volume_in_zone_ = 0;  // volume elements of the zone delivered so far
+  int64_t mixed_position_ = 0;  // values of the current MIXED section's connectivity consumed
   struct Run {
     size_t zone;
-    cgsize_t first_volume, volumes;  // 0-based among the zone's volume elements
+    int64_t first_volume, volumes;  // 0-based among the zone's volume elements
   };
   std::vector<Run> runs_;             // the volume elements the last read_cells appended, by zone
   std::vector<uint8_t> volume_cell_;  // per cell the last read_cells appended: 1 for a volume element
-  std::vector<cgsize_t> connectivity_, nodes_wide_;
-  std::vector<int64_t> mixed_;
-  std::vector<int32_t> narrow_;
-  int64_t mixed_position_ = 0;  // values of the current MIXED section's connectivity consumed
+  std::vector<int64_t> connectivity_;
+  std::vector<uint8_t> raw_;
   std::vector<double> scratch_[3];
   std::vector<uint32_t> nodes_scratch_;
 };
 
+std::string cgio_message() {
+  char message[CGIO_MAX_ERROR_LENGTH + 1] = {};
+  cgio_error_message(message);
+  return message[0] ? std::string(" (") + message + ")" : std::string();
+}
+
+std::vector<Node> CgnsReader::children(double parent, const std::string& what) const {
+  std::lock_guard<std::mutex> hold(library_lock());
+  int count = 0;
+  if (cgio_number_children(cgio_, parent, &count) != CGIO_ERR_NONE) fail("CGNS: cannot read " + what + cgio_message());
+  // every node takes bytes of the file: a count past that is damage, not a large file
+  if (count < 0 || static_cast<uint64_t>(count) > file_bytes_ / 8 + 64) fail("CGNS: " + what + " has " + std::to_string(count) + " children");
+  std::vector<double> ids(static_cast<size_t>(count));
+  int got = 0;
+  if (count > 0 && (cgio_children_ids(cgio_, parent, 1, count, &got, ids.data()) != CGIO_ERR_NONE || got != count)) fail("CGNS: cannot read " + what + cgio_message());
+  std::vector<Node> nodes(ids.size());
+  for (size_t i = 0; i < ids.size(); ++i) {
+    char name[CGIO_MAX_NAME_LENGTH + 1] = {}, label[CGIO_MAX_LABEL_LENGTH + 1] = {};
+    if (cgio_get_name(cgio_, ids[i], name) != CGIO_ERR_NONE || cgio_get_label(cgio_, ids[i], label) != CGIO_ERR_NONE) fail("CGNS: cannot read " + what + cgio_message());
+    nodes[i] = {ids[i], std::string(name, strnlen(name, CGIO_MAX_NAME_LENGTH)), std::string(label, strnlen(label, CGIO_MAX_LABEL_LENGTH))};
+  }
+  return nodes;
+}
+
+Array CgnsReader::array(const Node& node, const std::string& what) const {
+  std::lock_guard<std::mutex> hold(library_lock());
+  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
+  int dimensions = 0;
+  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+  if (cgio_get_data_type(cgio_, node.id, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
+    fail("CGNS: cannot read " + what + cgio_message());
+  }
+  Array a{node.id, std::string(type, strnlen(type, CGIO_MAX_DATATYPE_LENGTH)), 0};
+  if (a.type != "I4" && a.type != "I8" && a.type != "R4" && a.type != "R8") fail("CGNS: " + what + " holds " + a.type + " values, not numbers");
+  if (dimensions != 1 || extent[0] < 0) fail("CGNS: " + what + " is an array of " + std::to_string(dimensions) + " dimensions, not a list");
+  a.length = extent[0];
+  return a;
+}
+
+// A short character array (ZoneType_t, GridLocation_t).
+std::string CgnsReader::text(double node, const std::string& what) const {
+  std::lock_guard<std::mutex> hold(library_lock());
+  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
+  int dimensions = 0;
+  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+  if (cgio_get_data_type(cgio_, node, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, node, &dimensions, extent) != CGIO_ERR_NONE) {
+    fail("CGNS: cannot read " + what + cgio_message());
+  }
+  if (std::strcmp(type, "C1") != 0 || dimensions != 1 || extent[0] < 1 || extent[0] > 64) fail("CGNS: " + what + " is not a short text");
+  char value[65] = {};
+  if (cgio_read_all_data(cgio_, node, value) != CGIO_ERR_NONE) fail("CGNS: cannot read " + what + cgio_message());
+  std::string out(value, strnlen(value, static_cast<size_t>(extent[0])));
+  while (!out.empty() && out.back() == ' ') out.pop_back();
+  return out;
+}
+
+void CgnsReader::read_values(const Array& a, int64_t first, size_t count, const std::string& what, int64_t* ints, double* reals) {
+  if (count == 0) return;
+  if (first < 0 || static_cast<uint64_t>(first) + count > static_cast<uint64_t>(a.length)) fail("CGNS: " + what + " is shorter than its zone declares");
+  const size_t width = a.type == "I4" || a.type == "R4" ? 4 : 8;
+  raw_.resize(count * width);
+  {
+    std::lock_guard<std::mutex> hold(library_lock());
+    const cgsize_t from = static_cast<cgsize_t>(first + 1), to = static_cast<cgsize_t>(first + static_cast<int64_t>(count)), length = static_cast<cgsize_t>(count), one = 1;
+    if (cgio_read_data(cgio_, a.node, &from, &to, &one, 1, &length, &one, &length, &one, raw_.data()) != CGIO_ERR_NONE) fail("CGNS: cannot read " + what + cgio_message());
+  }
+  for (size_t i = 0; i < count; ++i) {
+    const uint8_t* at = raw_.data() + i * width;
+    double real = 0;
+    int64_t integer = 0;
+    if (a.type == "I4") {
+      int32_t v;
+      std::memcpy(&v, at, 4);
+      integer = v, real = v;
+    } else if (a.type == "I8") {
+      std::memcpy(&integer, at, 8);
+      real = static_cast<double>(integer);
+    } else if (a.type == "R4") {
+      float v;
+      std::memcpy(&v, at, 4);
+      real = v;
+      integer = std::isfinite(v) && std::fabs(v) < 9e18f ? static_cast<int64_t>(v) : -1;
+    } else {
+      std::memcpy(&real, at, 8);
+      integer = std::isfinite(real) && std::fabs(real) < 9e18 ? static_cast<int64_t>(real) : -1;
+    }
+    if (ints) ints[i] = integer;
+    if (reals) reals[i] = real;
+  }
+}
+
+std::vector<int64_t> CgnsReader::small_ints(const Node& node, size_t most, const std::string& what) {
+  std::lock_guard<std::mutex> hold(library_lock());
+  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
+  int dimensions = 0;
+  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+  if (cgio_get_data_type(cgio_, node.id, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
+    fail("CGNS: cannot read " + what + cgio_message());
+  }
+  uint64_t values = dimensions > 0 ? 1 : 0;
+  for (int d = 0; d < std::min(dimensions, CGIO_MAX_DIMENSIONS); ++d) values = extent[d] < 0 ? UINT64_MAX : values * static_cast<uint64_t>(std::min<cgsize_t>(extent[d], 1 << 20));
+  const bool wide = std::strcmp(type, "I8") == 0;
+  if ((!wide && std::strcmp(type, "I4") != 0) || values == 0 || values > most) fail("CGNS: " + what + " is not a list of at most " + std::to_string(most) + " integers");
+  std::vector<int64_t> out(values);
+  std::vector<int32_t> narrow(wide ? 0 : values);
+  if (cgio_read_all_data(cgio_, node.id, wide ? static_cast<void*>(out.data()) : static_cast<void*>(narrow.data())) != CGIO_ERR_NONE) {
+    fail("CGNS: cannot read " + what + cgio_message());
+  }
+  if (!wide) std::copy(narrow.begin(), narrow.end(), out.begin());
+  return out;
+}
+
 void CgnsReader::open_file() {
   std::lock_guard<std::mutex> hold(library_lock());
-  cg_configure(CG_CONFIG_ERROR, reinterpret_cast<void*>(&quiet_handler));
-  if (cg_open(path_.c_str(), CG_MODE_READ, &file_) != CG_OK) {
-    file_ = -1;
-    std::string message = "CGNS: the library cannot open the file";
-    message += library_error();
-    fail(message);
+  if (cgio_open_file(path_.c_str(), CGIO_MODE_READ, CGIO_FILE_NONE, &cgio_) != CGIO_ERR_NONE) {
+    cgio_ = -1;
+    fail("CGNS: the file cannot be opened" + cgio_message());
   }
 }
 
 MeshHeader CgnsReader::index(ReadStats& stats) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path_, ec)) fail("not a regular file");
-  const uint64_t file_bytes = std::filesystem::file_size(path_, ec);
+  file_bytes_ = std::filesystem::file_size(path_, ec);
   if (!looks_like_cgns(path_)) fail("not a CGNS file (neither an HDF5 nor an ADF file)");
   open_file();
-  int bases = 0;
-  call("its bases", [&] { return cg_nbases(file_, &bases); });
-  if (bases < 1) fail("CGNS: no base (CGNSBase_t) in the file");
-  char base_name[33] = {};
-  int cell_dim = 0, physical_dim = 0;
-  call("base 1", [&] { return cg_base_read(file_, base_, base_name, &cell_dim, &physical_dim); });
-  if (cell_dim != 3 || physical_dim != 3) {
-    fail("CGNS base '" + std::string(base_name) + "' has cell dimension " + std::to_string(cell_dim) + " in " + std::to_string(physical_dim) +
+  double root = 0;
+  {
+    std::lock_guard<std::mutex> hold(library_lock());
+    if (cgio_get_root_id(cgio_, &root) != CGIO_ERR_NONE) fail("CGNS: no root node" + cgio_message());
+  }
+  std::vector<Node> bases;
+  std::string version = "?";
+  for (const Node& n : children(root, "the file's top level")) {
+    if (n.label == "CGNSBase_t") bases.push_back(n);
+    if (n.label == "CGNSLibraryVersion_t") {
+      std::lock_guard<std::mutex> hold(library_lock());
+      float v = 0;
+      char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
+      int dimensions = 0;
+      cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+      if (cgio_get_data_type(cgio_, n.id, type) == CGIO_ERR_NONE && std::strcmp(type, "R4") == 0 && cgio_get_dimensions(cgio_, n.id, &dimensions, extent) == CGIO_ERR_NONE &&
+          dimensions == 1 && extent[0] == 1 && cgio_read_all_data(cgio_, n.id, &v) == CGIO_ERR_NONE && v > 0 && v < 100) {
+        char shown[16];
+        std::snprintf(shown, sizeof shown, "%.2g", static_cast<double>(v));
+        version = shown;
+      }
+    }
+  }
+  if (bases.empty()) fail("not a CGNS file (no CGNSBase_t node)");
+  const Node& base = bases.front();
+  const std::vector<int64_t> dims = small_ints(base, 2, "base '" + base.name + "'");
+  if (dims.size() != 2 || dims[0] != 3 || dims[1] != 3) {
+    fail("CGNS base '" + base.name + "' has cell dimension " + std::to_string(dims[0]) + " in " + std::to_string(dims.size() > 1 ? dims[1] : 0) +
          " dimensions; tetrascope reads 3D volumes");
   }
-  base_name_ = std::string(base_name, strnlen(base_name, 32));
-  if (bases > 1) stats.warnings.push_back(std::to_string(bases) + " CGNS bases: the first ('" + base_name + "') is read");
-  int zone_count = 0;
-  call("its zones", [&] { return cg_nzones(file_, base_, &zone_count); });
-  if (zone_count < 1) fail("CGNS base '" + std::string(base_name) + "' has no zone");
-  if (zone_count > kMaxZones) fail("CGNS: " + std::to_string(zone_count) + " zones");
+  if (bases.size() > 1) stats.warnings.push_back(std::to_string(bases.size()) + " CGNS bases: the first ('" + base.name + "') is read");
   uint64_t declared = 0, cells = 0;
-  for (int z = 1; z <= zone_count; ++z) {
-    zones_.push_back(read_zone(z, declared, cells));
+  const std::vector<Node> base_children = children(base.id, "base '" + base.name + "'");
+  for (const Node& n : base_children) {
+    if (n.label != "Zone_t") continue;
+    zones_.push_back(read_zone(n, declared, cells));
     zones_.back().first_vertex = vertex_total_;
     vertex_total_ += static_cast<uint64_t>(zones_.back().vertices);
     if (vertex_total_ >= std::numeric_limits<uint32_t>::max()) fail("CGNS: more than 4294967294 vertices");
+    read_solutions(zones_.back(), children(n.id, "zone '" + n.name + "'"), stats);
   }
-  const uint64_t limit = inflate_limit(limits_, file_bytes);
+  if (zones_.empty()) fail("CGNS base '" + base.name + "' has no zone");
+  const uint64_t limit = inflate_limit(limits_, file_bytes_);
   if (declared > limit) {
     fail("CGNS: its zones declare " + std::to_string(declared) + " bytes of coordinates and connectivity, more than " + std::to_string(limit) +
-         " allowed for a file of " + std::to_string(file_bytes) + " bytes (raise --max-inflate-ratio if the file is genuine)");
+         " allowed for a file of " + std::to_string(file_bytes_) + " bytes (raise --max-inflate-ratio if the file is genuine)");
   }
-  for (Zone& zone : zones_) choose_solutions(zone, stats);
   // the variables of the first zone that has a solution of the location name the attributes
+  auto names = [](const Solution& s) {
+    std::vector<std::string> out;
+    for (const Field& f : s.fields) out.push_back(f.name);
+    return out;
+  };
   for (const Zone& zone : zones_)
-    if (zone.vertex_solution.index > 0) {
-      point_variables_ = join_components(zone.vertex_solution.fields);
-      break;
-    }
+    if (point_variables_.empty() && !zone.vertex_solution.name.empty()) point_variables_ = join_components(names(zone.vertex_solution));
   for (const Zone& zone : zones_)
-    if (zone.cell_solution.index > 0) {
-      cell_variables_ = join_components(zone.cell_solution.fields);
-      break;
-    }
-  header_.format = MeshFormat::kCgns;
+    if (cell_variables_.empty() && !zone.cell_solution.name.empty()) cell_variables_ = join_components(names(zone.cell_solution));
   int file_type = 0;
-  call("its file type", [&] { return cg_get_file_type(file_, &file_type); });
-  header_.description = "CGNS ";
-  header_.description += file_type == CG_FILE_HDF5 ? "HDF5" : "ADF";
-  header_.description += ", base '" + std::string(base_name) + "', " + std::to_string(zones_.size()) + " unstructured zone" + (zones_.size() == 1 ? "" : "s");
+  {
+    std::lock_guard<std::mutex> hold(library_lock());
+    cgio_get_file_type(cgio_, &file_type);
+  }
+  header_.format = MeshFormat::kCgns;
+  header_.description = "CGNS " + version + (file_type == CGIO_FILE_HDF5 ? " HDF5" : " ADF") + ", base '" + base.name + "', " + std::to_string(zones_.size()) +
+                        " unstructured zone" + (zones_.size() == 1 ? "" : "s");
   header_.vertex_count = vertex_total_;
   header_.cell_count = cells;
   for (const Variable& v : point_variables_) header_.attributes.push_back({v.name, static_cast<uint32_t>(v.fields.size())});
@@ -287,119 +418,104 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
   return header_;
 }
 
-Zone CgnsReader::read_zone(int index, uint64_t& declared_bytes, uint64_t& cells) {
+Zone CgnsReader::read_zone(const Node& node, uint64_t& declared_bytes, uint64_t& cells) {
   Zone zone;
-  zone.index = index;
-  char name[33] = {};
-  CGNS_ENUMT(ZoneType_t) type = CGNS_ENUMV(ZoneTypeNull);
-  call("zone " + std::to_string(index), [&] { return cg_zone_type(file_, base_, index, &type); });
-  cgsize_t size[9] = {};
-  call("zone " + std::to_string(index), [&] { return cg_zone_read(file_, base_, index, name, size); });
-  zone.name = std::string(name, strnlen(name, 32));
+  zone.name = node.name;
   const std::string label = "zone '" + zone.name + "'";
-  if (type == CGNS_ENUMV(Structured)) fail("CGNS " + label + " is structured; tetrascope reads unstructured zones only");
-  if (type != CGNS_ENUMV(Unstructured)) fail("CGNS " + label + " is of no known type (neither structured nor unstructured)");
-  if (size[0] < 0 || size[1] < 0) fail("CGNS " + label + " declares " + std::to_string(size[0]) + " vertices and " + std::to_string(size[1]) + " cells");
+  const std::vector<Node> parts = children(node.id, label);
+  std::string type;
+  for (const Node& n : parts)
+    if (n.label == "ZoneType_t") type = text(n.id, "the type of " + label);
+  if (type == "Structured") fail("CGNS " + label + " is structured; tetrascope reads unstructured zones only");
+  if (type != "Unstructured") fail("CGNS " + label + " is of no known type ('" + type + "', neither structured nor unstructured)");
+  const std::vector<int64_t> size = small_ints(node, 3, "the size of " + label);
+  if (size.size() != 3 || size[0] < 0 || size[1] < 0) {
+    fail("CGNS " + label + " declares " + std::to_string(size[0]) + " vertices and " + std::to_string(size.size() > 1 ? size[1] : 0) + " cells");
+  }
   zone.vertices = size[0];
   zone.cells = size[1];
   declared_bytes += static_cast<uint64_t>(zone.vertices) * 3 * 4;
-  int coords = 0;
-  call("the coordinates of " + label, [&] { return cg_ncoords(file_, base_, index, &coords); });
+  static const char* const axes[3] = {"CoordinateX", "CoordinateY", "CoordinateZ"};
   int found = 0;
-  for (int c = 1; c <= std::min(coords, 16); ++c) {
-    CGNS_ENUMT(DataType_t) data_type;
-    char coord[33] = {};
-    call("the coordinates of " + label, [&] { return cg_coord_info(file_, base_, index, c, &data_type, coord); });
-    found += !std::strcmp(coord, "CoordinateX") || !std::strcmp(coord, "CoordinateY") || !std::strcmp(coord, "CoordinateZ");
+  for (const Node& n : parts) {
+    if (n.label != "GridCoordinates_t" || n.name != "GridCoordinates") continue;
+    for (const Node& c : children(n.id, "the coordinates of " + label))
+      for (int k = 0; k < 3; ++k)
+        if (c.label == "DataArray_t" && c.name == axes[k]) {
+          zone.coordinates[k] = array(c, c.name + " of " + label);
+          if (zone.coordinates[k].type[0] != 'R') fail("CGNS " + c.name + " of " + label + " holds integers");
+          if (zone.coordinates[k].length != zone.vertices) {
+            fail("CGNS " + c.name + " of " + label + " holds " + std::to_string(zone.coordinates[k].length) + " values for " + std::to_string(zone.vertices) + " vertices");
+          }
+          ++found;
+        }
   }
   if (found != 3 && zone.vertices > 0) fail("CGNS " + label + " has no CoordinateX, CoordinateY and CoordinateZ (other coordinate systems are not read)");
-  int sections = 0;
-  call("the element sections of " + label, [&] { return cg_nsections(file_, base_, index, &sections); });
-  if (sections < 0 || sections > kMaxSections) fail("CGNS " + label + ": " + std::to_string(sections) + " element sections");
-  for (int s = 1; s <= sections; ++s) {
-    zone.sections.push_back(read_section(zone, s, declared_bytes));
+  size_t sections = 0;
+  for (const Node& n : parts) {
+    if (n.label != "Elements_t") continue;
+    if (++sections > static_cast<size_t>(kMaxSections)) fail("CGNS " + label + ": more than " + std::to_string(kMaxSections) + " element sections");
+    zone.sections.push_back(read_section(zone, n, declared_bytes));
     cells += static_cast<uint64_t>(zone.sections.back().count);
   }
-  // the library reads element sections by their element numbers, so keep them in that order
+  // cell-centred values follow the element numbers, so the sections are read in that order
   std::stable_sort(zone.sections.begin(), zone.sections.end(), [](const Section& a, const Section& b) { return a.start < b.start; });
   return zone;
 }
 
-Section CgnsReader::read_section(const Zone& zone, int index, uint64_t& declared_bytes) {
+Section CgnsReader::read_section(const Zone& zone, const Node& node, uint64_t& declared_bytes) {
   Section s;
-  s.index = index;
-  char name[33] = {};
-  cgsize_t end = 0;
-  int boundary = 0, parent = 0;
-  const std::string label = "element section " + std::to_string(index) + " of zone '" + zone.name + "'";
-  call(label, [&] { return cg_section_read(file_, base_, zone.index, index, name, &s.type, &s.start, &end, &boundary, &parent); });
-  s.name = std::string(name, strnlen(name, 32));
+  s.name = node.name;
   const std::string named = "CGNS element section '" + s.name + "' of zone '" + zone.name + "'";
-  if (s.start < 1 || end < s.start - 1) fail(named + " numbers its elements " + std::to_string(s.start) + " to " + std::to_string(end));
-  s.count = end - s.start + 1;
+  const std::vector<int64_t> kind = small_ints(node, 2, named);
+  const int64_t type = kind[0];
+  if (type < 1 || type >= NofValidElementTypes) fail(named + " holds elements of an unknown type (" + std::to_string(type) + ")");
+  s.type = static_cast<CGNS_ENUMT(ElementType_t)>(type);
+  bool range = false, connectivity = false;
+  for (const Node& n : children(node.id, named)) {
+    if (n.name == "ElementRange") {
+      const std::vector<int64_t> r = small_ints(n, 2, "the ElementRange of " + named);
+      if (r.size() != 2 || r[0] < 1 || r[1] < r[0] - 1 || r[1] >= std::numeric_limits<int32_t>::max()) fail(named + " has a damaged ElementRange");
+      s.start = r[0];
+      s.count = r[1] - r[0] + 1;
+      range = true;
+    } else if (n.name == "ElementConnectivity") {
+      s.connectivity = array(n, "the ElementConnectivity of " + named);
+      if (s.connectivity.type[0] != 'I') fail(named + ": its ElementConnectivity holds real numbers");
+      connectivity = true;
+    }
+  }
+  if (!range || !connectivity) fail(named + " has no " + (range ? "ElementConnectivity" : "ElementRange"));
   auto [vtk, corners] = element_kind(s.type);
   if (s.type == CGNS_ENUMV(MIXED)) {
-    vtk = 0;
-    corners = 0;
+    vtk = corners = 0;
+    if (s.connectivity.length < 2 * s.count) fail(named + " holds " + std::to_string(s.connectivity.length) + " connectivity values for " + std::to_string(s.count) + " elements");
   } else if (corners < 0) {
-    fail(named + " holds " + (s.type >= 0 && s.type < NofValidElementTypes ? ElementTypeName[s.type] : "unknown") + " elements (polyhedra), which are not read");
+    fail(named + " holds " + ElementTypeName[s.type] + " elements (polyhedra), which are not read");
   } else {
     int nodes = 0;
     if (cg_npe(s.type, &nodes) != CG_OK || nodes <= 0) fail(named + " holds elements of an unknown type");
     s.nodes = nodes;
+    if (s.connectivity.length != s.count * nodes) fail(named + " holds " + std::to_string(s.connectivity.length) + " connectivity values for " + std::to_string(s.count) + " elements");
   }
   s.vtk_type = vtk;
   s.corners = corners;
-  cgsize_t data_size = 0;
-  call("the size of " + label, [&] { return cg_ElementDataSize(file_, base_, zone.index, index, &data_size); });
-  if (data_size < 0 || (s.nodes > 0 && static_cast<uint64_t>(data_size) != static_cast<uint64_t>(s.count) * static_cast<uint64_t>(s.nodes))) {
-    fail(named + " holds " + std::to_string(data_size) + " connectivity values for " + std::to_string(s.count) + " elements");
-  }
-  declared_bytes += static_cast<uint64_t>(data_size) * sizeof(cgsize_t);
-  if (s.type == CGNS_ENUMV(MIXED)) find_connectivity(zone, s, named);
+  declared_bytes += static_cast<uint64_t>(s.connectivity.length) * 4;
   return s;
 }
 
-// The section's ElementConnectivity node, read through the library's node layer (cgio): its
-// mid-level calls offer no partial read that checks a MIXED section's contents.
-void CgnsReader::find_connectivity(const Zone& zone, Section& s, const std::string& named) {
-  std::lock_guard<std::mutex> hold(library_lock());
-  int cgio = 0;
-  double root = 0;
-  const std::string node = "/" + base_name_ + "/" + zone.name + "/" + s.name + "/ElementConnectivity";
-  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-  int dimensions = 0;
-  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (cg_get_cgio(file_, &cgio) != CG_OK || cg_root_id(file_, &root) != CG_OK || cgio_get_node_id(cgio, root, node.c_str(), &s.connectivity_node) != CGIO_ERR_NONE ||
-      cgio_get_data_type(cgio, s.connectivity_node, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio, s.connectivity_node, &dimensions, extent) != CGIO_ERR_NONE) {
-    fail(named + ": its ElementConnectivity cannot be read");
-  }
-  if (dimensions != 1 || extent[0] < 0) fail(named + ": its ElementConnectivity has " + std::to_string(dimensions) + " dimensions");
-  if (std::strcmp(type, "I4") != 0 && std::strcmp(type, "I8") != 0) fail(named + ": its ElementConnectivity holds " + type + " values, not integers");
-  cgio_ = cgio;
-  s.wide = std::strcmp(type, "I8") == 0;
-  s.values = extent[0];
-}
-
-// The name of the FlowSolution the zone's ZoneIterativeData names for the last time step
-// (FlowSolutionPointers), or "".
-std::string CgnsReader::pointed_solution(const Zone& zone) {
-  std::lock_guard<std::mutex> hold(library_lock());
-  char iterative[33] = {};
-  if (cg_ziter_read(file_, base_, zone.index, iterative) != CG_OK) return "";
-  if (cg_goto(file_, base_, "Zone_t", zone.index, "ZoneIterativeData_t", 1, "end") != CG_OK) return "";
-  int arrays = 0;
-  if (cg_narrays(&arrays) != CG_OK) return "";
-  for (int a = 1; a <= arrays; ++a) {
-    char array[33] = {};
-    CGNS_ENUMT(DataType_t) type;
+// The name the zone's ZoneIterativeData array `pointers` gives the last time step, or "".
+std::string CgnsReader::last_step(const std::vector<Node>& iterative, const char* pointers) {
+  for (const Node& n : iterative) {
+    if (n.name != pointers) continue;
+    std::lock_guard<std::mutex> hold(library_lock());
+    char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
     int dimensions = 0;
-    cgsize_t extent[12] = {};
-    if (cg_array_info(a, array, &type, &dimensions, extent) != CG_OK) continue;
-    if (std::strcmp(array, "FlowSolutionPointers") != 0 || type != CGNS_ENUMV(Character) || dimensions != 2) continue;
-    if (extent[0] != 32 || extent[1] < 1 || extent[1] > kMaxTimeSteps) continue;
+    cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+    if (cgio_get_data_type(cgio_, n.id, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, n.id, &dimensions, extent) != CGIO_ERR_NONE) return "";
+    if (std::strcmp(type, "C1") != 0 || dimensions != 2 || extent[0] != 32 || extent[1] < 1 || extent[1] > kMaxTimeSteps) return "";
     std::vector<char> names(static_cast<size_t>(32 * extent[1]));
-    if (cg_array_read(a, names.data()) != CG_OK) continue;
+    if (cgio_read_all_data(cgio_, n.id, names.data()) != CGIO_ERR_NONE) return "";
     for (cgsize_t step = extent[1]; step-- > 0;) {
       std::string chosen(names.data() + 32 * step, 32);
       chosen = chosen.substr(0, chosen.find('\0'));
@@ -410,77 +526,75 @@ std::string CgnsReader::pointed_solution(const Zone& zone) {
   return "";
 }
 
-std::vector<std::string> CgnsReader::field_names(const Zone& zone, int solution) {
-  int fields = 0;
-  call("the fields of zone '" + zone.name + "'", [&] { return cg_nfields(file_, base_, zone.index, solution, &fields); });
-  if (fields < 0 || fields > kMaxFields) fail("CGNS zone '" + zone.name + "': " + std::to_string(fields) + " fields");
-  std::vector<std::string> names;
-  for (int f = 1; f <= fields; ++f) {
-    CGNS_ENUMT(DataType_t) type;
-    char name[33] = {};
-    call("the fields of zone '" + zone.name + "'", [&] { return cg_field_info(file_, base_, zone.index, solution, f, &type, name); });
-    names.emplace_back(name, strnlen(name, 32));
-  }
-  return names;
-}
-
 // Per location (Vertex, CellCenter) the last FlowSolution over the whole zone, or the one of
-// that location that ZoneIterativeData names for the last step; solutions over a point set, with rind layers or
-// at other locations are left out with a warning.
-void CgnsReader::choose_solutions(Zone& zone, ReadStats& stats) {
-  int solutions = 0;
-  call("the solutions of zone '" + zone.name + "'", [&] { return cg_nsols(file_, base_, zone.index, &solutions); });
-  if (solutions < 0 || solutions > kMaxFields) fail("CGNS zone '" + zone.name + "': " + std::to_string(solutions) + " solutions");
-  const std::string pointed = solutions > 1 ? pointed_solution(zone) : "";
-  std::vector<int> usable[2];  // at vertices, at cell centres
-  std::vector<std::string> names[2];
-  for (int s = 1; s <= solutions; ++s) {
-    char name[33] = {};
-    CGNS_ENUMT(GridLocation_t) location;
-    call("the solutions of zone '" + zone.name + "'", [&] { return cg_sol_info(file_, base_, zone.index, s, name, &location); });
-    const std::string label = "CGNS solution '" + std::string(name) + "' of zone '" + zone.name + "'";
-    CGNS_ENUMT(PointSetType_t) point_set = CGNS_ENUMV(PointSetTypeNull);
-    cgsize_t points = 0;
-    int data_dim = 0;
-    cgsize_t extent[12] = {};
-    call("the size of " + label, [&] { return cg_sol_ptset_info(file_, base_, zone.index, s, &point_set, &points); });
-    call("the size of " + label, [&] { return cg_sol_size(file_, base_, zone.index, s, &data_dim, extent); });
-    const bool vertex = location == CGNS_ENUMV(Vertex), cell = location == CGNS_ENUMV(CellCenter);
-    const cgsize_t want = vertex ? zone.vertices : zone.cells;
-    if (!vertex && !cell) {
-      stats.warnings.push_back(label + ": values at " + cg_GridLocationName(location) + " are not read");
-    } else if (point_set != CGNS_ENUMV(PointSetTypeNull) || data_dim != 1 || extent[0] != want) {
-      stats.warnings.push_back(label + " does not cover the zone (a point set or rind layers) and is not read");
-    } else {
-      usable[vertex ? 0 : 1].push_back(s);
-      names[vertex ? 0 : 1].push_back(name);
-    }
+// that location that ZoneIterativeData names for the last step (FlowSolutionPointers, or
+// VTK's FlowSolutionVertexPointers and FlowSolutionCellPointers); solutions over a point set,
+// with rind layers or at other locations are left out with a warning, and so are fields
+// whose length is not the zone's.
+void CgnsReader::read_solutions(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats) {
+  std::string pointed[2];
+  for (const Node& n : nodes) {
+    if (n.label != "ZoneIterativeData_t") continue;
+    const std::vector<Node> iterative = children(n.id, "the ZoneIterativeData of zone '" + zone.name + "'");
+    pointed[0] = pointed[1] = last_step(iterative, "FlowSolutionPointers");
+    if (std::string p = last_step(iterative, "FlowSolutionVertexPointers"); !p.empty()) pointed[0] = p;
+    if (std::string p = last_step(iterative, "FlowSolutionCellPointers"); !p.empty()) pointed[1] = p;
   }
-  int chosen[2] = {0, 0};
+  std::vector<Solution> usable[2];  // at vertices, at cell centres
+  for (const Node& n : nodes) {
+    if (n.label != "FlowSolution_t") continue;
+    const std::string label = "CGNS solution '" + n.name + "' of zone '" + zone.name + "'";
+    const std::vector<Node> parts = children(n.id, label);
+    std::string location = "Vertex";
+    bool partial = false;
+    for (const Node& p : parts) {
+      if (p.label == "GridLocation_t") location = text(p.id, "the GridLocation of " + label);
+      partial |= p.label == "IndexRange_t" || p.label == "IndexArray_t" || p.label == "Rind_t";
+    }
+    const bool vertex = location == "Vertex", cell = location == "CellCenter";
+    if (!vertex && !cell) {
+      stats.warnings.push_back(label + ": values at " + location + " are not read");
+      continue;
+    }
+    if (partial) {
+      stats.warnings.push_back(label + " does not cover the zone (a point set or rind layers) and is not read");
+      continue;
+    }
+    Solution solution{n.name, {}};
+    const int64_t want = vertex ? zone.vertices : zone.cells;
+    for (const Node& p : parts) {
+      if (p.label != "DataArray_t") continue;
+      if (solution.fields.size() >= static_cast<size_t>(kMaxFields)) fail(label + ": more than " + std::to_string(kMaxFields) + " fields");
+      Field f{p.name, array(p, "field '" + p.name + "' of " + label)};
+      if (f.values.length != want) {
+        stats.warnings.push_back(label + ": field '" + p.name + "' holds " + std::to_string(f.values.length) + " values for " + std::to_string(want) + " and is not read");
+        continue;
+      }
+      solution.fields.push_back(f);
+    }
+    usable[vertex ? 0 : 1].push_back(solution);
+  }
   for (int l = 0; l < 2; ++l) {
     if (usable[l].empty()) continue;
-    chosen[l] = usable[l].back();
-    for (size_t k = 0; k < usable[l].size(); ++k)
-      if (names[l][k] == pointed) chosen[l] = usable[l][k];
+    Solution chosen = usable[l].back();
+    for (const Solution& s : usable[l])
+      if (s.name == pointed[l]) chosen = s;
     if (usable[l].size() > 1) {
       stats.warnings.push_back("CGNS zone '" + zone.name + "' has " + std::to_string(usable[l].size()) + " solutions at " + (l == 0 ? "vertices" : "cell centres") +
-                               ": the last step's is read");
+                               ": the last step's ('" + chosen.name + "') is read");
     }
+    (l == 0 ? zone.vertex_solution : zone.cell_solution) = chosen;
   }
-  const int at_vertex = chosen[0], at_cell = chosen[1];
-  if (at_vertex > 0) zone.vertex_solution = {at_vertex, field_names(zone, at_vertex)};
-  if (at_cell > 0) zone.cell_solution = {at_cell, field_names(zone, at_cell)};
 }
 
-void CgnsReader::read_field(const Zone& zone, const Solution& solution, const std::string& field, cgsize_t first, size_t count, std::vector<double>& out) {
+void CgnsReader::read_field(const Zone& zone, const Solution& solution, const std::string& field, int64_t first, size_t count, std::vector<double>& out) {
   out.resize(count);
-  if (solution.index == 0 || std::find(solution.fields.begin(), solution.fields.end(), field) == solution.fields.end()) {
+  const Array* values = solution.find(field);
+  if (!values) {
     std::fill(out.begin(), out.end(), std::numeric_limits<double>::quiet_NaN());  // a zone without the field
     return;
   }
-  const cgsize_t low = first + 1, high = first + static_cast<cgsize_t>(count);
-  call("field '" + field + "' of zone '" + zone.name + "'",
-       [&] { return cg_field_read(file_, base_, zone.index, solution.index, field.c_str(), CGNS_ENUMV(RealDouble), &low, &high, out.data()); });
+  read_values(*values, first, count, "field '" + field + "' of zone '" + zone.name + "'", nullptr, out.data());
 }
 
 void CgnsReader::read_vertices(size_t count, float* xyz, std::span<float* const> attributes, ReadStats& stats) {
@@ -494,17 +608,14 @@ void CgnsReader::read_vertices(size_t count, float* xyz, std::span<float* const>
       in_vertex_zone_ = 0;
       continue;
     }
-    const cgsize_t low = in_vertex_zone_ + 1, high = in_vertex_zone_ + static_cast<cgsize_t>(n);
-    static const char* const names[3] = {"CoordinateX", "CoordinateY", "CoordinateZ"};
     for (int k = 0; k < 3; ++k) {
       scratch_[k].resize(n);
-      call(std::string(names[k]) + " of zone '" + zone.name + "'",
-           [&] { return cg_coord_read(file_, base_, zone.index, names[k], CGNS_ENUMV(RealDouble), &low, &high, scratch_[k].data()); });
+      read_values(zone.coordinates[k], in_vertex_zone_, n, std::string("the coordinates of zone '") + zone.name + "'", nullptr, scratch_[k].data());
     }
     for (size_t i = 0; i < n; ++i)
       for (size_t k = 0; k < 3; ++k)
         if (!to_stored_float(scratch_[k][i], xyz[3 * (done + i) + k])) {
-          fail("zone '" + zone.name + "', vertex " + std::to_string(in_vertex_zone_ + static_cast<cgsize_t>(i) + 1) + ": point coordinate " + std::to_string(scratch_[k][i]) +
+          fail("zone '" + zone.name + "', vertex " + std::to_string(in_vertex_zone_ + static_cast<int64_t>(i) + 1) + ": point coordinate " + std::to_string(scratch_[k][i]) +
                " is not a finite 32-bit float");
         }
     for (size_t a = 0; a < point_variables_.size(); ++a) {
@@ -515,16 +626,16 @@ void CgnsReader::read_vertices(size_t count, float* xyz, std::span<float* const>
           if (!to_stored_float(scratch_[0][i], attributes[a][(done + i) * c + k])) ++stats.nonfinite_attribute_values;
       }
     }
-    in_vertex_zone_ += static_cast<cgsize_t>(n);
+    in_vertex_zone_ += static_cast<int64_t>(n);
     done += n;
   }
 }
 
-void CgnsReader::append_element(const Zone& zone, const Section& s, cgsize_t element, int vtk_type, int corners, std::span<const cgsize_t> nodes, CellBatch& batch) {
+void CgnsReader::append_element(const Zone& zone, const Section& s, int64_t element, int vtk_type, int corners, std::span<const int64_t> nodes, CellBatch& batch) {
   const size_t used = corners > 0 ? static_cast<size_t>(corners) : std::min<size_t>(1, nodes.size());
   nodes_scratch_.resize(used);
   for (size_t k = 0; k < used; ++k) {
-    const cgsize_t node = nodes[k];
+    const int64_t node = nodes[k];
     if (node < 1 || node > zone.vertices) {
       fail("CGNS element " + std::to_string(element) + " of section '" + s.name + "' in zone '" + zone.name + "': vertex " + std::to_string(node) +
            " out of range (the zone has " + std::to_string(zone.vertices) + " vertices)");
@@ -545,59 +656,42 @@ void CgnsReader::append_element(const Zone& zone, const Section& s, cgsize_t ele
   batch.push(static_cast<uint8_t>(volume ? vtk_type : kVtkVertex), nodes_scratch_);
 }
 
-void CgnsReader::read_section_cells(const Zone& zone, const Section& s, cgsize_t n, CellBatch& batch) {
-  const cgsize_t low = s.start + in_section_, high = low + n - 1;
-  const std::string label = "the elements of section '" + s.name + "' in zone '" + zone.name + "'";
-  if (s.nodes > 0) {
-    connectivity_.resize(static_cast<size_t>(n) * static_cast<size_t>(s.nodes));
-    call(label, [&] { return cg_elements_partial_read(file_, base_, zone.index, s.index, low, high, connectivity_.data(), nullptr); });
-    for (cgsize_t e = 0; e < n; ++e) {
-      const std::span<const cgsize_t> nodes(connectivity_.data() + static_cast<size_t>(e) * static_cast<size_t>(s.nodes), static_cast<size_t>(s.nodes));
-      append_element(zone, s, low + e, s.vtk_type, s.corners, nodes, batch);
-    }
-    return;
+void CgnsReader::read_section_cells(const Zone& zone, const Section& s, int64_t n, CellBatch& batch) {
+  const int64_t low = s.start + in_section_;
+  if (s.nodes == 0) return read_mixed_cells(zone, s, low, n, batch);
+  const size_t values = static_cast<size_t>(n) * static_cast<size_t>(s.nodes);
+  connectivity_.resize(values);
+  read_values(s.connectivity, in_section_ * s.nodes, values, "the elements of section '" + s.name + "' in zone '" + zone.name + "'", connectivity_.data(), nullptr);
+  for (int64_t e = 0; e < n; ++e) {
+    const std::span<const int64_t> nodes(connectivity_.data() + static_cast<size_t>(e) * static_cast<size_t>(s.nodes), static_cast<size_t>(s.nodes));
+    append_element(zone, s, low + e, s.vtk_type, s.corners, nodes, batch);
   }
-  read_mixed_cells(zone, s, low, n, batch);
 }
 
-// MIXED: each element is its type and then its nodes. The library's own partial read trusts
-// the section's offsets (a damaged file crashes it), so the connectivity array is read here in
-// file order, a window at a time, and walked by the element types; every type, count and
-// index is checked before use.
-void CgnsReader::read_mixed_cells(const Zone& zone, const Section& s, cgsize_t low, cgsize_t n, CellBatch& batch) {
+// MIXED: each element is its type and then its nodes. The connectivity is read in file order, a
+// window at a time, and walked by the element types (the offsets stored beside it are not
+// trusted: the library's own partial read follows them, and a damaged file crashed it); every
+// type, count and index is checked before use.
+void CgnsReader::read_mixed_cells(const Zone& zone, const Section& s, int64_t low, int64_t n, CellBatch& batch) {
   constexpr int64_t kMaxElementValues = 1 + 125;  // HEXA_125 and its type
   const std::string section = "MIXED section '" + s.name + "' in zone '" + zone.name + "'";
-  const int64_t window = std::min<int64_t>(s.values - mixed_position_, static_cast<int64_t>(n) * kMaxElementValues);
+  const int64_t window = std::min<int64_t>(s.connectivity.length - mixed_position_, n * kMaxElementValues);
   if (window <= 0) fail("CGNS " + section + ": its connectivity ends before element " + std::to_string(low));
-  mixed_.resize(static_cast<size_t>(window));
-  {
-    std::lock_guard<std::mutex> hold(library_lock());
-    const cgsize_t from = static_cast<cgsize_t>(mixed_position_ + 1), to = static_cast<cgsize_t>(mixed_position_ + window), length = static_cast<cgsize_t>(window), one = 1;
-    narrow_.resize(s.wide ? 0 : static_cast<size_t>(window));
-    void* into = s.wide ? static_cast<void*>(mixed_.data()) : static_cast<void*>(narrow_.data());
-    if (cgio_read_data(cgio_, s.connectivity_node, &from, &to, &one, 1, &length, &one, &length, &one, into) != CGIO_ERR_NONE) {
-      fail("CGNS: cannot read the connectivity of " + section);
-    }
-    std::copy(narrow_.begin(), narrow_.end(), mixed_.begin());
-  }
+  connectivity_.resize(static_cast<size_t>(window));
+  read_values(s.connectivity, mixed_position_, static_cast<size_t>(window), "the connectivity of " + section, connectivity_.data(), nullptr);
   size_t at = 0;
-  for (cgsize_t e = 0; e < n; ++e) {
+  for (int64_t e = 0; e < n; ++e) {
     const std::string element = "CGNS element " + std::to_string(low + e) + " of " + section;
-    if (at >= mixed_.size()) fail(element + ": the connectivity ends before it");
-    const int64_t type_value = mixed_[at];
+    if (at >= connectivity_.size()) fail(element + ": the connectivity ends before it");
+    const int64_t type_value = connectivity_[at];
     const auto type = static_cast<CGNS_ENUMT(ElementType_t)>(type_value >= 0 && type_value < NofValidElementTypes ? type_value : 0);
     int nodes = 0;
     const auto [vtk, corners] = element_kind(type);
     if (type == CGNS_ENUMV(ElementTypeNull) || corners < 0 || type == CGNS_ENUMV(MIXED) || cg_npe(type, &nodes) != CG_OK || nodes <= 0) {
       fail(element + ": element type " + std::to_string(type_value) + " cannot be read in a MIXED section");
     }
-    if (mixed_.size() - at - 1 < static_cast<size_t>(nodes)) fail(element + ": the connectivity ends inside it");
-    nodes_wide_.resize(static_cast<size_t>(nodes));
-    for (int k = 0; k < nodes; ++k) {
-      const int64_t v = mixed_[at + 1 + static_cast<size_t>(k)];
-      nodes_wide_[static_cast<size_t>(k)] = static_cast<cgsize_t>(std::clamp<int64_t>(v, -1, std::numeric_limits<cgsize_t>::max()));
-    }
-    append_element(zone, s, low + e, vtk, corners, nodes_wide_, batch);
+    if (connectivity_.size() - at - 1 < static_cast<size_t>(nodes)) fail(element + ": the connectivity ends inside it");
+    append_element(zone, s, low + e, vtk, corners, std::span<const int64_t>(connectivity_.data() + at + 1, static_cast<size_t>(nodes)), batch);
     at += 1 + static_cast<size_t>(nodes);
   }
   mixed_position_ += static_cast<int64_t>(at);
@@ -622,7 +716,7 @@ bool CgnsReader::read_cells(CellBatch& batch, size_t max_cells) {
       continue;
     }
     const Section& s = zone.sections[section_];
-    const cgsize_t n = std::min<cgsize_t>(s.count - in_section_, static_cast<cgsize_t>(std::min<size_t>(max_cells - added, 1 << 20)));
+    const int64_t n = std::min<int64_t>(s.count - in_section_, static_cast<int64_t>(std::min<size_t>(max_cells - added, 1 << 20)));
     if (n <= 0) {
       ++section_;
       in_section_ = 0;
@@ -641,7 +735,7 @@ void CgnsReader::read_cell_values(size_t count, std::span<float* const> values, 
   for (size_t a = 0; a < cell_variables_.size(); ++a) {
     const size_t c = cell_variables_[a].fields.size();
     for (size_t k = 0; k < c; ++k) {
-      // the run's values in order, then handed to the volume elements; other elements get NaN
+      // the runs' values in order, then handed to the volume elements; other elements get NaN
       std::vector<double>& gathered = scratch_[1];
       gathered.clear();
       for (const Run& run : runs_) {
