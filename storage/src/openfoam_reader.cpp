@@ -1,6 +1,7 @@
 // OpenFOAM cases: a case folder (or a `.foam` / `.OpenFOAM` file in it, as ParaView opens
 // them) with constant/polyMesh/{points,faces,owner,neighbour} and time folders holding
-// volScalarField and volVectorField files, ASCII or binary, each optionally gzip-compressed.
+// volScalarField, volVectorField, volSymmTensorField and volTensorField files, ASCII or
+// binary, each optionally gzip-compressed.
 // Format: OpenFOAM user guide, "Mesh description" and "Data file format".
 //
 // Cells become VTK cells: a cell of 4 triangles is a tet, of a quad and 4 triangles a
@@ -276,11 +277,31 @@ struct Field {
   std::vector<float> values;  // per cell
 };
 
-// internalField of a volScalarField or volVectorField: uniform or nonuniform.
+// Components of a field class that is read; 0 for any other class.
+uint32_t field_components(const std::string& cls) {
+  if (cls == "volScalarField") return 1;
+  if (cls == "volVectorField") return 3;
+  if (cls == "volSymmTensorField") return 6;  // XX XY XZ YY YZ ZZ
+  if (cls == "volTensorField") return 9;      // XX XY XZ YX YY YZ ZX ZY ZZ: VTK's row-major order
+  return 0;
+}
+
+// A symmetric tensor's values from OpenFOAM's order (XX XY XZ YY YZ ZZ) to VTK's (xx yy zz xy yz xz).
+void to_vtk_symmetric_order(std::vector<float>& values) {
+  for (size_t i = 0; i + 6 <= values.size(); i += 6) {
+    const float xx = values[i], xy = values[i + 1], xz = values[i + 2], yy = values[i + 3], yz = values[i + 4], zz = values[i + 5];
+    const float vtk[6] = {xx, yy, zz, xy, yz, xz};
+    std::copy_n(vtk, 6, values.begin() + static_cast<std::ptrdiff_t>(i));
+  }
+}
+
+// internalField of a field of one of the classes above: uniform or nonuniform. A tensor value
+// that is not a finite 32-bit float is an error (no eigen-analysis can use it).
 Field read_field(const fs::path& path, const ReadLimits& limits, uint64_t cells, ReadStats& stats) {
   FoamText f(path, limits);
-  const uint32_t components = f.cls == "volVectorField" ? 3 : 1;
-  Field field{{path.filename().string(), components}, {}};
+  const uint32_t components = field_components(f.cls);
+  const bool tensor = components == 6 || components == 9;
+  Field field{{path.filename().string(), components, tensor ? AttributeKind::kTensor : AttributeKind::kValue}, {}};
   if (field.info.name.size() > 3 && field.info.name.substr(field.info.name.size() - 3) == ".gz") field.info.name.resize(field.info.name.size() - 3);
   if (!f.find_entry("internalField")) f.fail("no internalField");
   const std::string kind = f.word();
@@ -288,7 +309,10 @@ Field read_field(const fs::path& path, const ReadLimits& limits, uint64_t cells,
   if (kind == "uniform") {
     read_values(f, 1, components, values, "a uniform value");
     field.values.resize(cells * components);
-    for (uint64_t c = 0; c < cells; ++c) std::copy_n(values.begin(), components, field.values.begin() + static_cast<std::ptrdiff_t>(c * components));
+    for (uint64_t c = 0; c < cells; ++c)
+      for (uint32_t k = 0; k < components; ++k)
+        if (!to_stored_float(values[k], field.values[c * components + k]) && tensor) f.fail("tensor '" + field.info.name + "': a value is not a finite 32-bit float");
+    if (components == 6) to_vtk_symmetric_order(field.values);
     return field;
   }
   if (kind != "nonuniform") f.fail("internalField must be uniform or nonuniform, not '" + kind + "'");
@@ -305,8 +329,12 @@ Field read_field(const fs::path& path, const ReadLimits& limits, uint64_t cells,
     f.close_list("internalField");
   }
   field.values.resize(values.size());
-  for (size_t i = 0; i < values.size(); ++i)
-    if (!to_stored_float(values[i], field.values[i])) ++stats.nonfinite_attribute_values;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (to_stored_float(values[i], field.values[i])) continue;
+    if (tensor) f.fail("tensor '" + field.info.name + "': value " + std::to_string(i / components) + " is not a finite 32-bit float");
+    ++stats.nonfinite_attribute_values;
+  }
+  if (components == 6) to_vtk_symmetric_order(field.values);
   return field;
 }
 
@@ -543,11 +571,13 @@ void OpenFoamReader::read_fields(const fs::path& folder, ReadStats& stats) {
       head.resize(static_cast<size_t>(in.gcount()));
     }
     const bool gz = file.extension() == ".gz";
-    if (!gz && head.find("volScalarField") == std::string::npos && head.find("volVectorField") == std::string::npos) continue;
+    if (!gz && head.find("volScalarField") == std::string::npos && head.find("volVectorField") == std::string::npos &&
+        head.find("TensorField") == std::string::npos)
+      continue;
     fs::path plain = file;
     if (gz) plain.replace_extension();
     FoamText probe(plain, limits_);
-    if (probe.cls != "volScalarField" && probe.cls != "volVectorField") {
+    if (field_components(probe.cls) == 0) {
       if (probe.cls.rfind("vol", 0) == 0) stats.warnings.push_back(file.filename().string() + ": a " + probe.cls + " is not read");
       continue;
     }

@@ -231,6 +231,53 @@ TEST(HostileOpenFoam, ABinaryListCutShortAndAHugeCountAreRefused) {
   EXPECT_NE(mesh_read_error(dir).find("does not fit in the file"), std::string::npos) << mesh_read_error(dir);
 }
 
+// solidDisplacementFoam's sigma (volSymmTensorField, OpenFOAM's order XX XY XZ YY YZ ZZ) and a
+// velocity gradient (volTensorField, row-major) arrive as symmetric tensors in VTK's order.
+TEST(OpenFoamCase, SymmetricAndFullTensorFieldsArriveAsTensors) {
+  for (bool binary : {false, true}) {
+    const auto dir = scratch_dir(binary ? "openfoam_tensors_binary" : "openfoam_tensors_ascii");
+    write_case(dir, three_cells(), binary);
+    const std::string dims = "dimensions      [1 -1 -2 0 0 0 0];\n\n";
+    const std::string boundary = "\n\nboundaryField\n{\n}\n";
+    write_file(dir / "0.5" / "sigma", header("volSymmTensorField", "sigma", false) + dims + "internalField   uniform (1 2 3 4 5 6);" + boundary);
+    std::string grad = header("volTensorField", "gradU", binary) + dims + "internalField   nonuniform List<tensor> 3(";
+    const std::vector<double> rows = {1, 2, 0, 4, 1, 0, 0, 0, 1, 1, 2, 0, 4, 1, 0, 0, 0, 1, 1, 2, 0, 4, 1, 0, 0, 0, 1};
+    if (binary) {
+      grad += bytes_of(rows);
+    } else {
+      for (int c = 0; c < 3; ++c) grad += "(1 2 0 4 1 0 0 0 1) ";
+    }
+    write_file(dir / "0.5" / "gradU", grad + ");" + boundary);
+    storage::ReadStats stats;
+    const TetMesh mesh = storage::load_mesh(dir / "case.foam", &stats);
+    const storage::Attribute* sigma = mesh.find_attribute("sigma");
+    const storage::Attribute* gradient = mesh.find_attribute("gradU");
+    ASSERT_TRUE(sigma && gradient);
+    EXPECT_EQ(sigma->info.kind, storage::AttributeKind::kTensor);
+    const float expected[6] = {1, 4, 6, 2, 5, 3};
+    for (size_t v = 0; v < mesh.vertex_count(); ++v)
+      for (int k = 0; k < 6; ++k) EXPECT_NEAR(sigma->values[6 * v + size_t(k)], expected[k], 1e-5) << "vertex " << v;
+    EXPECT_NEAR(gradient->values[3], 3, 1e-5) << "xy = (2 + 4) / 2";
+    EXPECT_NE(mesh.find_attribute("sigma.von_mises"), nullptr);
+    bool warned = false;
+    for (const std::string& w : stats.warnings) warned |= w.find("tensor 'gradU' is not symmetric (largest |A_ij - A_ji| / 2 = 1") != std::string::npos;
+    EXPECT_TRUE(warned) << ::testing::PrintToString(stats.warnings);
+  }
+}
+
+TEST(HostileOpenFoam, ATensorWithFiveComponentsOrAnInfiniteValueNamesTheField) {
+  const auto dir = scratch_dir("openfoam_bad_tensor");
+  write_case(dir, three_cells(), false);
+  const std::string dims = "dimensions      [1 -1 -2 0 0 0 0];\n\n";
+  write_file(dir / "0.5" / "sigma", header("volSymmTensorField", "sigma", false) + dims + "internalField   uniform (1 2 3 4 5);\n");
+  std::string error = mesh_read_error(dir);
+  EXPECT_NE(error.find("sigma"), std::string::npos) << error;
+  EXPECT_NE(error.find("line"), std::string::npos) << error;
+  write_file(dir / "0.5" / "sigma", header("volSymmTensorField", "sigma", false) + dims + "internalField   nonuniform List<symmTensor> 3((1 0 0 1 0 1) (1 0 0 1e39 0 1) (1 0 0 1 0 1));\n");
+  error = mesh_read_error(dir);
+  EXPECT_NE(error.find("tensor 'sigma': value 1 is not a finite 32-bit float"), std::string::npos) << error;
+}
+
 TEST(HostileOpenFoam, AFolderWithoutAMeshIsNotACase) {
   const auto dir = scratch_dir("openfoam_none");
   std::filesystem::create_directories(dir / "constant");
