@@ -285,29 +285,21 @@ void CgnsReader::read_values(const Array& a, int64_t first, size_t count, const 
     const cgsize_t from = static_cast<cgsize_t>(first + 1), to = static_cast<cgsize_t>(first + static_cast<int64_t>(count)), length = static_cast<cgsize_t>(count), one = 1;
     if (cgio_read_data(cgio_, a.node, &from, &to, &one, 1, &length, &one, &length, &one, raw_.data()) != CGIO_ERR_NONE) fail("CGNS: cannot read " + what + cgio_message());
   }
-  for (size_t i = 0; i < count; ++i) {
-    const uint8_t* at = raw_.data() + i * width;
-    double real = 0;
-    int64_t integer = 0;
-    if (a.type == "I4") {
-      int32_t v;
-      std::memcpy(&v, at, 4);
-      integer = v, real = v;
-    } else if (a.type == "I8") {
-      std::memcpy(&integer, at, 8);
-      real = static_cast<double>(integer);
-    } else if (a.type == "R4") {
-      float v;
-      std::memcpy(&v, at, 4);
-      real = v;
-      integer = std::isfinite(v) && std::fabs(v) < 9e18f ? static_cast<int64_t>(v) : -1;
-    } else {
-      std::memcpy(&real, at, 8);
-      integer = std::isfinite(real) && std::fabs(real) < 9e18 ? static_cast<int64_t>(real) : -1;
+  // one loop a stored type: this runs over every value of the file
+  auto decode = [&](auto stored, auto&& to_int) {
+    using Stored = decltype(stored);
+    for (size_t i = 0; i < count; ++i) {
+      Stored v;
+      std::memcpy(&v, raw_.data() + i * sizeof(Stored), sizeof(Stored));
+      if (ints) ints[i] = to_int(v);
+      if (reals) reals[i] = static_cast<double>(v);
     }
-    if (ints) ints[i] = integer;
-    if (reals) reals[i] = real;
-  }
+  };
+  auto real_to_int = [](double v) { return std::isfinite(v) && std::fabs(v) < 9e18 ? static_cast<int64_t>(v) : int64_t{-1}; };
+  if (a.type == "I4") decode(int32_t{}, [](int32_t v) { return int64_t{v}; });
+  else if (a.type == "I8") decode(int64_t{}, [](int64_t v) { return v; });
+  else if (a.type == "R4") decode(float{}, [&](float v) { return real_to_int(v); });
+  else decode(double{}, real_to_int);
 }
 
 std::vector<int64_t> CgnsReader::small_ints(const Node& node, size_t most, const std::string& what) {
@@ -681,16 +673,16 @@ void CgnsReader::read_mixed_cells(const Zone& zone, const Section& s, int64_t lo
   read_values(s.connectivity, mixed_position_, static_cast<size_t>(window), "the connectivity of " + section, connectivity_.data(), nullptr);
   size_t at = 0;
   for (int64_t e = 0; e < n; ++e) {
-    const std::string element = "CGNS element " + std::to_string(low + e) + " of " + section;
-    if (at >= connectivity_.size()) fail(element + ": the connectivity ends before it");
+    auto element = [&] { return "CGNS element " + std::to_string(low + e) + " of " + section; };
+    if (at >= connectivity_.size()) fail(element() + ": the connectivity ends before it");
     const int64_t type_value = connectivity_[at];
     const auto type = static_cast<CGNS_ENUMT(ElementType_t)>(type_value >= 0 && type_value < NofValidElementTypes ? type_value : 0);
     int nodes = 0;
     const auto [vtk, corners] = element_kind(type);
     if (type == CGNS_ENUMV(ElementTypeNull) || corners < 0 || type == CGNS_ENUMV(MIXED) || cg_npe(type, &nodes) != CG_OK || nodes <= 0) {
-      fail(element + ": element type " + std::to_string(type_value) + " cannot be read in a MIXED section");
+      fail(element() + ": element type " + std::to_string(type_value) + " cannot be read in a MIXED section");
     }
-    if (connectivity_.size() - at - 1 < static_cast<size_t>(nodes)) fail(element + ": the connectivity ends inside it");
+    if (connectivity_.size() - at - 1 < static_cast<size_t>(nodes)) fail(element() + ": the connectivity ends inside it");
     append_element(zone, s, low + e, vtk, corners, std::span<const int64_t>(connectivity_.data() + at + 1, static_cast<size_t>(nodes)), batch);
     at += 1 + static_cast<size_t>(nodes);
   }
