@@ -4,7 +4,8 @@
 #     ParaView's Point Data to Cell Data turned into cell data (VTU zlib, VTK legacy binary and
 #     Exodus II),
 #     and a hexahedral wavelet (Clean to Grid of an image) with cell data
-#   pvpython cell_data_paraview.py check FILE TETRASCOPE_VTK   (FILE: also an OpenFOAM CASE.foam)
+#   pvpython cell_data_paraview.py check FILE TETRASCOPE_VTK   (FILE: also an OpenFOAM CASE.foam
+#     or a CGNS file, bench/cgns_paraview.sh)
 #     reads FILE with ParaView's reader, takes its cell arrays, cell volumes (Cell Size) and
 #     connectivity, forms the volume-weighted mean at each point over the volume cells in numpy
 #     (the plain mean where every volume cell around a point has zero volume),
@@ -64,9 +65,13 @@ def check(path, ours_path):
         source.UpdatePipeline(max(reader.TimestepValues))
     else:
         source = OpenDataFile(path)
+        if path.endswith(".cgns"):  # ParaView's CGNS reader loads no array unless asked
+            source.UpdatePipelineInformation()
+            source.CellArrayStatus = source.CellArrayStatus.Available
+            source.PointArrayStatus = source.PointArrayStatus.Available
         source.UpdatePipeline()
     reader_seconds = time.perf_counter() - start  # ParaView's reader alone, in this process
-    if path.endswith(".exo"):
+    if path.endswith((".exo", ".cgns")):
         source = MergeBlocks(Input=source)
     grid = fetch(source)
     points = vtk_to_numpy(grid.GetPoints().GetData()).astype(np.float32)
@@ -112,7 +117,8 @@ def check(path, ours_path):
         plain_count = np.bincount(connectivity, weights=volume_cell[owner], minlength=n)
         weighted = np.where(weights[:, None] > 0, weighted / np.maximum(weights, 1e-300)[:, None],
                             np.where(plain_count[:, None] > 0, plain_sum / np.maximum(plain_count, 1)[:, None], 0))
-        ours_array = ours_grid.GetPointData().GetArray(name) or ours_grid.GetPointData().GetArray(name + "_cells")
+        # a cell array named like a point array arrives as NAME_cells
+        ours_array = ours_grid.GetPointData().GetArray(name + "_cells") or ours_grid.GetPointData().GetArray(name)
         if ours_array is None:
             result["arrays"].append({"name": name, "missing": True})
             continue
@@ -124,6 +130,15 @@ def check(path, ours_path):
                                  "max_relative_difference": float(np.abs(ours - theirs).max() / scale),
                                  "paraview_plain_mean_max_relative_difference": float(np.abs(ours - mean).max() / scale),
                                  "paraview_plain_mean_median_relative_difference": float(np.median(np.abs(ours - mean)) / scale)})
+    # point arrays, where the file has them: read as they are
+    points_data = grid.GetPointData()
+    for a in range(points_data.GetNumberOfArrays()):
+        array = points_data.GetArray(a)
+        if array is None or array.GetName() in GENERATED or ours_grid.GetPointData().GetArray(array.GetName()) is None:
+            continue
+        theirs = vtk_to_numpy(array).astype(np.float64).reshape(n, -1)[order[order >= 0]]
+        ours = vtk_to_numpy(ours_grid.GetPointData().GetArray(array.GetName())).astype(np.float64).reshape(len(ours_points), -1)[order >= 0]
+        result.setdefault("point_arrays", []).append({"name": array.GetName(), "max_relative_difference": float(np.abs(ours - theirs).max() / max(np.abs(theirs).max(), 1e-30))})
     print(json.dumps(result))
 
 
