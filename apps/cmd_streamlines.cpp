@@ -29,13 +29,13 @@ namespace {
 
 constexpr const char* kStreamlinesUsage =
     "usage: tetrascope streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both]\n"
-    "                              [--max-steps S] [--max-length L] [--tolerance T] [--max-points P] [--threads N] [--json]\n"
+    "                              [--max-steps S] [--max-length L] [--tolerance T] [--max-points P] [--threads N] [--min-cl C] [--json]\n"
     "  SPEC: line:x0,y0,z0,x1,y1,z1,N | plane:ox,oy,oz,ux,uy,uz,vx,vy,vz,NU,NV | points:x,y,z;x,y,z... | dense:N\n";
 
 }  // namespace
 
 int run_streamlines(const Arguments& raw) {
-  Args args(raw, {"--json"}, {"--field", "--seeds", "--output", "--direction", "--max-steps", "--max-length", "--tolerance", "--threads", "--max-points"});
+  Args args(raw, {"--json"}, {"--field", "--seeds", "--output", "--direction", "--max-steps", "--max-length", "--tolerance", "--threads", "--max-points", "--min-cl"});
   if (args.positionals().size() != 1 || !args.has("--field") || !args.has("--seeds") || !args.has("--output")) {
     std::fputs(kStreamlinesUsage, stderr);
     return 2;
@@ -76,6 +76,11 @@ int run_streamlines(const Arguments& raw) {
     mesh = tetrascope::storage::load_mesh(input);
   }
   const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+  if (args.has("--min-cl")) {  // a tensor's lines run cl * e1: the zero speed is the linear anisotropy where they stop
+    const tetrascope::storage::Attribute* field = mesh.find_attribute(options["--field"]);
+    if (!field || field->info.kind != tetrascope::storage::AttributeKind::kTensor) throw std::invalid_argument("--min-cl needs a tensor --field");
+    o.zero_speed = args.positive("--min-cl", 0);
+  }
   const auto setup_start = std::chrono::steady_clock::now();
   const std::vector<uint32_t> opposite = tetrascope::pair_faces(mesh.tets).opposite;
   lod::StreamlineTracer tracer(mesh, opposite, options["--field"]);

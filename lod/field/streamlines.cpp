@@ -1,6 +1,9 @@
 // Stream lines through tetrahedral meshes, dissertation §7.3 (dense seeding §7.3.1, tetrahedral
 // walk along face adjacency). Integration with Dormand–Prince RK5(4) (Dormand & Prince 1980,
 // "A family of embedded Runge-Kutta formulae"), error per step relative to the local cell size.
+// Through a symmetric tensor field the lines follow the major eigenvector (§7.4.2's stream
+// tubes' axes), scaled by the linear anisotropy cl; an eigenvector has no sign, so every stage
+// takes the sign that agrees with the step's first direction (sign continuity).
 #include "tetrascope/lod/field/streamlines.h"
 
 #include <algorithm>
@@ -17,6 +20,7 @@
 #include "tet_locator.h"
 #include "tetrascope/core/parallel_for.h"
 #include "tetrascope/core/tet_topology.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::lod {
 
@@ -151,6 +155,7 @@ struct StreamlineTracer::Impl {
   const storage::TetMesh& mesh;
   std::span<const uint32_t> opposite;
   const float* field = nullptr;
+  bool tensor = false;  // field: 6 symmetric tensor components a vertex, traced along cl * e1
   std::string field_name;
   std::vector<const storage::Attribute*> scalars;
   double max_speed = 0, diagonal = 0;
@@ -164,7 +169,21 @@ struct StreamlineTracer::Impl {
   // Barycentric coordinates of p in tet t (b[f] < 0: p is beyond face f); false if degenerate.
   bool barycentric(uint32_t t, const Vec3& p, double b[4]) const { return locator.weights(t, p, b); }
 
+  // The major eigenvector of the tensor interpolated at b, times cl (its sign arbitrary).
+  Vec3 major_direction(uint32_t t, const double b[4]) const {
+    double c[6] = {0, 0, 0, 0, 0, 0};
+    for (int i = 0; i < 4; ++i) {
+      const float* f = field + 6 * size_t{mesh.tets[4 * size_t{t} + i]};
+      for (int k = 0; k < 6; ++k) c[k] += b[i] * f[k];
+    }
+    const storage::SymmetricTensor tensor_at{c[0], c[1], c[2], c[3], c[4], c[5]};
+    const storage::Eigensystem e = storage::eigensystem(tensor_at);
+    const double cl = storage::tensor_quantities(tensor_at)[size_t(storage::TensorQuantity::kLinear)];
+    return Vec3{e.vectors[0][0], e.vectors[0][1], e.vectors[0][2]} * cl;
+  }
+
   Vec3 interpolate(uint32_t t, const double b[4]) const {
+    if (tensor) return major_direction(t, b);
     Vec3 v{0, 0, 0};
     for (int i = 0; i < 4; ++i) {
       const float* f = field + 3 * size_t{mesh.tets[4 * size_t{t} + i]};
@@ -230,13 +249,15 @@ struct StreamlineTracer::Impl {
     return found;
   }
 
-  // The field at p (sign applied), starting the walk at `tet`; false outside the domain.
-  bool evaluate(const Vec3& p, uint32_t& tet, double sign, Vec3& v) const {
+  // The field at p (sign applied), starting the walk at `tet`; false outside the domain. A
+  // tensor's direction takes the sign that agrees with `reference` when one is given.
+  bool evaluate(const Vec3& p, uint32_t& tet, double sign, Vec3& v, const Vec3* reference = nullptr) const {
     double b[4];
     const uint32_t found = walk(p, tet, b);
     if (found == kNoTet) return false;
     tet = found;
     v = interpolate(found, b) * sign;
+    if (tensor && reference && dot(v, *reference) < 0) v = v * -1.0;
     return true;
   }
 
@@ -296,7 +317,7 @@ struct StreamlineTracer::Impl {
           Vec3 q = p;
           for (int j = 0; j < s; ++j) q = q + k[j] * (h * kA[s][j]);
           stage_point = q;
-          outside = !evaluate(q, stage_tet, sign, k[s]);
+          outside = !evaluate(q, stage_tet, sign, k[s], &k[0]);
         }
         if (outside) {
           if (h <= h_min * (1 + 1e-9)) {
@@ -361,10 +382,13 @@ struct StreamlineTracer::Impl {
     scratch[1].clear();
     if (o.direction != StreamDirection::forward) line.stops[1] = trace_direction(seed, seed_tet, -1, o, max_length, zero_speed, points_left, scratch[1]);
     if (o.direction != StreamDirection::backward) line.stops[0] = trace_direction(seed, seed_tet, 1, o, max_length, zero_speed, points_left, scratch[0]);
+    Vec3 previous{0, 0, 0};
     auto emit = [&](const Vec3& p, uint32_t t) {
       double b[4];
       barycentric(t, p, b);
-      const Vec3 v = interpolate(t, b);
+      Vec3 v = interpolate(t, b);
+      if (tensor && dot(v, previous) < 0) v = v * -1.0;  // a tensor line's directions run one way
+      previous = v;
       for (int k = 0; k < 3; ++k) line.xyz.push_back(float(p[k])), line.v.push_back(float(v[k]));
       line.values.push_back(float(length(v)));
       for (const auto* a : scalars) {
@@ -425,17 +449,21 @@ StreamlineTracer::StreamlineTracer(const storage::TetMesh& mesh, std::span<const
       if (at.info.components == 3) names += (names.empty() ? "" : ", ") + at.info.name;
     throw std::invalid_argument("no attribute '" + field + "'" + (names.empty() ? std::string(" (the mesh has no vector field)") : " (vector fields: " + names + ")"));
   }
-  if (a->info.components != 3) throw std::invalid_argument("attribute '" + field + "' has " + std::to_string(a->info.components) + " component(s); stream lines need a 3-component vector field");
+  const bool tensor = a->info.kind == storage::AttributeKind::kTensor && a->info.components == 6;
+  if (a->info.components != 3 && !tensor)
+    throw std::invalid_argument("attribute '" + field + "' has " + std::to_string(a->info.components) + " component(s); stream lines need a 3-component vector field or a tensor");
   if (opposite.size() != mesh.tets.size()) throw std::invalid_argument("face adjacency does not match the tets");
   impl_ = new Impl(mesh, opposite);
   Impl& m = *impl_;
   m.field = a->values.data();
+  m.tensor = tensor;
   m.field_name = field;
   for (const auto& at : mesh.attributes)
     if (at.info.components == 1) m.scalars.push_back(&at);
   for (size_t v = 0; v < mesh.vertex_count(); ++v) {
-    const float* f = m.field + 3 * v;
-    const double s = std::sqrt(double(f[0]) * f[0] + double(f[1]) * f[1] + double(f[2]) * f[2]);
+    const float* f = m.field + (tensor ? 6 : 3) * v;
+    const double s = tensor ? storage::tensor_quantities(storage::tensor_from_symmetric(f))[size_t(storage::TensorQuantity::kLinear)]
+                            : std::sqrt(double(f[0]) * f[0] + double(f[1]) * f[1] + double(f[2]) * f[2]);
     if (std::isfinite(s)) m.max_speed = std::max(m.max_speed, s);
   }
   if (mesh.tet_count() > 0) {
@@ -543,6 +571,7 @@ std::vector<Vec3> sphere_points(uint32_t k) {
 
 std::vector<StreamlineTracer::CriticalPoint> StreamlineTracer::critical_points() const {
   const Impl& m = *impl_;
+  if (m.tensor) throw std::invalid_argument("critical points need a vector field; '" + m.field_name + "' is a tensor");
   std::vector<CriticalPoint> out;
   if (!(m.max_speed > 0)) return out;  // a zero field: nothing isolated
   const double merge = 1e-9 * m.diagonal;

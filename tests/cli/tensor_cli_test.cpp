@@ -112,5 +112,21 @@ TEST(TensorCli, ADerivedScalarRendersFromTheMeshAndTheStore) {
   EXPECT_LT(range[0].get<double>(), range[1].get<double>()) << cut.out;
 }
 
+// Lines along the major principal stress: the bar's tension runs along x, so a line through
+// the middle reaches both ends; --min-cl is refused for a field that is not a tensor.
+TEST(TensorCli, StreamLinesFollowTheMajorPrincipalStress) {
+  const auto dir = scratch_dir("tensor-cli-lines");
+  const auto mesh = write_tensor_mesh(dir);
+  const std::string out = (dir / "lines.vtk").string();
+  CliResult r = run_cli("streamlines " + mesh.string() + " --field stress --seeds points:0.5,0.5,0.5 --min-cl 0.5 -o " + out + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["lines"], 1);
+  EXPECT_EQ(j["stops"]["boundary"], 2) << r.out;
+  CliResult vector = run_cli("streamlines " + mesh.string() + " --field f --seeds points:0.5,0.5,0.5 --min-cl 0.5 -o " + out);
+  EXPECT_EQ(vector.status, 2) << vector.out;
+  EXPECT_NE(vector.out.find("--min-cl needs a tensor"), std::string::npos) << vector.out;
+}
+
 }  // namespace
 }  // namespace tetrascope::testing

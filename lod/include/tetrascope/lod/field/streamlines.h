@@ -78,8 +78,12 @@ struct Streamlines {
 
 // Traces through `mesh`, whose face adjacency `opposite` (4 per tet, from pair_faces) must be
 // consistent with its tets. Builds a uniform grid over the tets' boxes once for seed location.
-// The mesh is trusted (checked by its reader); `field` must name a 3-component attribute,
-// otherwise std::invalid_argument.
+// The mesh is trusted (checked by its reader); `field` must name a 3-component attribute or a
+// symmetric tensor (AttributeKind::kTensor), otherwise std::invalid_argument. Through a tensor
+// the lines follow the major eigenvector (of λ1) of the tensor interpolated at each point,
+// scaled by its linear anisotropy cl, the sign of every stage chosen to agree with the step's
+// first direction: zero_speed is then the cl below which a line stops, and critical points are
+// refused (std::invalid_argument).
 class StreamlineTracer {
  public:
   StreamlineTracer(const storage::TetMesh& mesh, std::span<const uint32_t> opposite, const std::string& field);
