@@ -79,6 +79,8 @@ void Simplifier::add_values_and_channels() {
   for (size_t a = 0; a < mesh.attributes.size(); ++a) {
     const auto& attribute = mesh.attributes[a];
     if (!options.attributes.empty() && std::find(options.attributes.begin(), options.attributes.end(), attribute.info.name) == options.attributes.end()) continue;
+    // a tensor's derived scalars are recomputed from it afterwards: weighed only when named
+    if (options.attributes.empty() && attribute.info.kind == storage::AttributeKind::kTensorDerived) continue;
     const uint32_t c = attribute.info.components;
     if (channels_.size() + c > kMaxSimplifyAttributeChannels) {
       if (options.attributes.empty()) break;  // all attributes: as many as fit

@@ -65,6 +65,8 @@ std::vector<float> normalised_channels(const storage::TetMesh& mesh, const Simpl
   for (size_t a = 0; a < mesh.attributes.size(); ++a) {
     const auto& attribute = mesh.attributes[a];
     if (!options.attributes.empty() && std::find(options.attributes.begin(), options.attributes.end(), attribute.info.name) == options.attributes.end()) continue;
+    // a tensor's derived scalars are recomputed from it afterwards: weighed only when named
+    if (options.attributes.empty() && attribute.info.kind == storage::AttributeKind::kTensorDerived) continue;
     const uint32_t c = attribute.info.components;
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     if (!options.attribute_ranges.empty()) {
