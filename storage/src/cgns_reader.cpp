@@ -15,6 +15,7 @@
 // state and is not thread-safe: every call into it holds one process-wide lock.
 // SIDS (the CGNS Standard Interface Data Structures), sections 6 (zones), 7 (elements), 11
 // (flow solutions) and 12.5 (ZoneIterativeData).
+#include <ADF.h>
 #include <cgns_io.h>
 #include <cgnslib.h>
 
@@ -34,6 +35,7 @@ namespace {
 // What one file may declare, whatever its size: as many zones, sections, solutions and fields
 // as any real file has, bounded so that a hostile header costs no memory.
 constexpr int kMaxSections = 100000;
+constexpr size_t kAdfHeaderBytes = 186;  // ADF's file header, "@(#)ADF Database Version" to "AdF5"
 constexpr int kMaxFields = 10000;
 constexpr cgsize_t kMaxTimeSteps = 1000000;
 
@@ -95,13 +97,31 @@ std::vector<Variable> join_components(const std::vector<std::string>& names) {
   return out;
 }
 
-// The file's first bytes: an HDF5 file (signature at 0) or an ADF one.
+// The file's first bytes: an HDF5 file (signature at 0) or an ADF one whose file header is
+// whole. The ADF layer asserts (and so aborts the process) on a header it cannot parse, so
+// its fixed layout is checked here: the tags AdF0..AdF5 in place, a known number format and
+// word size, the machine's type sizes those of a real machine and every pointer hex.
 bool looks_like_cgns(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  char head[32] = {};
+  char head[kAdfHeaderBytes] = {};
   in.read(head, sizeof head);
-  if (std::memcmp(head, "\x89HDF\r\n\x1a\n", 8) == 0) return true;
-  return std::memcmp(head + 4, "ADF Database Version", 20) == 0;  // after "@(#)", high bits set
+  const size_t got = static_cast<size_t>(in.gcount());
+  if (got >= 8 && std::memcmp(head, "\x89HDF\r\n\x1a\n", 8) == 0) return true;
+  if (got < sizeof head || std::memcmp(head + 4, "ADF Database Version", 20) != 0) return false;  // after "@(#)", high bits set
+  for (const auto& [at, tag] : {std::pair{32, "AdF0"}, {64, "AdF1"}, {96, "AdF2"}, {102, "AdF3"}, {130, "AdF4"}, {182, "AdF5"}})
+    if (std::memcmp(head + at, tag, 4) != 0) return false;
+  if (!std::strchr("BLCN", head[100]) || !head[100] || !std::strchr("BL", head[101]) || !head[101]) return false;
+  // the sizes of char, short, int, long, float, double and of pointers to them, two digits each:
+  // ADF converts values by them, so only those of real machines pass
+  static const char* const sizes[12] = {"01", "02", "04", "0408", "04", "08", "0408", "0408", "0408", "0408", "0408", "0408"};
+  for (int k = 0; k < 12; ++k) {
+    bool known = false;
+    for (const char* option = sizes[k]; *option; option += 2) known |= std::memcmp(head + 106 + 2 * k, option, 2) == 0;
+    if (!known) return false;
+  }
+  for (int i = 134; i < 182; ++i)
+    if (!std::isxdigit(static_cast<unsigned char>(head[i]))) return false;
+  return true;
 }
 
 // A DataArray_t of the file: its node, type ("I4", "I8", "R4", "R8") and length.
@@ -176,6 +196,8 @@ class CgnsReader final : public FormatReader {
   std::vector<Node> children(double parent, const std::string& what) const;
   Array array(const Node& node, const std::string& what) const;
   std::string text(double node, const std::string& what) const;
+  // The node's data type when it is one plain type ("I4", "R8", "C1", ...), under the lock.
+  bool stored_type(double node, char (&type)[CGIO_MAX_DATATYPE_LENGTH + 1]) const;
   // `count` values from 0-based `first` of an integer or real array, converted.
   void read_values(const Array& a, int64_t first, size_t count, const std::string& what, int64_t* ints, double* reals);
   std::vector<int64_t> small_ints(const Node& node, size_t most, const std::string& what);
@@ -195,6 +217,7 @@ class CgnsReader final : public FormatReader {
   ReadLimits limits_;
   uint64_t file_bytes_ = 0;
   int cgio_ = -1;
+  bool adf_ = false;
   MeshHeader header_;
   std::vector<Zone> zones_;
   std::vector<Variable> point_variables_, cell_variables_;
@@ -225,6 +248,23 @@ std::string cgio_message() {
   return message[0] ? std::string(" (") + message + ")" : std::string();
 }
 
+// The node layer reports an ADF node's type by its first two characters, but ADF reads data by
+// the whole type string (a compound "R8I4" takes 12 bytes a value), and would write past a
+// buffer sized by the first: an ADF type is taken whole and must be one plain type.
+bool CgnsReader::stored_type(double node, char (&type)[CGIO_MAX_DATATYPE_LENGTH + 1]) const {
+  if (!adf_) return cgio_get_data_type(cgio_, node, type) == CGIO_ERR_NONE;
+  char whole[ADF_DATA_TYPE_LENGTH + 1] = {};
+  int error = 0;
+  ADF_Get_Data_Type(node, whole, &error);
+  if (error != NO_ERROR) return false;
+  std::string t(whole, strnlen(whole, ADF_DATA_TYPE_LENGTH));
+  while (!t.empty() && t.back() == ' ') t.pop_back();
+  if (t.size() != 2) return false;
+  std::memcpy(type, t.data(), 2);
+  type[2] = '\0';
+  return true;
+}
+
 std::vector<Node> CgnsReader::children(double parent, const std::string& what) const {
   std::lock_guard<std::mutex> hold(library_lock());
   int count = 0;
@@ -248,7 +288,7 @@ Array CgnsReader::array(const Node& node, const std::string& what) const {
   char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
   int dimensions = 0;
   cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (cgio_get_data_type(cgio_, node.id, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
+  if (!stored_type(node.id, type) || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
     fail("CGNS: cannot read " + what + cgio_message());
   }
   Array a{node.id, std::string(type, strnlen(type, CGIO_MAX_DATATYPE_LENGTH)), 0};
@@ -264,7 +304,7 @@ std::string CgnsReader::text(double node, const std::string& what) const {
   char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
   int dimensions = 0;
   cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (cgio_get_data_type(cgio_, node, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, node, &dimensions, extent) != CGIO_ERR_NONE) {
+  if (!stored_type(node, type) || cgio_get_dimensions(cgio_, node, &dimensions, extent) != CGIO_ERR_NONE) {
     fail("CGNS: cannot read " + what + cgio_message());
   }
   if (std::strcmp(type, "C1") != 0 || dimensions != 1 || extent[0] < 1 || extent[0] > 64) fail("CGNS: " + what + " is not a short text");
@@ -307,7 +347,7 @@ std::vector<int64_t> CgnsReader::small_ints(const Node& node, size_t most, const
   char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
   int dimensions = 0;
   cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (cgio_get_data_type(cgio_, node.id, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
+  if (!stored_type(node.id, type) || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
     fail("CGNS: cannot read " + what + cgio_message());
   }
   uint64_t values = dimensions > 0 ? 1 : 0;
@@ -329,6 +369,8 @@ void CgnsReader::open_file() {
     cgio_ = -1;
     fail("CGNS: the file cannot be opened" + cgio_message());
   }
+  int file_type = 0;
+  adf_ = cgio_get_file_type(cgio_, &file_type) != CGIO_ERR_NONE || file_type != CGIO_FILE_HDF5;
 }
 
 MeshHeader CgnsReader::index(ReadStats& stats) {
@@ -352,7 +394,7 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
       char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
       int dimensions = 0;
       cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-      if (cgio_get_data_type(cgio_, n.id, type) == CGIO_ERR_NONE && std::strcmp(type, "R4") == 0 && cgio_get_dimensions(cgio_, n.id, &dimensions, extent) == CGIO_ERR_NONE &&
+      if (stored_type(n.id, type) && std::strcmp(type, "R4") == 0 && cgio_get_dimensions(cgio_, n.id, &dimensions, extent) == CGIO_ERR_NONE &&
           dimensions == 1 && extent[0] == 1 && cgio_read_all_data(cgio_, n.id, &v) == CGIO_ERR_NONE && v > 0 && v < 100) {
         char shown[16];
         std::snprintf(shown, sizeof shown, "%.2g", static_cast<double>(v));
@@ -504,7 +546,7 @@ std::string CgnsReader::last_step(const std::vector<Node>& iterative, const char
     char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
     int dimensions = 0;
     cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-    if (cgio_get_data_type(cgio_, n.id, type) != CGIO_ERR_NONE || cgio_get_dimensions(cgio_, n.id, &dimensions, extent) != CGIO_ERR_NONE) return "";
+    if (!stored_type(n.id, type) || cgio_get_dimensions(cgio_, n.id, &dimensions, extent) != CGIO_ERR_NONE) return "";
     if (std::strcmp(type, "C1") != 0 || dimensions != 2 || extent[0] != 32 || extent[1] < 1 || extent[1] > kMaxTimeSteps) return "";
     std::vector<char> names(static_cast<size_t>(32 * extent[1]));
     if (cgio_read_all_data(cgio_, n.id, names.data()) != CGIO_ERR_NONE) return "";

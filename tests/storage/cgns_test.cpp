@@ -41,6 +41,7 @@ struct CgnsOptions {
   bool structured = false;        // the first zone written as a structured one
   std::vector<std::string> extra_cell_solutions{};  // written before the real one, values -1
   bool pointers = false;          // ZoneIterativeData naming the real cell solution for the last step, written first
+  const char* pointers_name = "FlowSolutionPointers";  // or VTK's FlowSolutionCellPointers
 };
 
 void check(int status) {
@@ -102,14 +103,14 @@ std::vector<size_t> write_sections(int fn, int B, int Z, const CellMesh& m, cons
   return order;
 }
 
-void write_pointers(int fn, int B, int Z, const std::vector<std::string>& steps) {
+void write_pointers(int fn, int B, int Z, const std::vector<std::string>& steps, const char* array) {
   check(cg_biter_write(fn, B, "BaseIterativeData", static_cast<int>(steps.size())));
   check(cg_ziter_write(fn, B, Z, "ZoneIterativeData"));
   check(cg_goto(fn, B, "Zone_t", Z, "ZoneIterativeData_t", 1, "end"));
   std::string names;
   for (const std::string& s : steps) names += s + std::string(32 - s.size(), ' ');
   const cgsize_t dims[2] = {32, static_cast<cgsize_t>(steps.size())};
-  check(cg_array_write("FlowSolutionPointers", CGNS_ENUMV(Character), 2, dims, names.data()));
+  check(cg_array_write(array, CGNS_ENUMV(Character), 2, dims, names.data()));
 }
 
 // Each mesh a zone of the first base: coordinates, its sections, a Vertex solution of its
@@ -138,7 +139,7 @@ void write_cgns(const std::filesystem::path& path, const std::vector<CellMesh>& 
     check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateY", y.data(), &C));
     check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateZ", zs.data(), &C));
     const std::vector<size_t> order = write_sections(fn, B, Z, m, options);
-    if (options.pointers) write_pointers(fn, B, Z, {"Early", "FlowSolutionCells"});
+    if (options.pointers) write_pointers(fn, B, Z, {"Early", "FlowSolutionCells"}, options.pointers_name);
     int S = 0;
     if (!m.attributes.empty()) {
       check(cg_sol_write(fn, B, Z, "FlowSolution", CGNS_ENUMV(Vertex), &S));
@@ -370,6 +371,9 @@ TEST(Cgns, OfSeveralSolutionsTheLastIsReadOrTheOneZoneIterativeDataNames) {
   bool warned = false;
   for (const std::string& w : stats.warnings) warned |= w.find("the last step's ('FlowSolutionCells') is read") != std::string::npos;
   EXPECT_TRUE(warned);
+  // VTK's writers name the steps' cell solutions in FlowSolutionCellPointers
+  write_cgns(dir / "vtk.cgns", {f.mesh}, {.extra_cell_solutions = {"Early"}, .pointers = true, .pointers_name = "FlowSolutionCellPointers"});
+  expect_fields(storage::load_mesh(dir / "vtk.cgns"), f);
 }
 
 // Marks the file as written by CGNS `version` (the CGNSLibraryVersion node).
@@ -477,6 +481,24 @@ TEST(HostileCgns, AFileWithNoUnstructuredZoneIsRefused) {
   write_cgns(path, {});
   const std::string error = mesh_read_error(path);
   EXPECT_NE(error.find("has no zone"), std::string::npos) << error;
+}
+
+// The CGNS library's ADF layer aborts on a file header it cannot parse, and converts values by
+// the type sizes the header gives: both are checked before the library sees the file.
+TEST(HostileCgns, AnAdfFileCutInsideItsHeaderIsRefused) {
+  const auto dir = scratch_dir("cgns_adf_header");
+  write_cgns(dir / "good.adf", {hex_zone().mesh}, {.adf = true});
+  write_file(dir / "cut.adf", read_file(dir / "good.adf").substr(0, 91));
+  EXPECT_NE(mesh_read_error(dir / "cut.adf").find("cut.adf: not a CGNS file"), std::string::npos) << mesh_read_error(dir / "cut.adf");
+}
+
+TEST(HostileCgns, AnAdfHeaderWithTypeSizesOfNoMachineIsRefused) {
+  const auto dir = scratch_dir("cgns_adf_sizes");
+  write_cgns(dir / "good.adf", {hex_zone().mesh}, {.adf = true});
+  std::string bad = read_file(dir / "good.adf");
+  bad.replace(116, 2, "86");  // the size of a double
+  write_file(dir / "bad.adf", bad);
+  EXPECT_NE(mesh_read_error(dir / "bad.adf").find("bad.adf: not a CGNS file"), std::string::npos) << mesh_read_error(dir / "bad.adf");
 }
 
 TEST(HostileCgns, TruncatedAndFlippedFilesGetAnErrorOrReadNeverCrash) {
