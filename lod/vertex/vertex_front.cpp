@@ -349,6 +349,34 @@ std::vector<double> VertexFront::errors(const FrontCriteria& c) const {
   return e;
 }
 
+// The collapses a split of i needs split (i and, transitively, every applied collapse among
+// the `after` of one in the set), with their summed estimate and tets; false when they pass
+// `limit` tets.
+bool VertexFront::package(uint32_t i, std::span<const double> own, uint64_t limit, Package& out) {
+  out.members.clear();
+  out.error = 0;
+  out.tets = 0;
+  if (++epoch_ == 0) {
+    std::fill(seen_.begin(), seen_.end(), 0);
+    epoch_ = 1;
+  }
+  std::vector<uint32_t>& stack = stack_;
+  stack.assign(1, i);
+  while (!stack.empty()) {
+    const uint32_t x = stack.back();
+    stack.pop_back();
+    if (!applied_[x] || seen_[x] == epoch_) continue;
+    seen_[x] = epoch_;
+    out.members.push_back(x);
+    out.error += std::max(0.0, own[x]);
+    out.tets += h_.nodes[x].fan;
+    if (out.tets > limit) return false;
+    for (uint32_t k = h_.after_offsets[x]; k < h_.after_offsets[x + 1]; ++k)
+      if (applied_[h_.after[k]] && seen_[h_.after[k]] != epoch_) stack.push_back(h_.after[k]);
+  }
+  return true;
+}
+
 FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget) {
   FrontChanges changes;
   changes.budget = budget;
@@ -356,38 +384,38 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
   collapse_all();
   const uint32_t C = h_.collapse_count();
   const std::vector<double> own = errors(criteria);
-  // splits are ranked by the error they remove per tet they add; a split forces the later
-  // collapses that consumed its tets: they are split no later than it
-  std::vector<double> e(C);
-  for (uint32_t i = 0; i < C; ++i) e[i] = own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1);
+  seen_.resize(C);
+  // A split is ranked by the error its package removes (it and the splits it forces) per tet
+  // the package adds, evaluated lazily: a collapse taken from the queue is measured against
+  // the front of the moment and taken when it still ranks first, else queued again at its
+  // measured rank.
+  using Entry = std::pair<double, uint32_t>;  // ties: the later collapse first
+  std::priority_queue<Entry> queue;
   for (uint32_t i = 0; i < C; ++i)
-    for (uint32_t k = h_.after_offsets[i]; k < h_.after_offsets[i + 1]; ++k) e[h_.after[k]] = std::max(e[h_.after[k]], e[i]);
-  using Entry = std::pair<double, uint32_t>;  // ties: the later collapse first (the simplifier's order, reversed)
-  std::priority_queue<Entry> ready;
-  for (uint32_t i = 0; i < C; ++i)
-    if (applied_after_[i] == 0) ready.push({e[i], i});
+    if (own[i] > 0) queue.push({own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1), i});
   changes.over_budget = tets_ > budget;
-  while (!ready.empty()) {
-    const uint32_t i = ready.top().second;
-    if (e[i] <= 0) {  // out of view or clipped away: the view is complete
-      changes.complete = true;
-      break;
-    }
-    if (tets_ + h_.nodes[i].fan > budget) {
+  Package p;
+  while (!queue.empty()) {
+    const uint32_t i = queue.top().second;
+    queue.pop();
+    if (!applied_[i]) continue;
+    if (tets_ >= budget || !package(i, own, budget - tets_, p)) {  // it no longer fits: the budget only shrinks
       changes.budget_limited = true;
-      break;
+      continue;
     }
-    ready.pop();
-    apply_split(i);
-    ++changes.splits;
-    const double rank = own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1);
-    if (rank < e[i]) changes.forced_tets += h_.nodes[i].fan;
-    if (own[i] <= 0) changes.unseen_tets += h_.nodes[i].fan;
-    for (uint32_t k = h_.before_offsets[i]; k < h_.before_offsets[i + 1]; ++k) {
-      const uint32_t j = h_.before[k];
-      if (applied_after_[j] == 0) ready.push({e[j], j});
+    const double rank = p.error / std::max<uint64_t>(p.tets, 1);
+    if (!queue.empty() && rank < queue.top().first) {
+      queue.push({rank, i});
+      continue;
     }
+    for (uint32_t x : p.members) {
+      if (x != i) changes.forced_tets += h_.nodes[x].fan;
+      if (own[x] <= 0) changes.unseen_tets += h_.nodes[x].fan;
+    }
+    changes.splits += static_cast<uint32_t>(p.members.size());
+    split(i);
   }
+  changes.complete = !changes.budget_limited;
   changes.tets = tets_;
   changes.changed = applied_ != before || !updated_;
   updated_ = true;

@@ -5,8 +5,8 @@
 // A split undoes one collapse: it brings back the collapse's two vertices and its fan tets.
 // Splitting a collapse first splits every applied collapse that consumed a tet it made
 // (forced splits); collapsing one needs every collapse that made a tet it consumes applied.
-// update() starts from the base mesh and splits in the order of the image error a split
-// removes, until the budget holds no further split.
+// update() starts from the base mesh and splits in the order of the image error a split and
+// the splits it forces remove per tet they add, until the budget holds no further package.
 #pragma once
 
 #include <array>
@@ -59,13 +59,13 @@ struct FrontChanges {
   uint64_t budget = 0;
   uint32_t splits = 0;
   bool changed = false;         // the front differs from the one before the update
-  bool budget_limited = false;  // a wanted split did not fit
+  bool budget_limited = false;  // a wanted split's package did not fit
   bool over_budget = false;     // the base mesh alone has more tets than the budget
-  bool complete = false;        // every split left is out of view or clipped away: more tets would not change the picture
+  bool complete = false;        // no package was dropped: the splits left are out of view or clipped away
   double estimated_error = 0;   // Σ E over the collapses left applied
-  // Of the tets the splits added: those of splits made only because a split of larger E
-  // needed them (their own E a tet below the rank they were split at), and of them those
-  // whose own E is 0 (out of view or clipped away).
+  // Of the tets the splits added: those of splits made only because a split in view needed
+  // them (the other members of its package), and of all splits those whose own E is 0 (out
+  // of view or clipped away).
   uint64_t forced_tets = 0, unseen_tets = 0;
 };
 
@@ -73,7 +73,8 @@ class VertexFront {
  public:
   explicit VertexFront(const VertexHierarchy& hierarchy);  // the base mesh: every collapse applied
 
-  // From the base mesh, the splits of largest E (forced ones counted) while they fit `budget`.
+  // From the base mesh, packages (a split and the splits it forces) in the order of their
+  // summed E per tet, each taken when it fits `budget`.
   FrontChanges update(const FrontCriteria& criteria, uint64_t budget);
 
   // Single steps. split() splits the collapse and every one it forces; collapse() refuses
@@ -97,6 +98,12 @@ class VertexFront {
  private:
   void apply_split(uint32_t i);
   void apply_collapse(uint32_t i);
+  struct Package {
+    std::vector<uint32_t> members;
+    double error = 0;
+    uint64_t tets = 0;
+  };
+  bool package(uint32_t i, std::span<const double> own, uint64_t limit, Package& out);
   // Occlusion: the base mesh's values sampled on a grid over the mesh's box (NaN outside it),
   // and per update the transmittance from the eye to each grid point.
   void sample_base_grid();
@@ -113,6 +120,8 @@ class VertexFront {
   std::vector<uint32_t> parent_;         // per vertex: the collapse that consumes it, or kNoCollapse
   uint64_t tets_ = 0;
   bool updated_ = false;
+  std::vector<uint32_t> seen_, stack_;  // package(): visited marks by epoch, the walk's stack
+  uint32_t epoch_ = 0;
 };
 
 }  // namespace tetrascope::lod
