@@ -60,7 +60,7 @@ constexpr const char* kUsage =
     "  streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both] [--max-steps S]\n"
     "                                [--max-length L] [--tolerance T] [--max-points P] [--json]   stream lines as VTK polylines (docs/streamlines.md)"
     "\n"
-    "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off, .exo/.e/.g (Exodus II), an OpenFOAM case folder or its .foam file\n";
+    "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off, .exo/.e/.g (Exodus II), .cgns/.adf (CGNS), an OpenFOAM case folder or its .foam file\n";
 
 }  // namespace
 
