@@ -387,34 +387,64 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
   seen_.resize(C);
   // A split is ranked by the error its package removes (it and the splits it forces) per tet
   // the package adds, evaluated lazily: a collapse taken from the queue is measured against
-  // the front of the moment and taken when it still ranks first, else queued again at its
-  // measured rank.
-  using Entry = std::pair<double, uint32_t>;  // ties: the later collapse first
+  // the front of the moment (its first kPartial members while its key is an estimate, the
+  // whole package once it comes first) and taken when it still ranks first, else queued again
+  // at its measured rank.
+  struct Entry {
+    double rank;
+    uint32_t collapse;
+    bool whole;  // measured over its whole package
+    bool operator<(const Entry& o) const { return rank < o.rank || (rank == o.rank && collapse < o.collapse); }  // ties: the later collapse first
+  };
   std::priority_queue<Entry> queue;
-  for (uint32_t i = 0; i < C; ++i)
-    if (own[i] > 0) queue.push({own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1), i});
+  uint64_t all_tets = tets_;  // the input mesh's
+  for (uint32_t i = 0; i < C; ++i) {
+    all_tets += h_.nodes[i].fan;
+    if (own[i] > 0) queue.push({own[i] / std::max<uint32_t>(h_.nodes[i].fan, 1), i, false});
+  }
   changes.over_budget = tets_ > budget;
+  constexpr uint64_t kPartial = 96;  // tets
+  const uint64_t slack = budget / 200;  // within 0.5% of the budget the front stops looking
   Package p;
   while (!queue.empty()) {
-    const uint32_t i = queue.top().second;
+    const Entry top = queue.top();
+    const uint32_t i = top.collapse;
     queue.pop();
     if (!applied_[i]) continue;
-    if (tets_ >= budget || !package(i, own, budget - tets_, p)) {  // it no longer fits: the budget only shrinks
+    if (tets_ + slack >= budget && all_tets > budget) {
+      changes.budget_limited = true;
+      break;
+    }
+    if (all_tets <= budget) {  // every split fits: the order does not matter
+      split(i);
+      continue;
+    }
+    const bool whole = top.whole || package(i, own, kPartial, p);
+    if (!top.whole) {
+      const double rank = p.error / std::max<uint64_t>(p.tets, 1);
+      if (!queue.empty() && rank < queue.top().rank) {
+        queue.push({rank, i, whole});
+        continue;
+      }
+    }
+    if (!package(i, own, budget - tets_, p)) {  // it no longer fits: the budget only shrinks
       changes.budget_limited = true;
       continue;
     }
     const double rank = p.error / std::max<uint64_t>(p.tets, 1);
-    if (!queue.empty() && rank < queue.top().first) {
-      queue.push({rank, i});
+    if (!queue.empty() && rank < queue.top().rank) {
+      queue.push({rank, i, true});
       continue;
     }
-    for (uint32_t x : p.members) {
+    for (uint32_t x : p.members)
       if (x != i) changes.forced_tets += h_.nodes[x].fan;
-      if (own[x] <= 0) changes.unseen_tets += h_.nodes[x].fan;
-    }
-    changes.splits += static_cast<uint32_t>(p.members.size());
     split(i);
   }
+  for (uint32_t i = 0; i < C; ++i)
+    if (!applied_[i]) {
+      ++changes.splits;
+      if (own[i] <= 0) changes.unseen_tets += h_.nodes[i].fan;
+    }
   changes.complete = !changes.budget_limited;
   changes.tets = tets_;
   changes.changed = applied_ != before || !updated_;
