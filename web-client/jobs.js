@@ -70,7 +70,7 @@ export class Jobs {
     const file = $('upload-file').files[0];
     const status = $('job-status');
     if (!file) {
-      status.textContent = 'Choose a mesh file first (.vtk, .vtu, .msh, .node/.ele, .off).';
+      status.textContent = 'Choose a mesh file first (.vtk, .vtu, .msh, .node/.ele, .off, Exodus II .exo/.e, CGNS .cgns).';
       return;
     }
     const name = $('job-name').value.trim() || file.name.replace(/\.[^.]*$/, '').replace(/[^A-Za-z0-9._-]/g, '_').replace(/^[.-]+/, '');
