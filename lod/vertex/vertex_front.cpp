@@ -427,7 +427,8 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
         continue;
       }
     }
-    if (!package(i, own, budget - tets_, p)) {  // it no longer fits: the budget only shrinks
+    const bool measured = !top.whole && whole;  // p already holds the whole package
+    if (!(measured && p.tets <= budget - tets_) && !package(i, own, budget - tets_, p)) {  // it no longer fits: the budget only shrinks
       changes.budget_limited = true;
       continue;
     }
