@@ -292,7 +292,7 @@ int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, cons
   storage::write_vtk(args.get("--output"), mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.tet_count()}, {"vertices", mesh.vertex_count()}, {"budget", budget}, {"by", "vertices"}, {"splits", changes.splits},
                       {"budget_limited", changes.budget_limited}, {"over_budget", changes.over_budget}, {"complete", changes.complete},
-                      {"forced_tets", changes.forced_tets}, {"unseen_tets", changes.unseen_tets}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms}};
+                      {"forced_tets", changes.forced_tets}, {"unseen_tets", changes.unseen_tets}, {"refused_splits", changes.refused}, {"run_time_valid", changes.run_time_valid}, {"estimated_error", changes.estimated_error}, {"update_ms", update_ms}};
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %zu tets, %zu vertices by %u vertex splits (budget %llu%s); cut update %.2f ms\n", args.get("--output").c_str(), mesh.tet_count(), mesh.vertex_count(),
                    changes.splits, static_cast<unsigned long long>(budget), changes.budget_limited ? ", budget reached" : "", update_ms);
@@ -431,6 +431,8 @@ int run_render(const Arguments& all) {
     if (pipeline->front() && !o.view.segment_cut) {
       j["cut"]["forced_tets"] = budget->forced_tets;
       j["cut"]["unseen_tets"] = budget->unseen_tets;
+      j["cut"]["refused_splits"] = budget->refused_splits;
+      j["cut"]["run_time_valid"] = budget->run_time_valid;
     }
     // below the coarsest level the cut cannot go: said, not drawn silently
     if (budget->over_budget)

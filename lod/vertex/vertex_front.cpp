@@ -86,6 +86,7 @@ VertexFront::VertexFront(const VertexHierarchy& hierarchy) : h_(hierarchy) {
     grid_step_[k] = std::max(h_.input_vertices ? double(hi[k] - lo[k]) / kGrid : 1.0, 1e-30);
   }
   collapse_all();
+  prepare_relaxed();
   sample_base_grid();
 }
 
@@ -349,7 +350,7 @@ std::vector<double> VertexFront::errors(const FrontCriteria& c) const {
   return e;
 }
 
-// The collapses a split of i needs split (i and, transitively, every applied collapse among
+// update()'s front in the simplification's order: the collapses a split of i needs split (i and, transitively, every applied collapse among
 // the `after` of one in the set), with their summed estimate and tets; false when they pass
 // `limit` tets.
 bool VertexFront::package(uint32_t i, std::span<const double> own, uint64_t limit, Package& out) {
@@ -377,13 +378,12 @@ bool VertexFront::package(uint32_t i, std::span<const double> own, uint64_t limi
   return true;
 }
 
-FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget) {
+FrontChanges VertexFront::update_packages(uint64_t budget) {
   FrontChanges changes;
   changes.budget = budget;
-  const std::vector<uint8_t> before = applied_;
   collapse_all();
   const uint32_t C = h_.collapse_count();
-  const std::vector<double> own = errors(criteria);
+  const std::vector<double>& own = own_;
   seen_.resize(C);
   // A split is ranked by the error its package removes (it and the splits it forces) per tet
   // the package adds, evaluated lazily: a collapse taken from the queue is measured against
@@ -448,8 +448,6 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
     }
   changes.complete = !changes.budget_limited;
   changes.tets = tets_;
-  changes.changed = applied_ != before || !updated_;
-  updated_ = true;
   for (uint32_t i = 0; i < C; ++i)
     if (applied_[i]) changes.estimated_error += own[i];
   return changes;
@@ -467,11 +465,11 @@ storage::TetMesh VertexFront::mesh(std::vector<uint32_t>* vertex_ids) const {
   std::vector<uint32_t> tets;
   tets.reserve(4 * tets_);
   for (size_t t = 0; t < h_.killer.size(); ++t) {
-    if (h_.killer[t] != kNoCollapse && applied_[h_.killer[t]]) continue;
-    for (int k = 0; k < 4; ++k) {
-      const uint32_t v = rep[h_.tets[4 * t + k]];
-      index[v] = 0;
-      tets.push_back(v);
+    const uint32_t v[4] = {rep[h_.tets[4 * t]], rep[h_.tets[4 * t + 1]], rep[h_.tets[4 * t + 2]], rep[h_.tets[4 * t + 3]]};
+    if (v[0] == v[1] || v[0] == v[2] || v[0] == v[3] || v[1] == v[2] || v[1] == v[3] || v[2] == v[3]) continue;  // degenerate
+    for (uint32_t u : v) {
+      index[u] = 0;
+      tets.push_back(u);
     }
   }
   std::vector<uint32_t> ids;

@@ -47,7 +47,7 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   auto start = Clock::now();
   const lod::FrontChanges changes = front_->update(criteria, request.budget);
   cut_estimated_error_ = changes.estimated_error;
-  cut_budget_ = CutBudget{request.budget, changes.tets, changes.budget_limited, changes.over_budget, changes.complete, changes.forced_tets, changes.unseen_tets};
+  cut_budget_ = CutBudget{request.budget, changes.tets, changes.budget_limited, changes.over_budget, changes.complete, changes.forced_tets, changes.unseen_tets, changes.refused, changes.run_time_valid};
   t.cut_ms = ms_since(start);
   start = Clock::now();
   std::optional<storage::TetMesh> mesh;

@@ -219,6 +219,41 @@ TEST(VertexFront, LeavesLessOfTheViewsEstimateThanTheHierarchysOwnOrder) {
   }
 }
 
+// Splits are valid at run time (every tet they change stays positively oriented), not only
+// in the simplification's order: fronts for views drawn at random, eyes inside and outside,
+// conform, and most of them are not states of the simplification (an applied collapse with
+// a collapse before it that made one of its tets split).
+TEST(VertexFront, FrontsOfRandomViewsConformWithoutTheSimplificationsOrder) {
+  const auto& h = hierarchy();
+  lod::VertexFront front(h);
+  std::mt19937 rng(20261139);
+  std::uniform_real_distribution<double> unit(0, 1);
+  size_t open_fronts = 0;
+  const int views = 16;
+  for (int view = 0; view < views; ++view) {
+    lod::FrontCriteria criteria;
+    view::Camera camera;
+    const bool inside = view % 2 == 0;
+    camera.eye = inside ? std::array<double, 3>{unit(rng), unit(rng), unit(rng)} : std::array<double, 3>{2.5 * unit(rng) - 0.75, -1.5, 2 * unit(rng) - 0.5};
+    camera.target = {unit(rng), unit(rng), unit(rng)};
+    camera.up = {0, 0, 1};
+    camera.fov_degrees = 30 + 50 * unit(rng);
+    criteria.camera = camera;
+    const uint64_t budget = 600 + rng() % 12000;
+    const lod::FrontChanges changes = front.update(criteria, budget);
+    const std::string what = "view " + std::to_string(view) + (inside ? " (inside)" : " (outside)") + ", budget " + std::to_string(budget);
+    EXPECT_LE(changes.tets, budget) << what;
+    EXPECT_EQ(front.mesh().tet_count(), changes.tets) << what;
+    expect_conforming(front.mesh(), what);
+    size_t open = 0;
+    for (uint32_t i = 0; i < h.collapse_count(); ++i)
+      if (front.applied(i))
+        for (uint32_t k = h.before_offsets[i]; k < h.before_offsets[i + 1]; ++k) open += !front.applied(h.before[k]);
+    open_fronts += open > 0;
+  }
+  EXPECT_GE(open_fronts, size_t{views / 2}) << "fronts that are not states of the simplification";
+}
+
 TEST(VertexFront, LeavesWhatNoOpacityShowsCoarse) {
   const auto& h = hierarchy();
   lod::VertexFront front(h);

@@ -91,6 +91,8 @@ class ViewPipeline {
     bool budget_limited = false, over_budget = false;
     bool complete = false;  // vertex front: all the view shows is at full resolution under the budget
     uint64_t forced_tets = 0, unseen_tets = 0;  // vertex front: see lod::FrontChanges
+    uint32_t refused_splits = 0;                // vertex front: lod::FrontChanges::refused
+    bool run_time_valid = false;                // vertex front: lod::FrontChanges::run_time_valid
   };
   std::optional<CutBudget> cut_budget() const { return cut_budget_; }
   const storage::Bounds& bounds() const { return bounds_; }  // of the whole dataset (cameras are placed by it)

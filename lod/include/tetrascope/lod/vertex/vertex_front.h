@@ -2,11 +2,28 @@
 // collapses applied, kept closed so that its mesh conforms, split and collapsed one vertex at
 // a time, and adapted to a view under a tet budget.
 //
-// A split undoes one collapse: it brings back the collapse's two vertices and its fan tets.
-// Splitting a collapse first splits every applied collapse that consumed a tet it made
-// (forced splits); collapsing one needs every collapse that made a tet it consumes applied.
-// update() starts from the base mesh and splits in the order of the image error a split and
-// the splits it forces remove per tet they add, until the budget holds no further package.
+// A front is a set of applied collapses closed downwards in the hierarchy (a collapse applied
+// has its children's collapses applied): its vertices are those whose collapse is applied and
+// whose parent's is not, and its mesh is the input's tets with every vertex replaced by its
+// vertex on the front, less the tets that degenerate.
+//
+// split() and collapse() keep the front a state of the simplification: splitting a collapse
+// first splits every applied collapse that consumed a tet it made (forced splits); collapsing
+// one needs every collapse that made a tet it consumes applied.
+//
+// update() builds two fronts from the base mesh under the budget and keeps the one that
+// leaves less of the view's estimate:
+// - splits valid at run time, as FastTetraMesh checks them (§5.3.3): a split needs its
+//   vertex on the front and every tet it changes or brings back positively oriented, whatever
+//   the refinement around it; when a tet would invert, the later collapses whose vertices it
+//   holds split first (Predictive Tetra Mesh's forced splits, §5.2.3), or the earlier ones
+//   split around it collapse again for it. The front's vertices split in the order of the
+//   image error a split removes per tet it adds (or a higher one below them);
+// - the simplification's order: packages (a split and the splits it forces on the current
+//   front) in the order of their summed estimate per tet.
+// The first needs far fewer forced tets; the second refines where the first finds no valid
+// split (far-field cells around refined neighbours). A front update() leaves conforms;
+// split() and collapse() after it need collapse_all() first.
 #pragma once
 
 #include <array>
@@ -59,9 +76,11 @@ struct FrontChanges {
   uint64_t budget = 0;
   uint32_t splits = 0;
   bool changed = false;         // the front differs from the one before the update
-  bool budget_limited = false;  // a wanted split's package did not fit
+  bool budget_limited = false;  // a wanted split did not fit
   bool over_budget = false;     // the base mesh alone has more tets than the budget
-  bool complete = false;        // no package was dropped: the splits left are out of view or clipped away
+  bool complete = false;        // no split was dropped for the budget or refused: the splits left are out of view or clipped away
+  uint32_t refused = 0;         // splits left out because a tet would invert even with its later neighbours split
+  bool run_time_valid = false;  // the front of splits valid at run time was kept, not the one in the simplification's order
   double estimated_error = 0;   // Σ E over the collapses left applied
   // Of the tets the splits added: those of splits made only because a split in view needed
   // them (the other members of its package), and of all splits those whose own E is 0 (out
@@ -73,8 +92,7 @@ class VertexFront {
  public:
   explicit VertexFront(const VertexHierarchy& hierarchy);  // the base mesh: every collapse applied
 
-  // From the base mesh, packages (a split and the splits it forces) in the order of their
-  // summed E per tet, each taken when it fits `budget`.
+  // The better of the two fronts above under `budget` (the one with the lower Σ E left).
   FrontChanges update(const FrontCriteria& criteria, uint64_t budget);
 
   // Single steps. split() splits the collapse and every one it forces; collapse() refuses
@@ -98,12 +116,42 @@ class VertexFront {
  private:
   void apply_split(uint32_t i);
   void apply_collapse(uint32_t i);
+  // update()'s splits (front_update.cpp): per vertex the input leaves below it as an interval
+  // of a preorder; per input tet the collapses at which two of its vertices meet (it lives
+  // while none of them is applied); per leaf its vertex on the front, kept lazily; per vertex
+  // of the front the living tets that use it, as linked lists of (tet, corner) entries.
   struct Package {
     std::vector<uint32_t> members;
     double error = 0;
     uint64_t tets = 0;
   };
   bool package(uint32_t i, std::span<const double> own, uint64_t limit, Package& out);
+  FrontChanges update_packages(uint64_t budget);  // the simplification's order (vertex_front.cpp)
+  FrontChanges update_run_time(uint64_t budget);  // splits valid at run time (front_update.cpp)
+  void prepare_relaxed();
+  void reset_relaxed();
+  uint32_t front_vertex(uint32_t leaf);
+  bool below(uint32_t vertex, uint32_t leaf) const { return leaf_pos_[leaf] >= leaf_lo_[vertex] && leaf_pos_[leaf] < leaf_hi_[vertex]; }
+  double image_volume(const std::array<uint32_t, 4>& image) const;
+  enum class Trial { ok, inverted, over_budget };
+  Trial try_split(uint32_t i, uint64_t budget);
+  bool split_relaxed(uint32_t i, uint64_t budget, int depth, bool& over_budget, bool may_collapse);
+  void commit_split(uint32_t i);
+  bool collapse_relaxed(uint32_t j);
+  bool collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth);
+  std::vector<uint32_t> leaf_pos_, leaf_lo_, leaf_hi_, root_;
+  std::vector<uint32_t> meet_offsets_, meet_tets_;   // per collapse: the tets two of whose vertices meet there
+  std::vector<uint8_t> meets_, meets_left_;           // per tet: its meeting collapses, those still applied
+  std::vector<uint32_t> rep_;                         // per leaf: its vertex on the front (or an ancestor of it)
+  std::vector<uint32_t> head_, next_, base_head_, base_next_;  // star lists; entry 4 t + k
+  std::vector<uint32_t> revived_;                     // try_split(): the tets the split brings back
+  std::array<uint32_t, 4> inverted_{};                // try_split(): the image of a tet it would invert
+  std::vector<double> own_;                           // update(): per collapse its E
+  std::vector<uint8_t> recollapsed_;                  // update(): per collapse the times it was applied again
+  std::vector<uint32_t> pending_;                     // update(): the splits of one step, whose children join the front
+  uint64_t last_added_ = 0, unseen_added_ = 0;        // update(): the tets of the last split, of splits with E = 0
+  std::vector<uint32_t> seen_, stack_;  // package(): visited marks by epoch, the walk's stack
+  uint32_t epoch_ = 0;
   // Occlusion: the base mesh's values sampled on a grid over the mesh's box (NaN outside it),
   // and per update the transmittance from the eye to each grid point.
   void sample_base_grid();
@@ -120,8 +168,6 @@ class VertexFront {
   std::vector<uint32_t> parent_;         // per vertex: the collapse that consumes it, or kNoCollapse
   uint64_t tets_ = 0;
   bool updated_ = false;
-  std::vector<uint32_t> seen_, stack_;  // package(): visited marks by epoch, the walk's stack
-  uint32_t epoch_ = 0;
 };
 
 }  // namespace tetrascope::lod

@@ -1,0 +1,367 @@
+// The vertex front's update (§5.2.3 ranking, §5.3.3 validity): from the base mesh, the
+// vertices of the front split in the order of the image error a split removes per tet it adds.
+// A split is valid at run time when every tet it changes or brings back stays positively
+// oriented: the neighbours need not be as refined as they were when the simplifier collapsed
+// the edge. Positively oriented images of a conforming input cover its domain once, so such a
+// front conforms. Only a split that would invert a tet first splits the later collapses
+// whose vertices that tet holds, and is tried again.
+#include <algorithm>
+#include <queue>
+
+#include "tetrascope/lod/vertex/vertex_front.h"
+
+namespace tetrascope::lod {
+namespace {
+
+constexpr uint32_t kNone = 0xFFFFFFFFu;
+constexpr int kMostForced = 512;  // the deepest chain of splits one split may force
+constexpr uint8_t kMostCollapsedAgain = 2;  // times a collapse is applied again in one update
+
+}  // namespace
+
+void VertexFront::prepare_relaxed() {
+  const uint32_t V = h_.input_vertices, N = h_.vertex_count(), C = h_.collapse_count();
+  // the forest in preorder: the leaves below a vertex are an interval of positions
+  leaf_pos_.assign(V, 0);
+  leaf_lo_.assign(N, 0);
+  leaf_hi_.assign(N, 0);
+  root_.assign(N, 0);
+  for (uint32_t v = N; v-- > 0;) root_[v] = parent_[v] == kNoCollapse ? v : root_[V + parent_[v]];
+  uint32_t position = 0;
+  std::vector<std::pair<uint32_t, bool>> stack;
+  for (uint32_t r = N; r-- > 0;) {
+    if (parent_[r] != kNoCollapse) continue;
+    stack.assign(1, {r, false});
+    while (!stack.empty()) {
+      const auto [u, closing] = stack.back();
+      stack.pop_back();
+      if (closing) {
+        leaf_hi_[u] = position;
+        continue;
+      }
+      leaf_lo_[u] = position;
+      if (u < V) {
+        leaf_pos_[u] = position++;
+        leaf_hi_[u] = position;
+        continue;
+      }
+      stack.push_back({u, true});
+      for (uint32_t c : h_.nodes[u - V].child) stack.push_back({c, false});
+    }
+  }
+  // per tet the collapses at which two of its corners meet (their lowest common ancestor)
+  const size_t T = h_.input_tets();
+  meets_.assign(T, 0);
+  std::vector<uint32_t> found(6 * T, kNone);
+  meet_offsets_.assign(size_t{C} + 1, 0);
+  for (size_t t = 0; t < T; ++t) {
+    const uint32_t* s = &h_.tets[4 * t];
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        if (root_[s[a]] != root_[s[b]]) continue;
+        uint32_t u = s[a];
+        while (!below(u, s[b])) u = V + parent_[u];
+        const uint32_t collapse = u - V;
+        uint32_t* mine = &found[6 * t];
+        if (std::find(mine, mine + meets_[t], collapse) != mine + meets_[t]) continue;
+        mine[meets_[t]++] = collapse;
+        ++meet_offsets_[collapse + 1];
+      }
+  }
+  for (uint32_t i = 0; i < C; ++i) meet_offsets_[i + 1] += meet_offsets_[i];
+  meet_tets_.resize(meet_offsets_[C]);
+  std::vector<uint32_t> fill(meet_offsets_.begin(), meet_offsets_.end() - 1);
+  for (size_t t = 0; t < T; ++t)
+    for (uint32_t k = 0; k < meets_[t]; ++k) meet_tets_[fill[found[6 * t + k]]++] = static_cast<uint32_t>(t);
+  // the base mesh's stars: the tets no collapse degenerates, at their corners' roots
+  base_head_.assign(N, kNone);
+  base_next_.assign(4 * T, kNone);
+  for (size_t t = 0; t < T; ++t) {
+    if (meets_[t]) continue;
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint32_t e = static_cast<uint32_t>(4 * t + k), r = root_[h_.tets[e]];
+      base_next_[e] = base_head_[r];
+      base_head_[r] = e;
+    }
+  }
+}
+
+void VertexFront::reset_relaxed() {
+  head_ = base_head_;
+  next_ = base_next_;
+  meets_left_ = meets_;
+  rep_.assign(root_.begin(), root_.begin() + h_.input_vertices);
+}
+
+uint32_t VertexFront::front_vertex(uint32_t leaf) {
+  const uint32_t V = h_.input_vertices;
+  uint32_t u = rep_[leaf];
+  while (parent_[u] != kNoCollapse && applied_[parent_[u]]) u = V + parent_[u];  // collapsed again since
+  while (u >= V && !applied_[u - V]) {  // split since: down to the child that holds the leaf
+    const auto& child = h_.nodes[u - V].child;
+    u = below(child[0], leaf) ? child[0] : child[1];
+  }
+  rep_[leaf] = u;
+  return u;
+}
+
+double VertexFront::image_volume(const std::array<uint32_t, 4>& image) const {
+  const float* p[4];
+  for (int k = 0; k < 4; ++k) p[k] = &h_.positions[3 * size_t{image[k]}];
+  double e[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) e[r][c] = double(p[r + 1][c]) - p[0][c];
+  return e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+}
+
+// Whether splitting collapse i (its vertex on the front) keeps every tet it changes or brings
+// back positively oriented (an input tet of no volume excepted) and fits `budget`; revived_
+// receives the tets it brings back.
+VertexFront::Trial VertexFront::try_split(uint32_t i, uint64_t budget) {
+  const uint32_t v = h_.input_vertices + i;
+  const auto& child = h_.nodes[i].child;
+  auto side = [&](uint32_t leaf) { return below(child[0], leaf) ? child[0] : child[1]; };
+  auto valid = [&](uint32_t t, const std::array<uint32_t, 4>& image) {
+    if (image_volume(image) > 0) return true;
+    const uint32_t* s = &h_.tets[4 * size_t{t}];
+    return !(image_volume({s[0], s[1], s[2], s[3]}) > 0);
+  };
+  std::array<uint32_t, 4> image;
+  for (uint32_t e = head_[v]; e != kNone; e = next_[e]) {
+    const uint32_t t = e / 4;
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint32_t leaf = h_.tets[4 * size_t{t} + k];
+      image[k] = k == e % 4 ? side(leaf) : front_vertex(leaf);
+    }
+    if (!valid(t, image)) {
+      inverted_ = image;
+      return Trial::inverted;
+    }
+  }
+  revived_.clear();
+  for (uint32_t m = meet_offsets_[i]; m < meet_offsets_[i + 1]; ++m) {
+    const uint32_t t = meet_tets_[m];
+    if (meets_left_[t] != 1) continue;  // another collapse still degenerates it
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint32_t leaf = h_.tets[4 * size_t{t} + k];
+      image[k] = below(v, leaf) ? side(leaf) : front_vertex(leaf);
+    }
+    if (!valid(t, image)) {
+      inverted_ = image;
+      return Trial::inverted;
+    }
+    revived_.push_back(t);
+  }
+  return tets_ + revived_.size() > budget ? Trial::over_budget : Trial::ok;
+}
+
+// Splits collapse i as try_split() found it (revived_ holds what it brings back).
+void VertexFront::commit_split(uint32_t i) {
+  const uint32_t v = h_.input_vertices + i;
+  const auto& child = h_.nodes[i].child;
+  applied_[i] = 0;
+  for (uint32_t e = head_[v], after = 0; e != kNone; e = after) {
+    after = next_[e];
+    const uint32_t leaf = h_.tets[e], c = below(child[0], leaf) ? child[0] : child[1];
+    rep_[leaf] = c;
+    next_[e] = head_[c];
+    head_[c] = e;
+  }
+  head_[v] = kNone;
+  for (uint32_t m = meet_offsets_[i]; m < meet_offsets_[i + 1]; ++m) --meets_left_[meet_tets_[m]];
+  for (uint32_t t : revived_)
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint32_t e = 4 * t + k, u = front_vertex(h_.tets[e]);
+      next_[e] = head_[u];
+      head_[u] = e;
+    }
+  tets_ += revived_.size();
+  last_added_ = revived_.size();
+  if (own_[i] <= 0) unseen_added_ += revived_.size();
+  pending_.push_back(i);
+}
+
+// Splits collapse i: its ancestors first (its vertex must be on the front), and while a tet
+// would invert, the later collapses whose vertices that tet holds first. False (and over_budget when
+// the budget was the reason) when it cannot; splits it forced before failing stay. The
+// collapses applied again for it split again afterwards, without applying others again.
+bool VertexFront::split_relaxed(uint32_t i, uint64_t budget, int depth, bool& over_budget, bool may_collapse) {
+  if (!applied_[i]) return true;
+  if (depth > kMostForced) return false;
+  const uint32_t up = parent_[h_.input_vertices + i];
+  // its vertex on the front: the parent split (again, when a split it forced applied the parent again)
+  auto on_front = [&] { return up == kNoCollapse || !applied_[up] || split_relaxed(up, budget, depth + 1, over_budget, may_collapse); };
+  if (!on_front()) return false;
+  Trial trial = try_split(i, budget);
+  // A tet it would invert holds vertices of later collapses (neighbours coarser than when the
+  // edge collapsed): those split first, as Predictive Tetra Mesh forces them (§5.2.3). Or it
+  // holds vertices of earlier collapses split before it (neighbours finer than then): those
+  // collapse again for the split and split again after it.
+  std::vector<uint32_t> again;
+  for (int round = 0; trial == Trial::inverted && round < kMostForced; ++round) {
+    const std::array<uint32_t, 4> inverted = inverted_;
+    bool changed = false;
+    for (uint32_t u : inverted)
+      if (u > h_.input_vertices + i && !changed) {
+        if (!split_relaxed(u - h_.input_vertices, budget, depth + 1, over_budget, may_collapse)) break;
+        changed = true;
+      }
+    for (uint32_t u : inverted) {
+      const uint32_t up_u = parent_[u];
+      if (changed || !may_collapse || up_u == kNoCollapse || up_u >= i || applied_[up_u]) continue;
+      changed = collapse_again(up_u, again, 0);
+    }
+    if (!changed) break;
+    trial = on_front() ? try_split(i, budget) : Trial::inverted;
+  }
+  if (trial == Trial::over_budget) over_budget = true;
+  if (trial != Trial::ok) {
+    for (uint32_t j : again) split_relaxed(j, budget, depth + 1, over_budget, false);
+    return false;
+  }
+  commit_split(i);
+  bool ignored = false;
+  for (uint32_t j : again) split_relaxed(j, budget, depth + 1, ignored, false);
+  return true;
+}
+
+// Applies collapse j again, and first those split below it, children before parents, each
+// appended to `again`; false when one of them cannot be.
+bool VertexFront::collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth) {
+  const uint32_t V = h_.input_vertices;
+  if (depth > kMostForced || recollapsed_[j] >= kMostCollapsedAgain) return false;
+  for (uint32_t c : h_.nodes[j].child)
+    if (c >= V && !applied_[c - V] && !collapse_again(c - V, again, depth + 1)) return false;
+  if (!collapse_relaxed(j)) return false;
+  ++recollapsed_[j];
+  again.push_back(j);
+  return true;
+}
+
+// Applies collapse j again when both its children are on the front and no tet it changes
+// inverts: the tets with a corner below each child go, the others take its vertex.
+bool VertexFront::collapse_relaxed(uint32_t j) {
+  const uint32_t V = h_.input_vertices, u = V + j;
+  const auto& child = h_.nodes[j].child;
+  for (uint32_t c : child)
+    if (c >= V && !applied_[c - V]) return false;  // refined further below
+  std::array<uint32_t, 4> image;
+  for (uint32_t c : child)
+    for (uint32_t e = head_[c]; e != kNone; e = next_[e]) {
+      const uint32_t t = e / 4;
+      for (uint32_t k = 0; k < 4; ++k) {
+        const uint32_t leaf = h_.tets[4 * size_t{t} + k];
+        image[k] = below(u, leaf) ? u : front_vertex(leaf);
+      }
+      if (image[0] == image[1] || image[0] == image[2] || image[0] == image[3] || image[1] == image[2] || image[1] == image[3] || image[2] == image[3]) continue;
+      const uint32_t* s = &h_.tets[4 * size_t{t}];
+      if (!(image_volume(image) > 0) && image_volume({s[0], s[1], s[2], s[3]}) > 0) return false;
+    }
+  uint64_t gone = 0;
+  for (uint32_t m = meet_offsets_[j]; m < meet_offsets_[j + 1]; ++m) {
+    const uint32_t t = meet_tets_[m];
+    if (meets_left_[t]++ != 0) continue;
+    ++gone;  // it lived: out of the stars of its four corners
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint32_t e = 4 * t + k, owner = front_vertex(h_.tets[e]);
+      uint32_t* link = &head_[owner];
+      while (*link != e) link = &next_[*link];
+      *link = next_[e];
+    }
+  }
+  applied_[j] = 1;
+  for (uint32_t c : child) {
+    for (uint32_t e = head_[c], after = 0; e != kNone; e = after) {
+      after = next_[e];
+      rep_[h_.tets[e]] = u;
+      next_[e] = head_[u];
+      head_[u] = e;
+    }
+    head_[c] = kNone;
+  }
+  tets_ -= gone;
+  return true;
+}
+
+FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget) {
+  const std::vector<uint8_t> before = applied_;
+  own_ = errors(criteria);
+  FrontChanges run_time = update_run_time(budget);
+  const std::vector<uint8_t> run_time_front = applied_;
+  const uint64_t run_time_tets = tets_;
+  FrontChanges changes = update_packages(budget);
+  if (run_time.estimated_error < changes.estimated_error) {
+    applied_ = run_time_front;
+    tets_ = run_time_tets;
+    changes = run_time;
+    changes.run_time_valid = true;
+  }
+  changes.changed = applied_ != before || !updated_;
+  updated_ = true;
+  return changes;
+}
+
+FrontChanges VertexFront::update_run_time(uint64_t budget) {
+  FrontChanges changes;
+  changes.budget = budget;
+  collapse_all();
+  reset_relaxed();
+  recollapsed_.assign(h_.collapse_count(), 0);
+  unseen_added_ = 0;
+  const uint32_t C = h_.collapse_count(), V = h_.input_vertices;
+  struct Entry {
+    double rank;
+    uint32_t collapse;
+    bool operator<(const Entry& o) const { return rank < o.rank || (rank == o.rank && collapse < o.collapse); }  // ties: the later collapse first
+  };
+  // a collapse ranks by its E per tet, or by a higher one below it: the estimate is not
+  // monotone up the hierarchy (a parent's sphere may leave the view where a child's meets it)
+  std::vector<double> rank(C);
+  for (uint32_t i = 0; i < C; ++i) {  // children before parents
+    rank[i] = own_[i] / std::max<uint32_t>(h_.nodes[i].fan, 1);
+    for (uint32_t c : h_.nodes[i].child)
+      if (c >= V) rank[i] = std::max(rank[i], rank[c - V]);
+  }
+  std::priority_queue<Entry> queue;
+  auto enqueue = [&](uint32_t i) {
+    if (rank[i] > 0) queue.push({rank[i], i});
+  };
+  for (uint32_t i = 0; i < C; ++i)
+    if (parent_[V + i] == kNoCollapse) enqueue(i);  // the base mesh's vertices
+  changes.over_budget = tets_ > budget;
+  const uint64_t slack = budget / 200;  // within 0.5% of the budget the front stops looking
+  const bool everything_fits = h_.input_tets() <= budget;
+  while (!queue.empty()) {
+    const uint32_t i = queue.top().collapse;
+    queue.pop();
+    if (!applied_[i]) continue;
+    if (!everything_fits && tets_ + slack >= budget) {
+      changes.budget_limited = true;
+      break;
+    }
+    const uint64_t start = tets_;
+    bool over = false;
+    pending_.clear();
+    last_added_ = 0;
+    if (split_relaxed(i, budget, 0, over, true)) {  // a split of no E of its own is there for those below it
+      changes.forced_tets += tets_ - start - (own_[i] > 0 ? last_added_ : 0);
+    } else {
+      changes.forced_tets += tets_ - start;
+      if (over) changes.budget_limited = true;
+      else ++changes.refused;
+    }
+    for (uint32_t x : pending_)  // the children of every split joined the front
+      for (uint32_t c : h_.nodes[x].child)
+        if (c >= V) enqueue(c - V);
+  }
+  for (uint32_t i = 0; i < C; ++i) {
+    if (!applied_[i]) ++changes.splits;
+    else changes.estimated_error += own_[i];
+  }
+  changes.unseen_tets = unseen_added_;
+  changes.complete = !changes.budget_limited && changes.refused == 0;
+  changes.tets = tets_;
+  return changes;
+}
+
+}  // namespace tetrascope::lod
