@@ -227,6 +227,7 @@ def measure_view(binary, mesh, store, name, view, v, a, budgets, decimated):
                 "coverage": shown, "budget_pct": pct, "budget_tets": tets, "cut_tets": cut["tets"], "budget_used": cut["tets"] / tets,
                 "cut_by": cut.get("cut", {}).get("by"), "over_budget": cut.get("cut", {}).get("over_budget"),
                 "forced_tets": cut.get("cut", {}).get("forced_tets"), "unseen_tets": cut.get("cut", {}).get("unseen_tets"),
+                "run_time_valid": cut.get("cut", {}).get("run_time_valid"), "refused_splits": cut.get("cut", {}).get("refused_splits"),
                 "cut_db": cut_db if math.isfinite(cut_db) else None, "decimated_db": dec_db if math.isfinite(dec_db) else None,
                 "gain_db": gain, "cut_estimated_error": cut.get("cut_estimated_error")}
         cells.append(cell)

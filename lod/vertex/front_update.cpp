@@ -286,6 +286,12 @@ bool VertexFront::collapse_relaxed(uint32_t j) {
 FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget) {
   const std::vector<uint8_t> before = applied_;
   own_ = errors(criteria);
+  if (h_.input_tets() <= budget) {  // every split in view fits: the simplification's order is exact
+    FrontChanges changes = update_packages(budget);
+    changes.changed = applied_ != before || !updated_;
+    updated_ = true;
+    return changes;
+  }
   FrontChanges run_time = update_run_time(budget);
   const std::vector<uint8_t> run_time_front = applied_;
   const uint64_t run_time_tets = tets_;
