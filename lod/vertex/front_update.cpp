@@ -16,6 +16,7 @@ namespace {
 constexpr uint32_t kNone = 0xFFFFFFFFu;
 constexpr int kMostForced = 512;  // the deepest chain of splits one split may force
 constexpr uint8_t kMostCollapsedAgain = 2;  // times a collapse is applied again in one update
+constexpr double kOrderedShare = 0.25;       // of the budget split in the simplification's reverse order first
 
 }  // namespace
 
@@ -209,7 +210,7 @@ bool VertexFront::split_relaxed(uint32_t i, uint64_t budget, int depth, bool& ov
     for (uint32_t u : inverted) {
       const uint32_t up_u = parent_[u];
       if (changed || !may_collapse || up_u == kNoCollapse || up_u >= i || applied_[up_u]) continue;
-      changed = collapse_again(up_u, again, 0);
+      changed = collapse_again(up_u, again, 0, budget);
     }
     if (!changed) break;
     trial = on_front() ? try_split(i, budget) : Trial::inverted;
@@ -220,19 +221,31 @@ bool VertexFront::split_relaxed(uint32_t i, uint64_t budget, int depth, bool& ov
     return false;
   }
   commit_split(i);
+  const uint64_t added = last_added_;
   bool ignored = false;
   for (uint32_t j : again) split_relaxed(j, budget, depth + 1, ignored, false);
+  last_added_ = added;  // the tets of this split, not of those split again after it
   return true;
 }
 
 // Applies collapse j again, and first those split below it, children before parents, each
 // appended to `again`; false when one of them cannot be.
-bool VertexFront::collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth) {
+bool VertexFront::collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth, uint64_t budget) {
   const uint32_t V = h_.input_vertices;
   if (depth > kMostForced || recollapsed_[j] >= kMostCollapsedAgain) return false;
   for (uint32_t c : h_.nodes[j].child)
-    if (c >= V && !applied_[c - V] && !collapse_again(c - V, again, depth + 1)) return false;
-  if (!collapse_relaxed(j)) return false;
+    if (c >= V && !applied_[c - V] && !collapse_again(c - V, again, depth + 1, budget)) return false;
+  // a tet the collapse would invert holds vertices of later collapses (neighbours coarser
+  // than when it was made): those split first
+  bool collapsed = collapse_relaxed(j);
+  for (int round = 0; !collapsed && round < kMostForced; ++round) {
+    bool split = false, over = false;
+    for (uint32_t u : std::array<uint32_t, 4>(inverted_))
+      if (!split && u > V + j && u >= V && applied_[u - V]) split = split_relaxed(u - V, budget, depth + 1, over, false);
+    if (!split) break;
+    collapsed = collapse_relaxed(j);
+  }
+  if (!collapsed) return false;
   ++recollapsed_[j];
   again.push_back(j);
   return true;
@@ -255,7 +268,10 @@ bool VertexFront::collapse_relaxed(uint32_t j) {
       }
       if (image[0] == image[1] || image[0] == image[2] || image[0] == image[3] || image[1] == image[2] || image[1] == image[3] || image[2] == image[3]) continue;
       const uint32_t* s = &h_.tets[4 * size_t{t}];
-      if (!(image_volume(image) > 0) && image_volume({s[0], s[1], s[2], s[3]}) > 0) return false;
+      if (!(image_volume(image) > 0) && image_volume({s[0], s[1], s[2], s[3]}) > 0) {
+        inverted_ = image;
+        return false;
+      }
     }
   uint64_t gone = 0;
   for (uint32_t m = meet_offsets_[j]; m < meet_offsets_[j + 1]; ++m) {
@@ -280,6 +296,7 @@ bool VertexFront::collapse_relaxed(uint32_t j) {
     head_[c] = kNone;
   }
   tets_ -= gone;
+  if (own_[j] <= 0) unseen_added_ -= std::min(unseen_added_, gone);  // its split's tets, counted when it split
   return true;
 }
 
@@ -332,9 +349,28 @@ FrontChanges VertexFront::update_run_time(uint64_t budget) {
   auto enqueue = [&](uint32_t i) {
     if (rank[i] > 0) queue.push({rank[i], i});
   };
-  for (uint32_t i = 0; i < C; ++i)
-    if (parent_[V + i] == kNoCollapse) enqueue(i);  // the base mesh's vertices
   changes.over_budget = tets_ > budget;
+  // The coarsest collapses in view first split in the simplification's reverse order, up to a
+  // share of the budget: there, around the big cells of a far field, splits ranked out of that
+  // order leave neighbours refined that later splits cannot be valid beside.
+  // one split with those it needs, its tets counted (forced: those of the others, and all of
+  // a split of no E of its own, there for those below it); false when it was not made
+  auto take = [&](uint32_t i, uint64_t limit) {
+    const uint64_t start = tets_;
+    bool over = false;
+    last_added_ = 0;
+    const bool made = split_relaxed(i, limit, 0, over, true);
+    changes.forced_tets += tets_ - start - (made && own_[i] > 0 ? last_added_ : 0);
+    if (!made && over) changes.budget_limited = true;
+    if (!made && !over) ++changes.refused;
+    return made;
+  };
+  const uint64_t ordered = static_cast<uint64_t>(kOrderedShare * double(budget));
+  for (uint32_t i = C; i-- > 0 && tets_ < ordered;)
+    if (rank[i] > 0 && applied_[i]) take(i, ordered);
+  changes.budget_limited = false;  // the ordered share's own limit
+  for (uint32_t i = 0; i < C; ++i)  // the front's vertices
+    if (applied_[i] && (parent_[V + i] == kNoCollapse || !applied_[parent_[V + i]])) enqueue(i);
   const uint64_t slack = budget / 200;  // within 0.5% of the budget the front stops looking
   const bool everything_fits = h_.input_tets() <= budget;
   while (!queue.empty()) {
@@ -345,17 +381,8 @@ FrontChanges VertexFront::update_run_time(uint64_t budget) {
       changes.budget_limited = true;
       break;
     }
-    const uint64_t start = tets_;
-    bool over = false;
     pending_.clear();
-    last_added_ = 0;
-    if (split_relaxed(i, budget, 0, over, true)) {  // a split of no E of its own is there for those below it
-      changes.forced_tets += tets_ - start - (own_[i] > 0 ? last_added_ : 0);
-    } else {
-      changes.forced_tets += tets_ - start;
-      if (over) changes.budget_limited = true;
-      else ++changes.refused;
-    }
+    take(i, budget);
     for (uint32_t x : pending_)  // the children of every split joined the front
       for (uint32_t c : h_.nodes[x].child)
         if (c >= V) enqueue(c - V);

@@ -17,8 +17,9 @@
 //   vertex on the front and every tet it changes or brings back positively oriented, whatever
 //   the refinement around it; when a tet would invert, the later collapses whose vertices it
 //   holds split first (Predictive Tetra Mesh's forced splits, §5.2.3), or the earlier ones
-//   split around it collapse again for it. The front's vertices split in the order of the
-//   image error a split removes per tet it adds (or a higher one below them);
+//   split around it collapse again for it. The collapses in view split first in the
+//   simplification's reverse order up to a quarter of the budget, then the front's vertices
+//   in the order of the image error a split removes per tet it adds (or a higher one below);
 // - the simplification's order: packages (a split and the splits it forces on the current
 //   front) in the order of their summed estimate per tet.
 // The first needs far fewer forced tets; the second refines where the first finds no valid
@@ -138,14 +139,14 @@ class VertexFront {
   bool split_relaxed(uint32_t i, uint64_t budget, int depth, bool& over_budget, bool may_collapse);
   void commit_split(uint32_t i);
   bool collapse_relaxed(uint32_t j);
-  bool collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth);
+  bool collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth, uint64_t budget);
   std::vector<uint32_t> leaf_pos_, leaf_lo_, leaf_hi_, root_;
   std::vector<uint32_t> meet_offsets_, meet_tets_;   // per collapse: the tets two of whose vertices meet there
   std::vector<uint8_t> meets_, meets_left_;           // per tet: its meeting collapses, those still applied
   std::vector<uint32_t> rep_;                         // per leaf: its vertex on the front (or an ancestor of it)
   std::vector<uint32_t> head_, next_, base_head_, base_next_;  // star lists; entry 4 t + k
   std::vector<uint32_t> revived_;                     // try_split(): the tets the split brings back
-  std::array<uint32_t, 4> inverted_{};                // try_split(): the image of a tet it would invert
+  std::array<uint32_t, 4> inverted_{};                // try_split(), collapse_relaxed(): the image of a tet it would invert
   std::vector<double> own_;                           // update(): per collapse its E
   std::vector<uint8_t> recollapsed_;                  // update(): per collapse the times it was applied again
   std::vector<uint32_t> pending_;                     // update(): the splits of one step, whose children join the front
