@@ -6,6 +6,8 @@
 // front conforms. Only a split that would invert a tet first splits the later collapses
 // whose vertices that tet holds, and is tried again.
 #include <algorithm>
+#include <map>
+#include <mutex>
 #include <queue>
 
 #include "tetrascope/lod/vertex/vertex_front.h"
@@ -20,78 +22,99 @@ constexpr double kOrderedShare = 0.25;       // of the budget split in the simpl
 
 }  // namespace
 
-void VertexFront::prepare_relaxed() {
-  const uint32_t V = h_.input_vertices, N = h_.vertex_count(), C = h_.collapse_count();
+// The index of a hierarchy that update()'s run-time front reads, built once and shared by
+// every front of that hierarchy.
+std::shared_ptr<const VertexFront::RunTimeIndex> VertexFront::run_time_index(const VertexHierarchy& h, const std::vector<uint32_t>& parent) {
+  static std::mutex mutex;
+  static std::map<const VertexHierarchy*, std::weak_ptr<const RunTimeIndex>> built;
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (auto index = built[&h].lock()) return index;
+  auto index = std::make_shared<RunTimeIndex>();
+  RunTimeIndex& x = *index;
+  std::vector<uint32_t>& leaf_pos = x.leaf_pos;
+  std::vector<uint32_t>& leaf_lo = x.leaf_lo;
+  std::vector<uint32_t>& leaf_hi = x.leaf_hi;
+  std::vector<uint32_t>& root = x.root;
+  std::vector<uint32_t>& meet_offsets = x.meet_offsets;
+  std::vector<uint32_t>& meet_tets = x.meet_tets;
+  std::vector<uint8_t>& meets = x.meets;
+  std::vector<uint32_t>& base_head = x.base_head;
+  std::vector<uint32_t>& base_next = x.base_next;
+  auto below = [&](uint32_t vertex, uint32_t leaf) { return leaf_pos[leaf] >= leaf_lo[vertex] && leaf_pos[leaf] < leaf_hi[vertex]; };
+  const uint32_t V = h.input_vertices, N = h.vertex_count(), C = h.collapse_count();
   // the forest in preorder: the leaves below a vertex are an interval of positions
-  leaf_pos_.assign(V, 0);
-  leaf_lo_.assign(N, 0);
-  leaf_hi_.assign(N, 0);
-  root_.assign(N, 0);
-  for (uint32_t v = N; v-- > 0;) root_[v] = parent_[v] == kNoCollapse ? v : root_[V + parent_[v]];
+  leaf_pos.assign(V, 0);
+  leaf_lo.assign(N, 0);
+  leaf_hi.assign(N, 0);
+  root.assign(N, 0);
+  for (uint32_t v = N; v-- > 0;) root[v] = parent[v] == kNoCollapse ? v : root[V + parent[v]];
   uint32_t position = 0;
   std::vector<std::pair<uint32_t, bool>> stack;
   for (uint32_t r = N; r-- > 0;) {
-    if (parent_[r] != kNoCollapse) continue;
+    if (parent[r] != kNoCollapse) continue;
     stack.assign(1, {r, false});
     while (!stack.empty()) {
       const auto [u, closing] = stack.back();
       stack.pop_back();
       if (closing) {
-        leaf_hi_[u] = position;
+        leaf_hi[u] = position;
         continue;
       }
-      leaf_lo_[u] = position;
+      leaf_lo[u] = position;
       if (u < V) {
-        leaf_pos_[u] = position++;
-        leaf_hi_[u] = position;
+        leaf_pos[u] = position++;
+        leaf_hi[u] = position;
         continue;
       }
       stack.push_back({u, true});
-      for (uint32_t c : h_.nodes[u - V].child) stack.push_back({c, false});
+      for (uint32_t c : h.nodes[u - V].child) stack.push_back({c, false});
     }
   }
   // per tet the collapses at which two of its corners meet (their lowest common ancestor)
-  const size_t T = h_.input_tets();
-  meets_.assign(T, 0);
+  const size_t T = h.input_tets();
+  meets.assign(T, 0);
   std::vector<uint32_t> found(6 * T, kNone);
-  meet_offsets_.assign(size_t{C} + 1, 0);
+  meet_offsets.assign(size_t{C} + 1, 0);
   for (size_t t = 0; t < T; ++t) {
-    const uint32_t* s = &h_.tets[4 * t];
+    const uint32_t* s = &h.tets[4 * t];
     for (int a = 0; a < 4; ++a)
       for (int b = a + 1; b < 4; ++b) {
-        if (root_[s[a]] != root_[s[b]]) continue;
+        if (root[s[a]] != root[s[b]]) continue;
         uint32_t u = s[a];
-        while (!below(u, s[b])) u = V + parent_[u];
+        while (!below(u, s[b])) u = V + parent[u];
         const uint32_t collapse = u - V;
         uint32_t* mine = &found[6 * t];
-        if (std::find(mine, mine + meets_[t], collapse) != mine + meets_[t]) continue;
-        mine[meets_[t]++] = collapse;
-        ++meet_offsets_[collapse + 1];
+        if (std::find(mine, mine + meets[t], collapse) != mine + meets[t]) continue;
+        mine[meets[t]++] = collapse;
+        ++meet_offsets[collapse + 1];
       }
   }
-  for (uint32_t i = 0; i < C; ++i) meet_offsets_[i + 1] += meet_offsets_[i];
-  meet_tets_.resize(meet_offsets_[C]);
-  std::vector<uint32_t> fill(meet_offsets_.begin(), meet_offsets_.end() - 1);
+  for (uint32_t i = 0; i < C; ++i) meet_offsets[i + 1] += meet_offsets[i];
+  meet_tets.resize(meet_offsets[C]);
+  std::vector<uint32_t> fill(meet_offsets.begin(), meet_offsets.end() - 1);
   for (size_t t = 0; t < T; ++t)
-    for (uint32_t k = 0; k < meets_[t]; ++k) meet_tets_[fill[found[6 * t + k]]++] = static_cast<uint32_t>(t);
+    for (uint32_t k = 0; k < meets[t]; ++k) meet_tets[fill[found[6 * t + k]]++] = static_cast<uint32_t>(t);
   // the base mesh's stars: the tets no collapse degenerates, at their corners' roots
-  base_head_.assign(N, kNone);
-  base_next_.assign(4 * T, kNone);
+  base_head.assign(N, kNone);
+  base_next.assign(4 * T, kNone);
   for (size_t t = 0; t < T; ++t) {
-    if (meets_[t]) continue;
+    if (meets[t]) continue;
     for (uint32_t k = 0; k < 4; ++k) {
-      const uint32_t e = static_cast<uint32_t>(4 * t + k), r = root_[h_.tets[e]];
-      base_next_[e] = base_head_[r];
-      base_head_[r] = e;
+      const uint32_t e = static_cast<uint32_t>(4 * t + k), r = root[h.tets[e]];
+      base_next[e] = base_head[r];
+      base_head[r] = e;
     }
   }
+  for (auto it = built.begin(); it != built.end();) it = it->second.expired() ? built.erase(it) : std::next(it);
+  built[&h] = index;
+  return index;
 }
 
 void VertexFront::reset_relaxed() {
-  head_ = base_head_;
-  next_ = base_next_;
-  meets_left_ = meets_;
-  rep_.assign(root_.begin(), root_.begin() + h_.input_vertices);
+  head_ = index_->base_head;
+  next_ = index_->base_next;
+  meets_left_ = index_->meets;
+  rep_.assign(index_->root.begin(), index_->root.begin() + h_.input_vertices);
 }
 
 uint32_t VertexFront::front_vertex(uint32_t leaf) {
@@ -140,8 +163,8 @@ VertexFront::Trial VertexFront::try_split(uint32_t i, uint64_t budget) {
     }
   }
   revived_.clear();
-  for (uint32_t m = meet_offsets_[i]; m < meet_offsets_[i + 1]; ++m) {
-    const uint32_t t = meet_tets_[m];
+  for (uint32_t m = index_->meet_offsets[i]; m < index_->meet_offsets[i + 1]; ++m) {
+    const uint32_t t = index_->meet_tets[m];
     if (meets_left_[t] != 1) continue;  // another collapse still degenerates it
     for (uint32_t k = 0; k < 4; ++k) {
       const uint32_t leaf = h_.tets[4 * size_t{t} + k];
@@ -169,7 +192,7 @@ void VertexFront::commit_split(uint32_t i) {
     head_[c] = e;
   }
   head_[v] = kNone;
-  for (uint32_t m = meet_offsets_[i]; m < meet_offsets_[i + 1]; ++m) --meets_left_[meet_tets_[m]];
+  for (uint32_t m = index_->meet_offsets[i]; m < index_->meet_offsets[i + 1]; ++m) --meets_left_[index_->meet_tets[m]];
   for (uint32_t t : revived_)
     for (uint32_t k = 0; k < 4; ++k) {
       const uint32_t e = 4 * t + k, u = front_vertex(h_.tets[e]);
@@ -274,8 +297,8 @@ bool VertexFront::collapse_relaxed(uint32_t j) {
       }
     }
   uint64_t gone = 0;
-  for (uint32_t m = meet_offsets_[j]; m < meet_offsets_[j + 1]; ++m) {
-    const uint32_t t = meet_tets_[m];
+  for (uint32_t m = index_->meet_offsets[j]; m < index_->meet_offsets[j + 1]; ++m) {
+    const uint32_t t = index_->meet_tets[m];
     if (meets_left_[t]++ != 0) continue;
     ++gone;  // it lived: out of the stars of its four corners
     for (uint32_t k = 0; k < 4; ++k) {

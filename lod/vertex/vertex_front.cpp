@@ -86,7 +86,7 @@ VertexFront::VertexFront(const VertexHierarchy& hierarchy) : h_(hierarchy) {
     grid_step_[k] = std::max(h_.input_vertices ? double(hi[k] - lo[k]) / kGrid : 1.0, 1e-30);
   }
   collapse_all();
-  prepare_relaxed();
+  index_ = run_time_index(h_, parent_);
   sample_base_grid();
 }
 

@@ -29,6 +29,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -117,10 +118,6 @@ class VertexFront {
  private:
   void apply_split(uint32_t i);
   void apply_collapse(uint32_t i);
-  // update()'s splits (front_update.cpp): per vertex the input leaves below it as an interval
-  // of a preorder; per input tet the collapses at which two of its vertices meet (it lives
-  // while none of them is applied); per leaf its vertex on the front, kept lazily; per vertex
-  // of the front the living tets that use it, as linked lists of (tet, corner) entries.
   struct Package {
     std::vector<uint32_t> members;
     double error = 0;
@@ -129,10 +126,24 @@ class VertexFront {
   bool package(uint32_t i, std::span<const double> own, uint64_t limit, Package& out);
   FrontChanges update_packages(uint64_t budget);  // the simplification's order (vertex_front.cpp)
   FrontChanges update_run_time(uint64_t budget);  // splits valid at run time (front_update.cpp)
-  void prepare_relaxed();
+  // update()'s splits (front_update.cpp). Per hierarchy, shared by its fronts: per vertex the
+  // input leaves below it as an interval of a preorder, per vertex its root; per input tet the
+  // collapses at which two of its vertices meet (it lives while none of them is applied); the
+  // base mesh's stars. Per front: per leaf its vertex on the front, kept lazily; per vertex of
+  // the front the living tets that use it, as linked lists of (tet, corner) entries.
+  struct RunTimeIndex {
+    std::vector<uint32_t> leaf_pos, leaf_lo, leaf_hi, root;
+    std::vector<uint32_t> meet_offsets, meet_tets;  // per collapse: the tets two of whose vertices meet there
+    std::vector<uint8_t> meets;                     // per tet: its meeting collapses
+    std::vector<uint32_t> base_head, base_next;     // the base mesh's star lists; entry 4 t + k
+  };
+  static std::shared_ptr<const RunTimeIndex> run_time_index(const VertexHierarchy& hierarchy, const std::vector<uint32_t>& parent);
+  std::shared_ptr<const RunTimeIndex> index_;
   void reset_relaxed();
   uint32_t front_vertex(uint32_t leaf);
-  bool below(uint32_t vertex, uint32_t leaf) const { return leaf_pos_[leaf] >= leaf_lo_[vertex] && leaf_pos_[leaf] < leaf_hi_[vertex]; }
+  bool below(uint32_t vertex, uint32_t leaf) const {
+    return index_->leaf_pos[leaf] >= index_->leaf_lo[vertex] && index_->leaf_pos[leaf] < index_->leaf_hi[vertex];
+  }
   double image_volume(const std::array<uint32_t, 4>& image) const;
   enum class Trial { ok, inverted, over_budget };
   Trial try_split(uint32_t i, uint64_t budget);
@@ -140,11 +151,9 @@ class VertexFront {
   void commit_split(uint32_t i);
   bool collapse_relaxed(uint32_t j);
   bool collapse_again(uint32_t j, std::vector<uint32_t>& again, int depth, uint64_t budget);
-  std::vector<uint32_t> leaf_pos_, leaf_lo_, leaf_hi_, root_;
-  std::vector<uint32_t> meet_offsets_, meet_tets_;   // per collapse: the tets two of whose vertices meet there
-  std::vector<uint8_t> meets_, meets_left_;           // per tet: its meeting collapses, those still applied
+  std::vector<uint8_t> meets_left_;                   // per tet: its meeting collapses still applied
   std::vector<uint32_t> rep_;                         // per leaf: its vertex on the front (or an ancestor of it)
-  std::vector<uint32_t> head_, next_, base_head_, base_next_;  // star lists; entry 4 t + k
+  std::vector<uint32_t> head_, next_;                 // star lists; entry 4 t + k
   std::vector<uint32_t> revived_;                     // try_split(): the tets the split brings back
   std::array<uint32_t, 4> inverted_{};                // try_split(), collapse_relaxed(): the image of a tet it would invert
   std::vector<double> own_;                           // update(): per collapse its E
