@@ -25,7 +25,7 @@ function loadDismissed() {
   }
 }
 
-const sizeText = (bytes) => (bytes < 1048576 ? `${Math.max(1, Math.round(bytes / 1024))} KB` : `${(bytes / 1048576).toFixed(1)} MB`);
+const sizeText = (bytes) => (bytes < 1024 ? `${bytes} B` : bytes < 1048576 ? `${Math.round(bytes / 1024)} KB` : `${(bytes / 1048576).toFixed(1)} MB`);
 
 export class Jobs {
   // onDatasetsChanged(): reload the dataset list; onDone(name): a followed job made `name`
@@ -249,7 +249,7 @@ export class Jobs {
     const use = {
       reading: `read by job ${upload.job}`,
       used: `made ${upload.datasets.join(', ')}`,
-      failed: `its job ${upload.failed_job} failed`,  // the error itself once, under Jobs (here as the tooltip)
+      failed: `preprocessing failed (job ${upload.failed_job})`,  // the error itself once, under Jobs (here as the tooltip)
       unused: 'no dataset made from it',
     }[upload.state] ?? upload.state;
     const line = document.createElement('div');

@@ -66,7 +66,10 @@ test('the uploads panel marks a failed upload and deletes it', async () => {
   const item = page.locator('#uploads li[data-upload="truncated.vtk"]');
   await item.waitFor({ timeout: 30000 });
   assert.equal(await item.getAttribute('data-state'), 'failed');
-  assert.match(await item.textContent(), /truncated\.vtk \(\d+ KB, .+\).*failed/);
+  assert.match(await item.textContent(), /truncated\.vtk \(\d+ B, .+\).*preprocessing failed/);
+  const { jobs } = await page.evaluate(() => fetch('/api/v1/jobs').then((r) => r.json()));
+  const error = jobs.find((j) => j.name === 'truncated-mesh').error;
+  assert.equal(await item.locator('.upload-use').getAttribute('title'), error, "the job's error is the tooltip, not shown twice");
   assert.ok(existsSync(join(viewer.data, 'uploads', 'truncated.vtk')));
   page.once('dialog', (dialog) => dialog.accept());
   await item.locator('button.upload-delete').click();
