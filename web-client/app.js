@@ -373,6 +373,8 @@ async function deleteDataset() {
     $('dataset-summary').textContent = `Not deleted: ${body.error?.message ?? response.status}`;
     return;
   }
+  if (body.upload_deleted) $('uploads-status').textContent = `Deleted ${body.upload_deleted} with ${name}.`;
+  jobs.refreshUploads();
   if (name !== state.view.dataset) await loadDatasets();  // else the server's dataset_deleted follows
 }
 

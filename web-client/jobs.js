@@ -5,7 +5,9 @@
 // failed jobs (once: the log tail shows only the lines the error does not already hold) and
 // Dismiss for ended jobs that did not make a dataset (the ids dismissed are kept in this
 // browser's localStorage; the server keeps its list); the dataset list is refreshed when a job
-// ends.
+// ends. The uploads panel lists GET /api/v1/uploads (size, time, the datasets made from each,
+// the job reading it, which job failed on it) with Delete (DELETE /api/v1/uploads/NAME; the
+// server refuses while a job reads it, and the answer is shown).
 const $ = (id) => document.getElementById(id);
 const kFollowKey = 'tetrascope.job';
 const kPollMs = 500;
@@ -22,6 +24,8 @@ function loadDismissed() {
     return [];  // no storage, or not ours: nothing dismissed
   }
 }
+
+const sizeText = (bytes) => (bytes < 1024 ? `${bytes} B` : bytes < 1048576 ? `${Math.round(bytes / 1024)} KB` : `${(bytes / 1048576).toFixed(1)} MB`);
 
 export class Jobs {
   // onDatasetsChanged(): reload the dataset list; onDone(name): a followed job made `name`
@@ -152,6 +156,7 @@ export class Jobs {
   }
 
   async refresh() {
+    this.refreshUploads();
     const { ok, body } = await this.api('/api/v1/jobs').catch(() => ({ ok: false }));
     if (!ok) return;
     const jobs = body.jobs ?? [];
@@ -210,5 +215,55 @@ export class Jobs {
         return item;
       }),
     );
+  }
+
+  // ---------- the uploads panel ----------
+
+  async refreshUploads() {
+    const { ok, body } = await this.api('/api/v1/uploads').catch(() => ({ ok: false }));
+    if (ok) this.renderUploads(body.uploads ?? []);
+  }
+
+  async deleteUpload(upload) {
+    if (!window.confirm(`Delete ${upload.path} from the server?`)) return;
+    const { ok, status, body } = await this.api(`/api/v1/uploads/${encodeURIComponent(upload.name)}`, { method: 'DELETE' });
+    $('uploads-status').textContent = ok ? `Deleted ${upload.path}.` : `Not deleted: ${body.error?.message ?? status}`;
+    await this.refreshUploads();
+  }
+
+  renderUploads(uploads) {
+    const list = $('uploads');
+    if (!uploads.length) {
+      list.replaceChildren(Object.assign(document.createElement('li'), { textContent: 'No uploads.' }));
+      return;
+    }
+    list.replaceChildren(...uploads.map((upload) => this.uploadItem(upload)));
+  }
+
+  uploadItem(upload) {
+    const item = document.createElement('li');
+    item.dataset.upload = upload.name;
+    item.dataset.state = upload.state;
+    item.className = `upload upload-${upload.state}`;
+    const when = new Date(upload.modified * 1000).toLocaleString();
+    const use = {
+      reading: `read by job ${upload.job}`,
+      used: `made ${upload.datasets.join(', ')}`,
+      failed: `preprocessing failed (job ${upload.failed_job})`,  // the error itself once, under Jobs (here as the tooltip)
+      unused: 'no dataset made from it',
+    }[upload.state] ?? upload.state;
+    const line = document.createElement('div');
+    line.textContent = `${upload.name} (${sizeText(upload.bytes)}, ${when})`;
+    const remove = Object.assign(document.createElement('button'), { textContent: 'Delete', className: 'upload-delete' });
+    if (upload.state === 'reading') {
+      remove.disabled = true;
+      remove.title = `job ${upload.job} reads it: cancel the job or wait until it ends`;
+    } else {
+      remove.title = upload.state === 'used' ? 'the datasets made from it stay; deleting a dataset deletes its upload too' : `delete ${upload.path}`;
+    }
+    remove.addEventListener('click', () => this.deleteUpload(upload));
+    line.append(' ', remove);
+    item.append(line, Object.assign(document.createElement('div'), { className: 'upload-use', textContent: use, title: upload.error ?? '' }));
+    return item;
   }
 }

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "http_messages.h"
@@ -33,8 +34,9 @@ Response get_metrics(const RestRequest& r);
 // rest_datasets.cpp
 Response list_datasets(const RestRequest& r);
 Response get_dataset(const RestRequest& r);
-// Renamed aside in one step, sessions viewing it told (`dataset_deleted`), then removed:
-// 200 {deleted, sessions_closed}, or 404.
+// Renamed aside in one step, sessions viewing it told (`dataset_deleted`), then removed with
+// its source upload (remove_source_upload): 200 {deleted, sessions_closed, upload_deleted (a
+// path, or null when the upload stays)}, or 404.
 Response delete_dataset(const RestRequest& r);
 
 // rest_jobs.cpp
@@ -43,11 +45,26 @@ Response submit_job(const RestRequest& r);
 Response get_job(const RestRequest& r);
 Response cancel_job(const RestRequest& r);
 
-// rest_uploads.cpp: the listing; the upload itself streams to disk in HttpSession.
+// rest_uploads.cpp: the listing and deletes; the upload itself streams to disk in HttpSession.
+// GET /api/v1/uploads: {uploads: [{name, path, bytes, modified, state, datasets, job, failed,
+// failed_job, error}]}, newest first. state: "reading" (a queued or running job reads it),
+// "used" (an existing dataset was made from it), "failed" (the newest job that read this file
+// failed, and no dataset was made from it) or "unused".
 Response list_uploads(const RestRequest& r);
-// DELETE /api/v1/uploads/NAME: 200 {deleted}; 404 when there is no such upload; 409 while it
+// DELETE /api/v1/uploads/NAME: 200 {deleted}; 400 bad_name for anything but a file name (a path
+// never reaches the disk); 404 when there is no such upload (a symlink is none); 409 while it
 // streams in or a queued or running job reads it.
 Response delete_upload(const RestRequest& r);
+// The upload a dataset was made from: the newest done job that made `dataset`, when its source
+// is a file in uploads/.
+struct SourceUpload {
+  std::string name;    // the file in uploads/
+  double job_created;  // unix seconds: a file changed later is not the one the job read
+};
+std::optional<SourceUpload> source_upload_of(Server::Impl& server, const std::string& dataset);
+// Removes a deleted dataset's source upload unless it changed since its job, another dataset
+// was made from it, a job reads it or an upload of it streams in. Returns its path when removed.
+std::optional<std::string> remove_source_upload(Server::Impl& server, const SourceUpload& upload);
 struct UploadPaths {
   std::filesystem::path final_path;  // uploads/NAME
   std::filesystem::path temp_path;   // uploads/.NAME.XXXXXX.part, unique to this request, while the body streams in

@@ -1,4 +1,4 @@
-// GET /api/v1/datasets, GET and DELETE /api/v1/datasets/NAME.
+// GET /api/v1/datasets, GET and DELETE /api/v1/datasets/NAME (with its source upload).
 #include "rest.h"
 
 namespace tetrascope::server {
@@ -19,8 +19,11 @@ Response get_dataset(const RestRequest& r) {
 
 Response delete_dataset(const RestRequest& r) {
   try {
+    const auto source = source_upload_of(r.server, r.tail);  // before the remove: the store's existence names the job
     const size_t sessions = r.server.datasets->remove(r.tail);
-    return json_response(r.request, http::status::ok, {{"deleted", r.tail}, {"sessions_closed", sessions}});
+    const auto upload = source ? remove_source_upload(r.server, *source) : std::nullopt;
+    return json_response(r.request, http::status::ok,
+                         {{"deleted", r.tail}, {"sessions_closed", sessions}, {"upload_deleted", upload ? nlohmann::json(*upload) : nlohmann::json(nullptr)}});
   } catch (const NotFound& e) {
     return error_response(r.request, http::status::not_found, "not_found", e.what());
   }

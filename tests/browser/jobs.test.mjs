@@ -1,12 +1,14 @@
 // Failed jobs in the viewer, in headless Chromium: a job that fails on a truncated mesh shows
 // its error once on the page (the upload status points to the jobs panel; the log tail does
-// not repeat it), Dismiss removes it from the panel, and it stays dismissed after a reload.
+// not repeat it), Dismiss removes it from the panel, and it stays dismissed after a reload; the
+// uploads panel lists that upload as failed and deletes it, and a dataset deleted in the viewer
+// takes its upload with it.
 //   node --test tests/browser/jobs.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { writeFileSync } from 'node:fs';
+import { existsSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { startViewer, settled as settledOn } from './harness.mjs';
+import { sample, startViewer, settled as settledOn } from './harness.mjs';
 
 let viewer, page;
 
@@ -56,4 +58,40 @@ test('a failed job shows its error once and can be dismissed, for good', async (
   assert.equal(await item.count(), 0, 'still dismissed after a reload');
   const again = await page.evaluate(() => fetch('/api/v1/jobs').then((r) => r.json()));
   assert.ok(again.jobs.some((j) => j.id === job.id), "the server's list keeps it (the dismissal is the viewer's)");
+});
+
+const listedUploads = () => page.evaluate(() => fetch('/api/v1/uploads').then((r) => r.json()).then((b) => b.uploads.map((u) => u.name)));
+
+test('the uploads panel marks a failed upload and deletes it', async () => {
+  const item = page.locator('#uploads li[data-upload="truncated.vtk"]');
+  await item.waitFor({ timeout: 30000 });
+  assert.equal(await item.getAttribute('data-state'), 'failed');
+  assert.match(await item.textContent(), /truncated\.vtk \(\d+ B, .+\).*preprocessing failed/);
+  const { jobs } = await page.evaluate(() => fetch('/api/v1/jobs').then((r) => r.json()));
+  const error = jobs.find((j) => j.name === 'truncated-mesh').error;
+  assert.equal(await item.locator('.upload-use').getAttribute('title'), error, "the job's error is the tooltip, not shown twice");
+  assert.ok(existsSync(join(viewer.data, 'uploads', 'truncated.vtk')));
+  page.once('dialog', (dialog) => dialog.accept());
+  await item.locator('button.upload-delete').click();
+  await page.waitForFunction(() => !document.querySelector('#uploads li[data-upload="truncated.vtk"]'), null, { timeout: 10000 });
+  assert.match(await page.textContent('#uploads-status'), /Deleted uploads\/truncated\.vtk/);
+  assert.equal(existsSync(join(viewer.data, 'uploads', 'truncated.vtk')), false, 'gone from the server');
+  assert.ok(!(await listedUploads()).includes('truncated.vtk'));
+});
+
+test('a dataset deleted in the viewer takes its upload with it', async () => {
+  await page.setInputFiles('#upload-file', sample);
+  await page.fill('#job-name', 'sample-copy');
+  await page.click('#upload-submit');
+  await page.waitForFunction(() => /sample-copy: done/.test(document.getElementById('job-status').textContent), null, { timeout: 120000 });
+  const item = page.locator('#uploads li[data-upload="disk_out_ref.vtk"]');
+  await page.waitForFunction(() => document.querySelector('#uploads li[data-upload="disk_out_ref.vtk"]')?.dataset.state === 'used', null, { timeout: 30000 });
+  assert.match(await item.textContent(), /made sample-copy/);
+  await page.waitForFunction(() => document.getElementById('dataset').value === 'sample-copy', null, { timeout: 30000 });
+  page.once('dialog', (dialog) => dialog.accept());
+  await page.click('#dataset-delete');
+  await page.waitForFunction(() => !document.querySelector('#uploads li[data-upload="disk_out_ref.vtk"]'), null, { timeout: 30000 });
+  assert.match(await page.textContent('#uploads-status'), /Deleted uploads\/disk_out_ref\.vtk with sample-copy/);
+  assert.equal(existsSync(join(viewer.data, 'uploads', 'disk_out_ref.vtk')), false);
+  assert.ok(existsSync(join(viewer.data, 'disk', 'manifest.json')), 'the other dataset stays');
 });
