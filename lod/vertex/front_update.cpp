@@ -323,7 +323,7 @@ bool VertexFront::collapse_relaxed(uint32_t j) {
   return true;
 }
 
-FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget) {
+FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget, FrontSearch search) {
   const std::vector<uint8_t> before = applied_;
   own_ = errors(criteria);
   if (h_.input_tets() <= budget) {  // every split in view fits: the simplification's order is exact
@@ -333,6 +333,12 @@ FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget)
     return changes;
   }
   FrontChanges run_time = update_run_time(budget);
+  run_time.run_time_valid = true;
+  if (search == FrontSearch::run_time) {
+    run_time.changed = applied_ != before || !updated_;
+    updated_ = true;
+    return run_time;
+  }
   const std::vector<uint8_t> run_time_front = applied_;
   const uint64_t run_time_tets = tets_;
   FrontChanges changes = update_packages(budget);

@@ -45,7 +45,7 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   criteria.slices = request.slices.planes;
   criteria.unit_distance = s.unit_distance;
   auto start = Clock::now();
-  const lod::FrontChanges changes = front_->update(criteria, request.budget);
+  const lod::FrontChanges changes = front_->update(criteria, request.budget, request.moving ? lod::FrontSearch::run_time : lod::FrontSearch::best);
   cut_estimated_error_ = changes.estimated_error;
   cut_budget_ = CutBudget{request.budget, changes.tets, changes.budget_limited, changes.over_budget, changes.complete, changes.forced_tets, changes.unseen_tets, changes.refused, changes.run_time_valid};
   t.cut_ms = ms_since(start);

@@ -111,6 +111,7 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
       frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
     }
     request.budget = cost.tets_for(target_ms, frame.covered_pixels, coarsest_tets_, state.interaction_budget);
+    request.moving = true;
   } else {
     // step k aims at frame_ms * growth^(k+1), at least twice the step before, up to the still budget
     frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);

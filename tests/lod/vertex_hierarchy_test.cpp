@@ -249,6 +249,12 @@ TEST(VertexFront, FrontsOfRandomViewsConformWithoutTheSimplificationsOrder) {
     EXPECT_EQ(front.mesh().tet_count(), changes.tets) << what;
     expect_conforming(front.mesh(), what);
     open_fronts += open_links(front) > 0;
+    // the quicker search (a moving view's): the run-time front alone, no better than the best
+    const lod::FrontChanges quick = front.update(criteria, budget, lod::FrontSearch::run_time);
+    EXPECT_TRUE(quick.run_time_valid) << what;
+    EXPECT_GE(quick.estimated_error, changes.estimated_error) << what;
+    EXPECT_LE(quick.tets, budget) << what;
+    expect_conforming(front.mesh(), what + ", the quicker search");
   }
   EXPECT_GE(open_fronts, size_t{views / 2}) << "fronts that are not states of the simplification";
 }

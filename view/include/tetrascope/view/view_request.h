@@ -73,6 +73,9 @@ struct ViewRequest : DrawOptions {
   // stores with a vertex hierarchy (vertices.bin): the cut by single vertex splits (the
   // default) or through the segments' DAG
   bool segment_cut = false;
+  // a frame while the view moves: the vertex front may take its quicker search (the run-time
+  // front alone, lod::FrontSearch::run_time) rather than the better of two
+  bool moving = false;
   ClipSpec clip;                       // applied to the scene and to the cut (criteria, assembly)
 };
 

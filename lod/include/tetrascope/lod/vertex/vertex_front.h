@@ -90,12 +90,15 @@ struct FrontChanges {
   uint64_t forced_tets = 0, unseen_tets = 0;
 };
 
+enum class FrontSearch { best, run_time };
+
 class VertexFront {
  public:
   explicit VertexFront(const VertexHierarchy& hierarchy);  // the base mesh: every collapse applied
 
-  // The better of the two fronts above under `budget` (the one with the lower Σ E left).
-  FrontChanges update(const FrontCriteria& criteria, uint64_t budget);
+  // The better of the two fronts above under `budget` (the one with the lower Σ E left), or
+  // with FrontSearch::run_time the first alone (about half the time; what a moving view takes).
+  FrontChanges update(const FrontCriteria& criteria, uint64_t budget, FrontSearch search = FrontSearch::best);
 
   // Single steps. split() splits the collapse and every one it forces; collapse() refuses
   // (false) while a collapse that made a tet it consumes is split.
