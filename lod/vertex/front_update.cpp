@@ -325,32 +325,23 @@ bool VertexFront::collapse_relaxed(uint32_t j) {
 
 FrontChanges VertexFront::update(const FrontCriteria& criteria, uint64_t budget, FrontSearch search) {
   const std::vector<uint8_t> before = applied_;
-  own_ = errors(criteria);
-  if (h_.input_tets() <= budget) {  // every split in view fits: the simplification's order is exact
-    FrontChanges changes = update_packages(budget);
+  auto done = [&](FrontChanges changes) {
     changes.changed = applied_ != before || !updated_;
     updated_ = true;
     return changes;
-  }
+  };
+  own_ = errors(criteria);
+  if (h_.input_tets() <= budget) return done(update_packages(budget));  // every split in view fits: that order is exact
   FrontChanges run_time = update_run_time(budget);
   run_time.run_time_valid = true;
-  if (search == FrontSearch::run_time) {
-    run_time.changed = applied_ != before || !updated_;
-    updated_ = true;
-    return run_time;
-  }
+  if (search == FrontSearch::run_time) return done(run_time);
   const std::vector<uint8_t> run_time_front = applied_;
   const uint64_t run_time_tets = tets_;
-  FrontChanges changes = update_packages(budget);
-  if (run_time.estimated_error < changes.estimated_error) {
-    applied_ = run_time_front;
-    tets_ = run_time_tets;
-    changes = run_time;
-    changes.run_time_valid = true;
-  }
-  changes.changed = applied_ != before || !updated_;
-  updated_ = true;
-  return changes;
+  FrontChanges packages = update_packages(budget);
+  if (packages.estimated_error <= run_time.estimated_error) return done(packages);
+  applied_ = run_time_front;
+  tets_ = run_time_tets;
+  return done(run_time);
 }
 
 FrontChanges VertexFront::update_run_time(uint64_t budget) {
