@@ -6,7 +6,6 @@
 #include <fstream>
 #include <thread>
 
-#include <boost/asio.hpp>
 #include <gtest/gtest.h>
 
 #include "rest_helpers.h"
@@ -165,19 +164,8 @@ TEST_F(ManageTest, DeletingNeedsTheSameAuthorityAsOtherWrites) {
   start();  // without a token: a cross-site request (no intent header) deletes nothing
   {  // a raw request, as a page elsewhere could send it
     const std::string host = "127.0.0.1:" + std::to_string(server_->port());
-    boost::asio::io_context io;
-    boost::asio::ip::tcp::socket socket(io);
-    socket.connect({boost::asio::ip::make_address("127.0.0.1"), server_->port()});
     const std::string request = "DELETE /api/v1/datasets/disk HTTP/1.1\r\nHost: " + host + "\r\nContent-Length: 0\r\nConnection: close\r\n\r\n";
-    boost::asio::write(socket, boost::asio::buffer(request));
-    std::string response;
-    boost::system::error_code ec;
-    char buffer[4096];
-    for (;;) {
-      const size_t n = socket.read_some(boost::asio::buffer(buffer), ec);
-      if (ec) break;
-      response.append(buffer, n);
-    }
+    const std::string response = testing::raw_request(server_->port(), request);
     EXPECT_EQ(response.rfind("HTTP/1.1 403", 0), 0u) << response;
     EXPECT_NE(response.find("missing_intent"), std::string::npos) << response;
   }

@@ -14,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include <boost/asio.hpp>
 #include <nlohmann/json.hpp>
 
 #include "tetrascope/server/client.h"
@@ -57,6 +58,24 @@ inline server::ServerOptions test_server_options(const std::filesystem::path& da
 }
 
 // GET `path`, expecting 200 and a JSON body.
+// Sends `request` as is on a new connection to 127.0.0.1:`port` (as a page elsewhere could)
+// and reads until the server closes it; the whole response.
+inline std::string raw_request(uint16_t port, const std::string& request) {
+  boost::asio::io_context io;
+  boost::asio::ip::tcp::socket socket(io);
+  socket.connect({boost::asio::ip::make_address("127.0.0.1"), port});
+  boost::asio::write(socket, boost::asio::buffer(request));
+  std::string response;
+  boost::system::error_code ec;
+  char buffer[4096];
+  for (;;) {
+    const size_t n = socket.read_some(boost::asio::buffer(buffer), ec);
+    if (ec) break;
+    response.append(buffer, n);
+  }
+  return response;
+}
+
 inline nlohmann::json get_json(const std::string& base, const std::string& path, const std::string& token = "") {
   const server::HttpResult r = server::http_request(base + path, "GET", "", token);
   EXPECT_EQ(r.status, 200) << path << ": " << r.body;

@@ -8,7 +8,6 @@
 #include <fstream>
 #include <thread>
 
-#include <boost/asio.hpp>
 #include <gtest/gtest.h>
 
 #include "rest_helpers.h"
@@ -61,18 +60,7 @@ class UploadsTest : public ::testing::Test {
   }
   // Sends `request` as is on a new connection; returns the status and the whole response.
   std::pair<int, std::string> raw(const std::string& request) {
-    boost::asio::io_context io;
-    boost::asio::ip::tcp::socket socket(io);
-    socket.connect({boost::asio::ip::make_address("127.0.0.1"), server_->port()});
-    boost::asio::write(socket, boost::asio::buffer(request));
-    std::string response;
-    boost::system::error_code ec;
-    char buffer[4096];
-    for (;;) {
-      const size_t n = socket.read_some(boost::asio::buffer(buffer), ec);
-      if (ec) break;
-      response.append(buffer, n);
-    }
+    const std::string response = testing::raw_request(server_->port(), request);
     const int status = response.size() > 12 ? std::atoi(response.substr(9, 3).c_str()) : 0;
     return {status, response};
   }
