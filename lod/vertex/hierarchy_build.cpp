@@ -7,6 +7,7 @@
 
 #include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::lod {
 namespace {
@@ -144,6 +145,8 @@ VertexHierarchy build_vertex_hierarchy(const storage::TetMesh& mesh, const Verte
     const float* values = simplified.collapse_values.data() + size_t{i} * F;  // F may be 0
     std::copy(values, values + F, h.values.data() + (size_t{V} + i) * F);
   }
+  // collapsed vertices' tensors interpolated: PSD kept where the input's were, derived scalars from them
+  storage::refresh_tensor_values(h.attributes, h.values.data() + size_t{V} * F, C);
   h.tets = mesh.tets;
   h.killer.assign(mesh.tet_count(), kNoCollapse);
   h.nodes.resize(C);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <vector>
 
 namespace tetrascope::storage {
 
@@ -187,27 +188,60 @@ int quantity_of(const AttributeInfo& info) {
   return -1;
 }
 
+// Where attribute a's components of vertex v lie: values[a] + v * stride[a].
+struct AttributeArrays {
+  std::vector<float*> values;
+  std::vector<size_t> stride;
+};
+
+void refresh_tensors(std::span<const AttributeInfo> infos, const AttributeArrays& arrays, size_t vertices) {
+  for (size_t t = 0; t < infos.size(); ++t) {
+    const AttributeInfo& tensor = infos[t];
+    if (tensor.kind != AttributeKind::kTensor || tensor.components != 6 || arrays.values[t] == nullptr) continue;
+    const auto at = [&](size_t a, size_t v) { return arrays.values[a] + v * arrays.stride[a]; };
+    if (tensor.positive_semidefinite) {
+      for (size_t v = 0; v < vertices; ++v) store_tensor(clamp_positive_semidefinite(tensor_from_symmetric(at(t, v))), at(t, v));
+    }
+    std::vector<std::pair<size_t, int>> targets;
+    for (size_t d = 0; d < infos.size(); ++d) {
+      if (infos[d].kind != AttributeKind::kTensorDerived || infos[d].derived_from != tensor.name || arrays.values[d] == nullptr) continue;
+      const int quantity = quantity_of(infos[d]);
+      if (quantity >= 0) targets.emplace_back(d, quantity);
+    }
+    if (targets.empty()) continue;
+    for (size_t v = 0; v < vertices; ++v) {
+      const auto q = tensor_quantities(tensor_from_symmetric(at(t, v)));
+      for (const auto& target : targets) *at(target.first, v) = static_cast<float>(q[static_cast<size_t>(target.second)]);
+    }
+  }
+}
+
 }  // namespace
 
 void refresh_tensor_attributes(TetMesh& mesh) {
   const size_t vertices = mesh.vertex_count();
-  for (Attribute& tensor : mesh.attributes) {
-    if (tensor.info.kind != AttributeKind::kTensor || tensor.info.components != 6 || tensor.values.size() < 6 * vertices) continue;
-    if (tensor.info.positive_semidefinite) {
-      for (size_t v = 0; v < vertices; ++v) store_tensor(clamp_positive_semidefinite(tensor_from_symmetric(&tensor.values[6 * v])), &tensor.values[6 * v]);
-    }
-    std::vector<std::pair<Attribute*, int>> targets;
-    for (Attribute& derived : mesh.attributes) {
-      if (derived.info.kind != AttributeKind::kTensorDerived || derived.info.derived_from != tensor.info.name || derived.values.size() < vertices) continue;
-      const int quantity = quantity_of(derived.info);
-      if (quantity >= 0) targets.emplace_back(&derived, quantity);
-    }
-    if (targets.empty()) continue;
-    for (size_t v = 0; v < vertices; ++v) {
-      const auto q = tensor_quantities(tensor_from_symmetric(&tensor.values[6 * v]));
-      for (const auto& target : targets) target.first->values[v] = static_cast<float>(q[static_cast<size_t>(target.second)]);
-    }
+  std::vector<AttributeInfo> infos;
+  AttributeArrays arrays;
+  for (Attribute& a : mesh.attributes) {
+    infos.push_back(a.info);
+    const bool whole = a.values.size() >= size_t{a.info.components} * vertices;
+    arrays.values.push_back(whole ? a.values.data() : nullptr);  // a short array is left as it is
+    arrays.stride.push_back(a.info.components);
   }
+  refresh_tensors(infos, arrays, vertices);
+}
+
+void refresh_tensor_values(std::span<const AttributeInfo> infos, float* values, size_t vertices) {
+  AttributeArrays arrays;
+  size_t floats = 0;
+  for (const AttributeInfo& info : infos) floats += info.components;
+  size_t first = 0;
+  for (const AttributeInfo& info : infos) {
+    arrays.values.push_back(values + first);
+    arrays.stride.push_back(floats);
+    first += info.components;
+  }
+  if (floats > 0) refresh_tensors(infos, arrays, vertices);
 }
 
 void add_attribute_kind_json(nlohmann::json& entry, const AttributeInfo& info) {

@@ -8,6 +8,8 @@
 
 #include "mesh_checks.h"
 #include "tetrascope/lod/simplify/simplify.h"
+#include "tetrascope/lod/vertex/vertex_front.h"
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::testing {
@@ -81,6 +83,17 @@ TEST(TensorSimplify, SamplerKeepsPositiveSemidefiniteTensorsAndDerivedScalars) {
   lod::simplify_sampled(mesh, options);
   EXPECT_LT(mesh.tet_count(), before / 2);
   expect_tensors_kept(mesh, "sample");
+}
+
+// The collapsed vertices of a vertex hierarchy carry interpolated tensors: every front the
+// renderer and `cut` draw has them positive semi-definite and their derived scalars recomputed.
+TEST(TensorSimplify, VertexFrontsKeepPositiveSemidefiniteTensorsAndDerivedScalars) {
+  const storage::TetMesh mesh = tensor_box();
+  const lod::VertexHierarchy h = lod::build_vertex_hierarchy(mesh, {.base_tets = 200});
+  lod::VertexFront front(h);
+  const storage::TetMesh base = front.mesh();
+  EXPECT_LT(base.tet_count(), mesh.tet_count() / 3);
+  expect_tensors_kept(base, "vertex front at the base");
 }
 
 }  // namespace

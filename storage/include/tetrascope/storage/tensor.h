@@ -69,6 +69,9 @@ std::array<AttributeInfo, kTensorQuantityCount> derived_attribute_infos(const st
 // positive semi-definite ones and recomputes every derived attribute from its tensor. Attributes
 // of other kinds are untouched; a derived attribute whose tensor is missing is left as it is.
 void refresh_tensor_attributes(TetMesh& mesh);
+// The same for `vertices` vertices whose attributes lie interleaved in `values`, vertex-major,
+// each vertex's attributes in the order of `infos` (a vertex hierarchy's values).
+void refresh_tensor_values(std::span<const AttributeInfo> infos, float* values, size_t vertices);
 
 // Keys added to an attribute's JSON (store manifest, `info --json`): "kind" ("value", "tensor"
 // or "derived"); tensors add "tensor": {"symmetric", "order", "positive_semidefinite"}, derived
