@@ -116,7 +116,7 @@ def draw_view(rng, bounds, attribute, index):
     kind = ["narrow", "broad", "iso"][rng.randrange(3)]
     lo_v, hi_v = attribute["min"], attribute["max"]
     span = (hi_v - lo_v) or 1.0
-    value = histogram_value(rng, attribute)
+    value = min(max(histogram_value(rng, attribute), lo_v + 1e-6 * span), hi_v - 1e-6 * span)  # the histogram (of the coarsest level) may be wider
     if kind == "narrow":
         width = span * rng.uniform(0.02, 0.06)
         opacity = [[lo_v, 0], [value - width, 0], [value, rng.uniform(0.5, 0.9)], [value + width, 0], [hi_v, 0]]
