@@ -1,5 +1,6 @@
-// `tetrascope streamlines`: stream lines of a vector field of a mesh or store, written as
-// legacy VTK POLYDATA (dissertation §7.3; lod/field/streamlines.cpp).
+// `tetrascope streamlines`: stream lines of a vector field of a mesh or store, and
+// `tetrascope diffusion-surfaces`: diffusion surfaces of a tensor field, both written as legacy
+// VTK POLYDATA (dissertation §7.3, §7.4; lod/field/streamlines.cpp, diffusion_surfaces.cpp).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,7 @@
 
 #include "tetrascope/lod/cut/cut.h"
 #include "tetrascope/lod/cut/dag.h"
+#include "tetrascope/lod/field/diffusion_surfaces.h"
 #include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store.h"
@@ -31,6 +33,27 @@ constexpr const char* kStreamlinesUsage =
     "usage: tetrascope streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both]\n"
     "                              [--max-steps S] [--max-length L] [--tolerance T] [--max-points P] [--threads N] [--min-cl C] [--json]\n"
     "  SPEC: line:x0,y0,z0,x1,y1,z1,N | plane:ox,oy,oz,ux,uy,uz,vx,vy,vz,NU,NV | points:x,y,z;x,y,z... | dense:N\n";
+
+constexpr const char* kSurfacesUsage =
+    "usage: tetrascope diffusion-surfaces MESH|STORE --tensor T --seeds SPEC -o OUT.vtk [--min-cp C] [--min-cl C] [--edge L]\n"
+    "                              [--max-bend DEGREES] [--max-triangles N] [--json]\n"
+    "  SPEC: line:x0,y0,z0,x1,y1,z1,N | plane:ox,oy,oz,ux,uy,uz,vx,vy,vz,NU,NV | points:x,y,z;x,y,z... | dense:N\n";
+
+// The input at full resolution: a mesh file, or every segment of a store's finest cut.
+storage::TetMesh load_full_mesh(const std::string& input) {
+  if (!std::filesystem::is_directory(input)) return storage::load_mesh(input);
+  auto store = storage::Store::open(input);
+  auto dag = lod::open_dag(*store);
+  if (!dag) throw std::invalid_argument(input + " is a single-level store (made by segment); run tetrascope preprocess for a multiresolution store");
+  lod::Cut cut(*dag);
+  cut.refine_all();
+  storage::SegmentCache cache(*store, 1ull << 30);
+  return std::move(lod::assemble_cut(*store, cache, cut, false).mesh);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
 
 }  // namespace
 
@@ -62,20 +85,8 @@ int run_streamlines(const Arguments& raw) {
 
   const std::string input = positionals[0];
   const auto load_start = std::chrono::steady_clock::now();
-  tetrascope::storage::TetMesh mesh;
-  if (std::filesystem::is_directory(input)) {
-    // the full-resolution mesh: every segment of the finest cut
-    auto store = tetrascope::storage::Store::open(input);
-    auto dag = lod::open_dag(*store);
-    if (!dag) throw std::invalid_argument(input + " is a single-level store (made by segment); run tetrascope preprocess for a multiresolution store");
-    lod::Cut cut(*dag);
-    cut.refine_all();
-    tetrascope::storage::SegmentCache cache(*store, 1ull << 30);
-    mesh = std::move(lod::assemble_cut(*store, cache, cut, false).mesh);
-  } else {
-    mesh = tetrascope::storage::load_mesh(input);
-  }
-  const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+  const storage::TetMesh mesh = load_full_mesh(input);
+  const double load_s = seconds_since(load_start);
   if (args.has("--min-cl")) {  // a tensor's lines run cl * e1: the zero speed is the linear anisotropy where they stop
     const tetrascope::storage::Attribute* field = mesh.find_attribute(options["--field"]);
     if (!field || field->info.kind != tetrascope::storage::AttributeKind::kTensor) throw std::invalid_argument("--min-cl needs a tensor --field");
@@ -101,6 +112,54 @@ int run_streamlines(const Arguments& raw) {
     std::printf("%s: %zu lines, %zu points from %llu seeds (%llu outside the domain); setup %.3f s, tracing %.3f s\n", options["--output"].c_str(), lines.line_count(),
                 lines.point_count(), static_cast<unsigned long long>(lines.seeds), static_cast<unsigned long long>(lines.seeds_outside), setup_s, trace_s);
     std::printf("stops: %s\n", stops.dump().c_str());
+  }
+  return 0;
+}
+
+int run_diffusion_surfaces(const Arguments& raw) {
+  Args args(raw, {"--json"}, {"--tensor", "--seeds", "--output", "--min-cp", "--min-cl", "--edge", "--max-bend", "--max-triangles"});
+  if (args.positionals().size() != 1 || !args.has("--tensor") || !args.has("--seeds") || !args.has("--output")) {
+    std::fputs(kSurfacesUsage, stderr);
+    return 2;
+  }
+  lod::DiffusionSurfaceOptions o;
+  o.min_planar = args.positive("--min-cp", o.min_planar);
+  const double min_linear = args.positive("--min-cl", 0.25);
+  if (o.min_planar > 1 || min_linear > 1) throw std::invalid_argument("--min-cp and --min-cl are anisotropy measures between 0 and 1");
+  o.edge = args.positive("--edge", 0);
+  o.max_bend_degrees = args.positive("--max-bend", o.max_bend_degrees);
+  if (o.max_bend_degrees >= 90) throw std::invalid_argument("--max-bend must be below 90 degrees");
+  o.max_triangles = args.number("--max-triangles", 2'000'000);
+  if (o.max_triangles == 0) throw std::invalid_argument("--max-triangles must be at least 1");
+  const lod::SeedSpec seeds = lod::parse_seeds(args.get("--seeds"));
+  if (seeds.critical_subdivision) throw std::invalid_argument("critical-point seeds need a vector field; diffusion surfaces take line, plane, points or dense seeds");
+
+  const std::string input = args.positionals()[0];
+  const auto load_start = std::chrono::steady_clock::now();
+  const storage::TetMesh mesh = load_full_mesh(input);
+  const double load_s = seconds_since(load_start);
+  const auto trace_start = std::chrono::steady_clock::now();
+  const lod::AnisotropySegmentation classes = lod::segment_anisotropy(mesh, args.get("--tensor"), min_linear, o.min_planar);
+  lod::DiffusionSurfaceTracer tracer(mesh, args.get("--tensor"));
+  const lod::DiffusionSurfaces surfaces = seeds.dense_resolution ? tracer.trace_dense(seeds.dense_resolution, o) : tracer.trace(std::span<const Vec3>(seeds.points), o);
+  const double trace_s = seconds_since(trace_start);
+  lod::write_diffusion_surfaces_vtk(args.get("--output"), surfaces, "tetrascope diffusion surfaces of " + std::filesystem::path(input).filename().string());
+
+  nlohmann::json operations = nlohmann::json::object();
+  for (size_t k = 0; k < size_t(lod::SurfaceOperation::kCount); ++k) operations[lod::surface_operation_name(lod::SurfaceOperation(k))] = surfaces.operations[k];
+  nlohmann::json regions = nlohmann::json::object();
+  const char* names[] = {"isotropic", "linear", "planar"};
+  for (size_t k = 0; k < 3; ++k) regions[names[k]] = {{"vertices", classes.vertices[k]}, {"volume_share", classes.volume_share[k]}};
+  if (args.has("--json")) {
+    const nlohmann::json j = {{"surfaces", surfaces.surface_count()}, {"triangles", surfaces.triangle_count()}, {"vertices", surfaces.vertex_count()},
+                              {"seeds", surfaces.seeds}, {"seeds_refused", surfaces.seeds_refused}, {"operations", operations}, {"truncated", surfaces.truncated},
+                              {"anisotropy", regions}, {"tets", mesh.tet_count()}, {"load_seconds", load_s}, {"seconds", trace_s}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("%s: %zu surfaces, %zu triangles from %llu seeds (%llu refused)%s; %.3f s\n", args.get("--output").c_str(), surfaces.surface_count(),
+                surfaces.triangle_count(), static_cast<unsigned long long>(surfaces.seeds), static_cast<unsigned long long>(surfaces.seeds_refused),
+                surfaces.truncated ? ", stopped at --max-triangles" : "", trace_s);
+    std::printf("operations: %s\nanisotropy: %s\n", operations.dump().c_str(), regions.dump().c_str());
   }
   return 0;
 }

@@ -28,7 +28,8 @@ int run_render(const Arguments& raw);
 // cmd_serve.cpp: the server and its load test
 int run_serve(const Arguments& raw);
 int run_loadtest(const Arguments& raw);
-// cmd_streamlines.cpp: stream lines of a vector field (§7.3)
+// cmd_streamlines.cpp: stream lines of a vector field (§7.3), diffusion surfaces of a tensor field (§7.4)
 int run_streamlines(const Arguments& raw);
+int run_diffusion_surfaces(const Arguments& raw);
 
 }  // namespace tetrascope::apps

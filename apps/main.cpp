@@ -58,7 +58,9 @@ constexpr const char* kUsage =
     "                                [--rate HZ] [--size WxH] [--token T] [--allow-remote] [--no-reconnect] [--json]\n"
     "                                concurrent sessions replaying a camera path: fps, latency, bytes, errors\n"
     "  streamlines MESH|STORE --field V --seeds SPEC -o OUT.vtk [--direction forward|backward|both] [--max-steps S]\n"
-    "                                [--max-length L] [--tolerance T] [--max-points P] [--json]   stream lines as VTK polylines (docs/streamlines.md)"
+    "                                [--max-length L] [--tolerance T] [--max-points P] [--json]   stream lines as VTK polylines (docs/streamlines.md)\n"
+    "  diffusion-surfaces MESH|STORE --tensor T --seeds SPEC -o OUT.vtk [--min-cp C] [--min-cl C] [--edge L] [--max-bend DEG]\n"
+    "                                [--max-triangles N] [--json]   surfaces of a tensor field's planar regions as VTK polygons (docs/streamlines.md)"
     "\n"
     "MESH: .vtk (legacy ASCII/BINARY), .vtu, .msh (Gmsh 2.2/4.1), .node/.ele (TetGen), .off, .exo/.e/.g (Exodus II), .cgns/.adf (CGNS), an OpenFOAM case folder or its .foam file\n";
 
@@ -83,6 +85,7 @@ int main(int argc, char** argv) {
     if (command == "serve") return tetrascope::apps::run_serve(args);
     if (command == "loadtest") return tetrascope::apps::run_loadtest(args);
     if (command == "streamlines") return tetrascope::apps::run_streamlines(args);
+    if (command == "diffusion-surfaces") return tetrascope::apps::run_diffusion_surfaces(args);
     std::fprintf(stderr, "tetrascope: unknown command '%s'\n\n%s", command.c_str(), kUsage);
     return 2;
   } catch (const std::invalid_argument& e) {

@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "tet_locator.h"
+#include "vtk_polydata.h"
 #include "tetrascope/core/parallel_for.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/storage/tensor.h"
@@ -661,23 +662,8 @@ Streamlines StreamlineTracer::trace(const SeedSpec& seeds, const StreamlineOptio
   return trace(std::span<const Vec3>(seeds.points), options);
 }
 
-namespace {
-
-void put_big_endian(std::ofstream& file, const void* data, size_t count) {
-  const auto* bytes = static_cast<const uint8_t*>(data);
-  std::vector<uint8_t> swapped(count * 4);
-  for (size_t i = 0; i < count; ++i)
-    for (int b = 0; b < 4; ++b) swapped[4 * i + b] = bytes[4 * i + 3 - b];
-  file.write(reinterpret_cast<const char*>(swapped.data()), std::streamsize(swapped.size()));
-}
-
-std::string vtk_name(std::string name) {
-  for (char& c : name)
-    if (c == ' ' || c == '\t' || c == '\n') c = '_';
-  return name.empty() ? "unnamed" : name;
-}
-
-}  // namespace
+using detail::put_big_endian;
+using detail::vtk_name;
 
 void write_streamlines_vtk(const std::filesystem::path& path, const Streamlines& lines, const std::string& field, const std::string& title) {
   std::ofstream file(path, std::ios::binary);

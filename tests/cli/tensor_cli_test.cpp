@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 
 #include <nlohmann/json.hpp>
 
@@ -126,6 +128,44 @@ TEST(TensorCli, StreamLinesFollowTheMajorPrincipalStress) {
   CliResult vector = run_cli("streamlines " + mesh.string() + " --field f --seeds points:0.5,0.5,0.5 --min-cl 0.5 -o " + out);
   EXPECT_EQ(vector.status, 2) << vector.out;
   EXPECT_NE(vector.out.find("--min-cl needs a tensor"), std::string::npos) << vector.out;
+}
+
+// Diffusion surfaces of a pancake-shaped tensor whose minor eigenvector is z: the surface
+// through a seed is the plane z = const across the box, written as VTK polygons with its
+// normals; a field that is not a tensor, critical-point seeds and a bend of 90 degrees or more
+// get a usage error that names them.
+TEST(TensorCli, DiffusionSurfacesOfAPlanarTensorAreFlat) {
+  const auto dir = scratch_dir("tensor-cli-surfaces");
+  CellMesh m = from_tets(kuhn_box(8, 0.2, [](float x, float, float) { return x; }));
+  storage::Attribute d{{"D", 9, storage::AttributeKind::kTensor}, {}};
+  for (size_t v = 0; v < m.x.size(); ++v)
+    for (float c : {1.f, 0.f, 0.f, 0.f, 0.9f, 0.f, 0.f, 0.f, 0.05f}) d.values.push_back(c);
+  m.attributes.push_back(d);
+  const auto mesh = dir / "pancakes.vtk";
+  write_vtk_legacy(mesh, m);
+  const std::string out = (dir / "surfaces.vtk").string();
+  CliResult r = run_cli("diffusion-surfaces " + mesh.string() + " --tensor D --seeds 'points:0.5,0.5,0.3;0.5,0.5,0.3001;0.5,0.5,0.7' -o " + out + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["surfaces"], 2) << "the second seed lies on the first surface";
+  EXPECT_EQ(j["seeds_refused"], 1);
+  EXPECT_GT(j["triangles"].get<int>(), 100);
+  EXPECT_GT(j["operations"]["C"].get<int>(), 0);
+  EXPECT_GT(j["operations"]["B"].get<int>(), 0) << "the planes end at the box";
+  EXPECT_NEAR(j["anisotropy"]["planar"]["volume_share"].get<double>(), 1.0, 1e-9);
+  std::ifstream file(out, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.rfind("# vtk DataFile Version 3.0\n", 0), 0u);
+  EXPECT_NE(text.find("POLYGONS " + std::to_string(j["triangles"].get<int>()) + " "), std::string::npos);
+  EXPECT_NE(text.find("NORMALS minor_eigenvector float"), std::string::npos);
+  for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {"--tensor x --seeds dense:4", "'x' is not a symmetric tensor attribute"},
+           {"--tensor D --seeds critical:2", "critical-point seeds need a vector field"},
+           {"--tensor D --seeds dense:4 --max-bend 90", "--max-bend must be below 90"}}) {
+    CliResult bad = run_cli("diffusion-surfaces " + mesh.string() + " " + args + " -o " + out);
+    EXPECT_EQ(bad.status, 2) << args << ": " << bad.out;
+    EXPECT_NE(bad.out.find(message), std::string::npos) << bad.out;
+  }
 }
 
 }  // namespace
