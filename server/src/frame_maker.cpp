@@ -149,6 +149,7 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     if (!final_step && double(tets) < kFullCutShare * double(request.budget)) frame.budget = still_budget;
   }
   settings.should_stop = plan.should_stop;
+  if (state.background) settings.background = *state.background;
   if (plan.should_stop && plan.should_stop()) {  // input came during the cut update and assembly: no upload, no draw
     frame.interrupted = true;
     return frame;
