@@ -142,7 +142,7 @@ export function barPosition(value, [lo, hi], log = false) {
 
 // The values between the ends worth a tick: round numbers (1, 2 or 5 times a power of ten)
 // about `count` of them, or on a log bar the powers of ten (with 2 and 5 times them when few);
-// none nearer an end than a tenth of the bar, where they would crowd its end labels.
+// none nearer an end than a fifth of the bar, where they would run into its end labels.
 export function legendTicks(range, log = false, count = 4) {
   const [lo, hi] = range;
   let values = [];
@@ -156,7 +156,7 @@ export function legendTicks(range, log = false, count = 4) {
   }
   return values.filter((v) => {
     const t = barPosition(v, range, log);
-    return t >= 0.1 && t <= 0.9;
+    return t >= 0.2 && t <= 0.8;
   });
 }
 
@@ -204,6 +204,11 @@ function drawLegend(g, legend, x0, y0, s) {
   g.textBaseline = 'top';
   g.textAlign = 'left';
   g.fillText(legend.title, x0 + pad, y0 + pad, barWidth);
+  // what it colours after the title, where it fits
+  const titleWidth = g.measureText(legend.title).width;
+  g.font = `${font}px system-ui, sans-serif`;
+  const caption = legend.caption ? `  (${legend.caption})` : '';
+  if (caption && titleWidth + g.measureText(caption).width <= barWidth) g.fillText(caption, x0 + pad + titleWidth, y0 + pad);
   const barX = Math.round(x0 + pad), barY = y0 + 2 * pad + font;
   drawColorBar(g, legend.colors, barX, Math.round(barY), barWidth, barHeight);
   g.fillStyle = ink;  // drawColorBar left its last colour
