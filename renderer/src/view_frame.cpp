@@ -97,7 +97,14 @@ void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
 }
 
 void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute) {
-  scene_ = std::make_unique<const SceneMesh>(SceneMesh::from(mesh, attribute, iso_color_attribute));
+  SceneMesh scene = SceneMesh::from(mesh, attribute, iso_color_attribute);
+  // isosurfaces coloured by an attribute over its range over the whole dataset, as with the
+  // stream lines: the same value the same colour whatever the cut
+  if (const storage::StoreAttribute* a = store_ && !iso_color_attribute.empty() ? find_attribute(store_->manifest(), iso_color_attribute) : nullptr; a && a->max > a->min) {
+    scene.iso_color_min = a->components == 1 ? a->min : std::max(0.0, a->min);
+    scene.iso_color_max = a->max;
+  }
+  scene_ = std::make_unique<const SceneMesh>(std::move(scene));
   attribute_ = attribute;
   iso_color_attribute_ = iso_color_attribute;
   scene_generation_ = next_scene_generation++;
@@ -124,7 +131,7 @@ void ViewPipeline::trace_lines(const storage::TetMesh& mesh, const LineRequest& 
   // coloured over the field's magnitude range over the whole dataset, as the store records it:
   // the same speed the same colour on every trace, and the range a legend can state
   if (const storage::StoreAttribute* a = store_ ? find_attribute(store_->manifest(), field) : nullptr; a && a->max > a->min) {
-    set.value_min = std::max(0.0, a->min);
+    set.value_min = a->min;
     set.value_max = a->max;
   }
   lines_ = std::make_shared<const LineSet>(std::move(set));
