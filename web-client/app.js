@@ -423,6 +423,8 @@ function onDataset(info) {
   camera = view.camera ? new OrbitCamera(view.camera) : homeCamera();
   $('parallel').checked = camera.orthographic;
   $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
+  $('iso-color-by').replaceChildren(new Option('value (the colour map)', ''), ...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
+  if (view.isoColorBy && !info.attributes.some((a) => a.name === view.isoColorBy)) view.isoColorBy = null;
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
   if (datasetNotice) $('dataset-summary').textContent += `\n${datasetNotice}`;
   datasetNotice = '';
@@ -458,6 +460,7 @@ function showView() {
   $('box').checked = v.box;
   $('iso-opacity').value = Math.round(v.isoOpacity * 100);
   $('iso-opacity').disabled = v.dvr;  // the renderer blends isosurfaces only without the volume
+  $('iso-color-by').value = v.isoColorBy ?? '';
   showIsovalues();
   if (v.budget) $('budget').value = v.budget;
   if (v.interactionBudget) $('interaction-budget').value = v.interactionBudget;
@@ -510,18 +513,22 @@ function showIsovalues() {
 function legends() {
   const v = state.view, out = [];
   const slices = v.slices.length > 0;
-  const colouring = [v.dvr && 'volume', v.iso && 'isosurface', v.surface && 'boundary', slices && 'slice', v.lines?.points && 'points'].filter(Boolean);
+  const isoBy = v.iso && v.isoColorBy ? state.dataset?.attributes.find((a) => a.name === v.isoColorBy) : null;
+  const colouring = [v.dvr && 'volume', v.iso && !isoBy && 'isosurface', v.surface && 'boundary', slices && 'slice', v.lines?.points && 'points'].filter(Boolean);
   if (colouring.length && v.range && v.attribute) {
     const name = state.dataset ? `${state.dataset.name} — ${v.attribute}` : v.attribute;
     out.push({ key: 'attribute', title: v.legendTitles?.attribute || name, caption: `${colouring.join(', ')}${logScale(v) ? ', log scale' : ''}`, colors: v.colors, range: v.range, log: logScale(v) });
   }
-  const field = v.lines?.on && state.dataset?.attributes.find((a) => (v.lines.field ? a.name === v.lines.field : a.components === 3));
-  if (field && v.range) {
-    // the lines take the renderer's colour table: the colours sent, evenly over the colour range
+  // the lines and isosurfaces coloured by another attribute take the renderer's colour table:
+  // the colours sent, evenly over the colour range, spread over that attribute's range
+  const table = () => {
     const sent = tfBody(v, defaultUnit()).colors, [lo, hi] = v.range;
-    const colors = Array.from({ length: 64 }, (_, k) => [k / 63, ...colorAt(sent.map(([x, ...rgb]) => [(x - lo) / (hi - lo), ...rgb]), k / 63)]);
-    out.push({ key: 'lines', title: v.legendTitles?.lines || `|${field.name}|`, caption: 'stream lines', colors, range: field.range[1] > field.range[0] ? field.range : [field.range[0], field.range[0] + 1], log: false });
-  }
+    return Array.from({ length: 64 }, (_, k) => [k / 63, ...colorAt(sent.map(([x, ...rgb]) => [(x - lo) / (hi - lo), ...rgb]), k / 63)]);
+  };
+  const rangeOf = (a) => (a.range[1] > a.range[0] ? a.range : [a.range[0], a.range[0] + 1]);
+  if (isoBy && v.range) out.push({ key: 'iso', title: v.legendTitles?.iso || (isoBy.components > 1 ? `|${isoBy.name}|` : isoBy.name), caption: 'isosurface', colors: table(), range: rangeOf(isoBy), log: false });
+  const field = v.lines?.on && state.dataset?.attributes.find((a) => (v.lines.field ? a.name === v.lines.field : a.components === 3));
+  if (field && v.range) out.push({ key: 'lines', title: v.legendTitles?.lines || `|${field.name}|`, caption: 'stream lines', colors: table(), range: rangeOf(field), log: false });
   return out;
 }
 
@@ -627,7 +634,7 @@ function sendMode() {
 
 function sendIso() {
   const v = state.view;
-  send('iso.set', { values: v.isovalues.length ? v.isovalues : [midRange()], opacity: v.isoOpacity });
+  send('iso.set', { values: v.isovalues.length ? v.isovalues : [midRange()], opacity: v.isoOpacity, color_by: v.isoColorBy ?? '' });
 }
 
 function sendLod() {
@@ -1242,6 +1249,11 @@ $('unit-distance').addEventListener('change', () => {
 for (const id of ['mode-dvr', 'mode-iso', 'mode-surface', 'wireframe', 'box']) $(id).addEventListener('change', onModes);
 $('isovalue').addEventListener('input', onIsoSlider);
 $('isovalues').addEventListener('change', onIsoText);
+$('iso-color-by').addEventListener('change', () => {
+  state.view.isoColorBy = $('iso-color-by').value || null;
+  sendIso();
+  saveViewInHash();
+});
 $('iso-opacity').addEventListener('input', () => {
   state.view.isoOpacity = number('iso-opacity') / 100;
   sendIso();

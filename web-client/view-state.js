@@ -57,6 +57,7 @@ export function defaultView() {
     dvr: true, iso: false, surface: false, wireframe: false, box: false,
     isovalues: [],              // attribute units; empty: mid-range
     isoOpacity: 1,
+    isoColorBy: null,           // an attribute colouring the isosurfaces; null: their value
     budget: null, interactionBudget: null,  // null: the server's
     interactionQuality: 60, stillQuality: 90, pngStills: false,
     clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
@@ -67,12 +68,12 @@ export function defaultView() {
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
-  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {} };
+  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null };
 }
 
 // ---------- URL fragment ----------
 
-const kLegendKeys = ['attribute', 'lines'];
+const kLegendKeys = ['attribute', 'iso', 'lines'];
 
 const num = (x) => String(+(+x).toPrecision(6));
 const list = (v) => v.map(num).join(',');
@@ -107,6 +108,7 @@ export function viewToHash(view) {
   if (view.box) put('box', 1);
   if (view.isovalues.length) put('iso', list(view.isovalues));
   if (view.isoOpacity !== 1) put('isoopacity', num(view.isoOpacity));
+  put('isocolor', view.isoColorBy);
   if (view.budget) put('budget', view.budget);
   if (view.interactionBudget) put('ibudget', view.interactionBudget);
   put('quality', `${view.interactionQuality},${view.stillQuality}${view.pngStills ? ',png' : ''}`);
@@ -173,6 +175,7 @@ export function viewFromHash(hash) {
   view.wireframe = h.get('wireframe') === '1';
   view.box = h.get('box') === '1';
   view.isovalues = (numbers('iso') ?? []).slice(0, 16);
+  view.isoColorBy = h.get('isocolor')?.slice(0, 128) || null;
   if (finite(h.get('isoopacity'))) view.isoOpacity = Math.min(Math.max(Number(h.get('isoopacity')), 0.05), 1);
   const whole = (key) => (/^\d{1,10}$/.test(h.get(key) ?? '') && Number(h.get(key)) >= 1 ? Number(h.get(key)) : null);
   view.budget = whole('budget');

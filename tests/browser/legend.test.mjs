@@ -229,3 +229,27 @@ test('a white background: the image\'s, in the link, with the legend still reada
   assert.doesNotMatch(page.url(), /bg=/);
   assert.ok(luminance(await composedStill(), image.width - 3, 3) < 60, 'the dark default again');
 });
+
+test('isosurfaces coloured by another attribute get a legend of their own over its range', async () => {
+  await page.uncheck('#mode-dvr');
+  await page.check('#mode-iso');
+  await settled();
+  assert.deepEqual(await legendKeys(), ['attribute']);
+  assert.equal(await page.textContent('#legend .legend[data-key=attribute] .legend-caption'), 'isosurface');
+  const other = await page.evaluate(() => window.tetrascope.dataset.attributes.find((a) => a.name !== window.tetrascope.view.attribute && a.components === 1));
+  const byValue = await page.evaluate(() => document.getElementById('frame').toDataURL());
+  await page.selectOption('#iso-color-by', other.name);
+  await settled();
+  assert.equal((await page.evaluate(() => window.tetrascope.sent.filter((m) => m.type === 'iso.set').at(-1).body)).color_by, other.name);
+  assert.match(page.url(), new RegExp(`isocolor=${other.name}`));
+  assert.notEqual(await page.evaluate(() => document.getElementById('frame').toDataURL()), byValue, 'the isosurfaces took other colours');
+  assert.deepEqual(await legendKeys(), ['iso'], 'nothing else is coloured by the attribute now');
+  const labels = await page.evaluate(() => [...document.querySelectorAll('#legend .legend[data-key=iso] .legend-ticks span')].map((s) => s.textContent));
+  const fmt = (v) => (Math.abs(v) >= 1e5 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(2) : String(+v.toPrecision(4)));
+  assert.deepEqual([labels[0], labels.at(-1)], [fmt(other.range[0]), fmt(other.range[1])]);
+  await page.selectOption('#iso-color-by', '');
+  await page.uncheck('#mode-iso');
+  await page.check('#mode-dvr');
+  await settled();
+  assert.deepEqual(await legendKeys(), ['attribute']);
+});

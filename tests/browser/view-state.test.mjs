@@ -152,7 +152,7 @@ test('the camera: zoom at the cursor keeps the point there; fit frames the point
 });
 
 test('none of the modes, a log scale, a background and legend titles survive the URL', () => {
-  const view = { ...full(), dvr: false, iso: false, surface: false, logScale: true, background: [1, 1, 1], legendTitles: { attribute: 'T (K) & more', lines: '|U|' } };
+  const view = { ...full(), dvr: false, iso: false, surface: false, logScale: true, background: [1, 1, 1], isoColorBy: 'Pres', legendTitles: { attribute: 'T (K) & more', iso: 'p', lines: '|U|' } };
   const hash = viewToHash(view);
   assert.match(hash, /mode=slice/);
   assert.deepEqual(viewFromHash(`#${hash}`), view);
