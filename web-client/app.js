@@ -624,11 +624,13 @@ function queueTf() {  // at most one tf.set per animation frame
   });
 }
 
-function sendMode() {
+// `extra`: fields sent this once (the default background again after a custom one: a session
+// that never had one is sent none)
+function sendMode(extra = {}) {
   const v = state.view;
   // none of them: 'slice', the slice planes alone (an image of the box, or nothing, without any)
   const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes()].join('+') || 'slice';
-  send('mode.set', { mode, wireframe: v.wireframe, box: false, background: v.background ?? kDefaultBackground });  // the box: drawBoxOverlay
+  send('mode.set', { mode, wireframe: v.wireframe, box: false, ...(v.background ? { background: v.background } : {}), ...extra });  // the box: drawBoxOverlay
   drawBoxOverlay(state.lastFrame?.header);
 }
 
@@ -1288,7 +1290,7 @@ for (const [id, event] of [['background', 'change'], ['background-reset', 'click
   $(id).addEventListener(event, () => {
     state.view.background = id === 'background' ? fromHex($('background').value) : null;
     $('background').value = toHex(state.view.background ?? kDefaultBackground);
-    sendMode();
+    sendMode(state.view.background ? {} : { background: kDefaultBackground });
     saveViewInHash();
   });
 }
