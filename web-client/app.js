@@ -4,14 +4,14 @@
 // sent again in full after every (re)connect, so a reconnect or a link shows the same image.
 import { checkMessage, decodeFrame, encodeMessage, VERSION } from '/protocol/js/codec.js';
 import { OrbitCamera } from './camera.js';
-import { PRESETS, fromHex, toHex } from './colormaps.js';
+import { PRESETS, colorAt, fromHex, toHex } from './colormaps.js';
 import { Jobs } from './jobs.js';
 import { LinesPanel } from './lines.js';
-import { backgroundOf, composeStill, drawAxes, drawBox, drawColorBar, inkOn } from './overlays.js';
+import { backgroundOf, composeStill, drawAxes, drawBox, inkOn, showLegends } from './overlays.js';
 import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
 import { TfEditor } from './tf-editor.js';
-import { effectiveOpacity, forDataset, tfBody, viewFromHash, viewToHash } from './view-state.js';
+import { effectiveOpacity, forDataset, logScale, tfBody, viewFromHash, viewToHash } from './view-state.js';
 import { visibleCorners } from './visible.js';
 
 const $ = (id) => document.getElementById(id);
@@ -25,6 +25,7 @@ const kZoomStep = 1.2;
 const kWheelZoomRate = 0.001;  // the distance scales by exp(rate * deltaY): about 10% a notch
 const kMinZoomBox = 4;  // px: a smaller box is a click (the probe)
 const kCaptureTimeoutMs = 60000;
+const kDefaultBackground = [0.1, 0.1, 0.12];  // the renderer's
 
 // What the page shows; exposed for the browser test and the console.
 const state = {
@@ -383,8 +384,9 @@ function openDataset(name) {
   const generation = ++listRetryGeneration;
   if (!name) {
     if (!listFailure) {
-      $('dataset-summary').textContent = 'No dataset yet: upload a mesh below.';
-      viewStatus('empty', 'No dataset on this server yet: add a mesh under “Add a dataset”.');
+      $('dataset-summary').textContent = 'No dataset yet: add a mesh below.';
+      viewStatus('empty', 'No dataset on this server yet: drop a mesh file here, or choose one under “Add a dataset”.');
+      page.empty(true);
       return;
     }
     viewStatus('loading', `${listFailure}. Trying again…`);
@@ -398,6 +400,7 @@ function openDataset(name) {
     return;
   }
   $('dataset').value = name;
+  page.empty(false);
   openName = name;
   openId = send('dataset.open', { name });
   if (openId >= 0) viewStatus('loading', `Loading ${name}…`);
@@ -420,6 +423,8 @@ function onDataset(info) {
   camera = view.camera ? new OrbitCamera(view.camera) : homeCamera();
   $('parallel').checked = camera.orthographic;
   $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
+  $('iso-color-by').replaceChildren(new Option('value (the colour map)', ''), ...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
+  if (view.isoColorBy && !info.attributes.some((a) => a.name === view.isoColorBy)) view.isoColorBy = null;
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
   if (datasetNotice) $('dataset-summary').textContent += `\n${datasetNotice}`;
   datasetNotice = '';
@@ -444,15 +449,18 @@ function showView() {
     $('range-max').value = +v.range[1].toPrecision(6);
   }
   $('outside-transparent').checked = v.outsideTransparent;
+  showLogScale();
   $('opacity-scale').value = Math.round(v.opacityScale * 100);
   $('opacity-scale-text').textContent = `${Math.round(v.opacityScale * 100)}%`;
   $('unit-distance').value = v.unitDistance ?? '';
   $('unit-distance').placeholder = defaultUnit() ? `${+defaultUnit().toPrecision(3)} (default)` : '';
   for (const m of ['dvr', 'iso', 'surface']) $(`mode-${m}`).checked = v[m];
   $('wireframe').checked = v.wireframe;
+  $('background').value = toHex(v.background ?? kDefaultBackground);
   $('box').checked = v.box;
   $('iso-opacity').value = Math.round(v.isoOpacity * 100);
   $('iso-opacity').disabled = v.dvr;  // the renderer blends isosurfaces only without the volume
+  $('iso-color-by').value = v.isoColorBy ?? '';
   showIsovalues();
   if (v.budget) $('budget').value = v.budget;
   if (v.interactionBudget) $('interaction-budget').value = v.interactionBudget;
@@ -462,6 +470,14 @@ function showView() {
   const a = attributeInfo();
   if (a) tfEditor.setHistogram(a.range, a.histogram);
   showTf();
+}
+
+// The log scale's box: checked as the view asks, disabled while the range reaches 0 or below.
+function showLogScale() {
+  const v = state.view, box = $('log-scale');
+  box.checked = v.logScale;
+  box.disabled = !(v.range?.[0] > 0);
+  box.parentElement.title = box.disabled ? 'a log scale needs a range above 0 (set min above 0)' : 'colours over log10 of the range';
 }
 
 function showColormap() {
@@ -491,12 +507,42 @@ function showIsovalues() {
   $('isovalue').value = Math.round(((values[0] - lo) / (hi - lo)) * 1000);
 }
 
+// One legend per coloured thing: the attribute's (volume, isosurfaces, boundary, slices,
+// points: one colour map over one range), and the stream lines' (the field's magnitude over
+// the dataset's range of it, through the same colours as the renderer samples them).
+function legends() {
+  const v = state.view, out = [];
+  const slices = v.slices.length > 0;
+  const isoBy = v.iso && v.isoColorBy ? state.dataset?.attributes.find((a) => a.name === v.isoColorBy) : null;
+  const colouring = [v.dvr && 'volume', v.iso && !isoBy && 'isosurface', v.surface && 'boundary', slices && 'slice', v.lines?.points && 'points'].filter(Boolean);
+  if (colouring.length && v.range && v.attribute) {
+    const name = state.dataset ? `${state.dataset.name} — ${v.attribute}` : v.attribute;
+    out.push({ key: 'attribute', title: v.legendTitles?.attribute || name, caption: `${colouring.join(', ')}${logScale(v) ? ', log scale' : ''}`, colors: v.colors, range: v.range, log: logScale(v) });
+  }
+  // the lines and isosurfaces coloured by another attribute take the renderer's colour table:
+  // the colours sent, evenly over the colour range, spread over that attribute's range
+  const table = () => {
+    const sent = tfBody(v, defaultUnit()).colors, [lo, hi] = v.range;
+    return Array.from({ length: 64 }, (_, k) => [k / 63, ...colorAt(sent.map(([x, ...rgb]) => [(x - lo) / (hi - lo), ...rgb]), k / 63)]);
+  };
+  const rangeOf = (a) => (a.range[1] > a.range[0] ? a.range : [a.range[0], a.range[0] + 1]);
+  if (isoBy && v.range) out.push({ key: 'iso', title: v.legendTitles?.iso || (isoBy.components > 1 ? `|${isoBy.name}|` : isoBy.name), caption: 'isosurface', colors: table(), range: rangeOf(isoBy), log: false });
+  const field = v.lines?.on && state.dataset?.attributes.find((a) => (v.lines.field ? a.name === v.lines.field : a.components === 3));
+  if (field && v.range) out.push({ key: 'lines', title: v.legendTitles?.lines || `|${field.name}|`, caption: 'stream lines', colors: table(), range: rangeOf(field), log: false });
+  return out;
+}
+
+// Drawn again when what they show changes (and not under a title being edited).
+let legendsShown = '';
 function drawLegend() {
-  const v = state.view, bar = $('legend-bar');
-  drawColorBar(bar.getContext('2d'), v.colors, 0, 0, bar.width, bar.height);
-  $('legend-text').replaceChildren(
-    ...[v.range[0].toPrecision(3), v.attribute ?? '', v.range[1].toPrecision(3)].map((t) => Object.assign(document.createElement('span'), { textContent: t })),
-  );
+  const shown = legends(), key = JSON.stringify(shown);
+  if (key === legendsShown || $('legend').contains(document.activeElement)) return;
+  legendsShown = key;
+  showLegends($('legend'), shown, (which, text) => {
+    state.view.legendTitles = { ...state.view.legendTitles, [which]: text || null };
+    drawLegend();
+    saveViewInHash();
+  });
 }
 
 // ---------- the view -> messages ----------
@@ -578,16 +624,19 @@ function queueTf() {  // at most one tf.set per animation frame
   });
 }
 
-function sendMode() {
+// `extra`: fields sent this once (the default background again after a custom one: a session
+// that never had one is sent none)
+function sendMode(extra = {}) {
   const v = state.view;
-  const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes()].join('+');
-  send('mode.set', { mode, wireframe: v.wireframe, box: false });  // the box: drawBoxOverlay
+  // none of them: 'slice', the slice planes alone (an image of the box, or nothing, without any)
+  const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes()].join('+') || 'slice';
+  send('mode.set', { mode, wireframe: v.wireframe, box: false, ...(v.background ? { background: v.background } : {}), ...extra });  // the box: drawBoxOverlay
   drawBoxOverlay(state.lastFrame?.header);
 }
 
 function sendIso() {
   const v = state.view;
-  send('iso.set', { values: v.isovalues.length ? v.isovalues : [midRange()], opacity: v.isoOpacity });
+  send('iso.set', { values: v.isovalues.length ? v.isovalues : [midRange()], opacity: v.isoOpacity, color_by: v.isoColorBy ?? '' });
 }
 
 function sendLod() {
@@ -605,6 +654,7 @@ function sendQuality() {
 
 function saveViewInHash() {
   if (!state.dataset) return;
+  drawLegend();  // the view changed: the legends follow (drawn again only when they differ)
   history.replaceState(null, '', `${location.pathname}${location.search}#${viewToHash(state.view)}`);
 }
 
@@ -638,6 +688,7 @@ function onAttribute() {
   const a = state.dataset?.attributes.find((x) => x.name === $('attribute').value);
   if (!a) return;
   Object.assign(state.view, { attribute: a.name, range: a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1], isovalues: [] });
+  state.view.legendTitles = { ...state.view.legendTitles, attribute: null };  // the new attribute's name
   showView();
   sendTf();
   sendIso();
@@ -648,6 +699,7 @@ function onRange() {
   const lo = parseFloat($('range-min').value), hi = parseFloat($('range-max').value);
   if (!(Number.isFinite(lo) && Number.isFinite(hi) && hi > lo)) return;
   state.view.range = [lo, hi];
+  showLogScale();
   showTf();
   showIsovalues();
   queueTf();
@@ -655,8 +707,7 @@ function onRange() {
 
 function onModes() {
   const v = state.view;
-  for (const m of ['dvr', 'iso', 'surface']) v[m] = $(`mode-${m}`).checked;
-  if (!v.dvr && !v.iso && !v.surface && !linesPanel.active()) v.dvr = $('mode-dvr').checked = true;
+  for (const m of ['dvr', 'iso', 'surface']) v[m] = $(`mode-${m}`).checked;  // any combination, none included
   v.wireframe = $('wireframe').checked;
   v.box = $('box').checked;
   $('iso-opacity').disabled = v.dvr;
@@ -963,7 +1014,7 @@ async function saveImage() {
 function legendOf(still) {
   const v = state.view;
   const box = v.box && state.dataset.bounds ? { camera: still.camera ?? v.camera, bounds: state.dataset.bounds } : null;
-  return { colors: v.colors, range: v.range, attribute: v.attribute, dataset: state.dataset.name, box };
+  return { legends: legends(), box };
 }
 state.composeStill = async () => composeStill(await createImageBitmap(state.lastStill.blob), legendOf(state.lastStill));
 
@@ -1045,7 +1096,22 @@ const release = (e) => {
 frameCanvas.addEventListener('pointerup', release);
 frameCanvas.addEventListener('pointercancel', release);
 frameCanvas.addEventListener('contextmenu', (e) => e.preventDefault());
-frameCanvas.addEventListener('dblclick', centreAt);
+// A double-tap sets the rotation centre as a double-click does (a browser may send no dblclick
+// for touches): two taps within kDoubleTapMs and kDoubleTapPx.
+const kDoubleTapMs = 400, kDoubleTapPx = 24;
+let lastTap = null, tapCentredAt = -Infinity;
+frameCanvas.addEventListener('pointerup', (e) => {
+  if (e.pointerType !== 'touch' || pointers.size > 0) return;
+  const now = performance.now();
+  if (lastTap && now - lastTap.at < kDoubleTapMs && Math.hypot(e.clientX - lastTap.x, e.clientY - lastTap.y) < kDoubleTapPx) {
+    lastTap = null;
+    tapCentredAt = now;
+    centreAt(e);
+  } else lastTap = { at: now, x: e.clientX, y: e.clientY };
+});
+frameCanvas.addEventListener('dblclick', (e) => {
+  if (performance.now() - tapCentredAt > kDoubleTapMs) centreAt(e);  // not the same double-tap twice
+});
 frameCanvas.addEventListener(
   'wheel',
   (e) => {
@@ -1057,6 +1123,82 @@ frameCanvas.addEventListener(
   },
   { passive: false },
 );
+
+// ---------- the page: an empty server, dropped files, collapsible sections ----------
+
+const page = {
+  // On a server with no dataset the form to add one comes first (and the drawer opens on a
+  // small screen); it goes back to its place once a dataset opens.
+  empty(on) {
+    const wasEmpty = document.body.classList.contains('empty-server');
+    document.body.classList.toggle('empty-server', on);
+    if (on && !wasEmpty) {
+      collapse($('add-dataset'), false);
+      if (kSmallScreen.matches) setPanel(true);
+    }
+  },
+  // A file dropped onto the view is uploaded and preprocessed as if chosen in the form.
+  dragDepth: 0,
+  onDrag(e) {
+    if (![...(e.dataTransfer?.types ?? [])].includes('Files')) return;
+    e.preventDefault();
+    if (e.type === 'dragenter') this.dragDepth += 1;
+    if (e.type === 'dragleave') this.dragDepth = Math.max(0, this.dragDepth - 1);
+    $('drop-target').hidden = this.dragDepth === 0;
+  },
+  onDrop(e) {
+    const files = e.dataTransfer?.files;
+    if (!files?.length) return;
+    e.preventDefault();
+    this.dragDepth = 0;
+    $('drop-target').hidden = true;
+    $('upload-file').files = files;
+    $('job-name').value = '';
+    collapse($('add-dataset'), false);
+    jobs.uploadAndPreprocess().catch((error) => ($('job-status').textContent = String(error)));
+  },
+};
+
+// Each panel section folds under its heading; which are folded is kept in localStorage.
+const kFoldedKey = 'tetrascope.folded';
+const sectionName = (section) => section.id || section.querySelector('h2')?.textContent.trim() || '';
+function foldedSections() {
+  try {
+    return new Set(JSON.parse(localStorage.getItem(kFoldedKey) ?? '[]'));
+  } catch {
+    return new Set();  // no storage, or a value not ours
+  }
+}
+function collapse(section, folded) {
+  section.classList.toggle('folded', folded);
+  section.querySelector('h2')?.setAttribute('aria-expanded', String(!folded));
+  const names = foldedSections();
+  if (folded) names.add(sectionName(section));
+  else names.delete(sectionName(section));
+  try {
+    localStorage.setItem(kFoldedKey, JSON.stringify([...names]));
+  } catch {
+    // no storage (a private window): folded for this page only
+  }
+}
+function initialSections() {
+  const folded = foldedSections();
+  for (const section of $('panel').querySelectorAll(':scope > section')) {
+    const heading = section.querySelector('h2');
+    if (!heading) continue;
+    heading.tabIndex = 0;
+    heading.setAttribute('role', 'button');
+    heading.setAttribute('aria-expanded', String(!folded.has(sectionName(section))));
+    section.classList.toggle('folded', folded.has(sectionName(section)));
+    const toggle = () => collapse(section, !section.classList.contains('folded'));
+    heading.addEventListener('click', toggle);
+    heading.addEventListener('keydown', (e) => {
+      if (e.key !== 'Enter' && e.key !== ' ') return;
+      e.preventDefault();
+      toggle();
+    });
+  }
+}
 
 // ---------- wiring ----------
 
@@ -1079,6 +1221,18 @@ $('tf-reset').addEventListener('click', () => {
   showView();
   queueTf();
 });
+$('tf-invert').addEventListener('click', () => {  // ParaView's Invert: the colour points mirrored
+  const v = state.view;
+  Object.assign(v, { colors: v.colors.map(([t, ...rgb]) => [+(1 - t).toPrecision(6), ...rgb]).reverse(), customColors: true });
+  showColormap();
+  showTf();
+  queueTf();
+});
+$('log-scale').addEventListener('change', () => {
+  state.view.logScale = $('log-scale').checked;
+  showTf();
+  queueTf();
+});
 $('tf-color').addEventListener('input', () => tfEditor.recolorSelected(fromHex($('tf-color').value)));
 $('outside-transparent').addEventListener('change', () => {
   state.view.outsideTransparent = $('outside-transparent').checked;
@@ -1097,6 +1251,11 @@ $('unit-distance').addEventListener('change', () => {
 for (const id of ['mode-dvr', 'mode-iso', 'mode-surface', 'wireframe', 'box']) $(id).addEventListener('change', onModes);
 $('isovalue').addEventListener('input', onIsoSlider);
 $('isovalues').addEventListener('change', onIsoText);
+$('iso-color-by').addEventListener('change', () => {
+  state.view.isoColorBy = $('iso-color-by').value || null;
+  sendIso();
+  saveViewInHash();
+});
 $('iso-opacity').addEventListener('input', () => {
   state.view.isoOpacity = number('iso-opacity') / 100;
   sendIso();
@@ -1127,6 +1286,14 @@ $('reset-camera').addEventListener('click', () => viewPreset('reset'));
 $('fit-visible').addEventListener('click', fitVisible);
 $('zoom-box-button').addEventListener('click', () => zoomBox.arm());
 $('parallel').addEventListener('change', () => setParallel($('parallel').checked));
+for (const [id, event] of [['background', 'change'], ['background-reset', 'click']]) {
+  $(id).addEventListener(event, () => {
+    state.view.background = id === 'background' ? fromHex($('background').value) : null;
+    $('background').value = toHex(state.view.background ?? kDefaultBackground);
+    sendMode(state.view.background ? {} : { background: kDefaultBackground });
+    saveViewInHash();
+  });
+}
 $('copy-view').addEventListener('click', copyViewLink);
 $('save-size').addEventListener('change', () => ($('save-custom').hidden = $('save-size').value !== 'custom'));
 $('save-image').addEventListener('click', saveImage);
@@ -1134,6 +1301,9 @@ $('upload-submit').addEventListener('click', () => jobs.uploadAndPreprocess().ca
 $('help-button').addEventListener('click', () => toggleHelp());
 $('stats-toggle').addEventListener('click', () => showStats(!statsShown()));
 initialStats();
+initialSections();
+for (const type of ['dragenter', 'dragover', 'dragleave']) $('view').addEventListener(type, (e) => page.onDrag(e));
+$('view').addEventListener('drop', (e) => page.onDrop(e));
 window.addEventListener('keydown', onKey);
 
 // the panel: beside the view on wide screens, a drawer over it on small ones
@@ -1143,6 +1313,13 @@ function setPanel(open) {
 }
 $('panel-toggle').addEventListener('click', () => setPanel(!document.body.classList.contains('panel-open')));
 kSmallScreen.addEventListener('change', () => setPanel(false));
+// on a small screen a tap on the view beside the open drawer closes it (the tap moves nothing)
+$('view').addEventListener('pointerdown', (e) => {
+  if (!kSmallScreen.matches || !document.body.classList.contains('panel-open') || e.target === $('panel-toggle')) return;
+  setPanel(false);
+  e.stopPropagation();
+  e.preventDefault();
+}, { capture: true });
 
 let resizeTimer = null;
 window.addEventListener('resize', () => {

@@ -127,14 +127,107 @@ export function drawBox(g, camera, bounds, width, height, ink) {
   g.restore();
 }
 
-// ---------- the legend ----------
+// ---------- the legends ----------
 
-const label = (v) => (Math.abs(v) >= 1e5 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(2) : String(+v.toPrecision(4)));
+// A legend: { key, title, caption (what it colours), colors ([[t, r, g, b], ...] along the
+// bar), range [lo, hi], log (the bar spans log10 of the range) }.
+
+export const legendLabel = (v) => (Math.abs(v) >= 1e5 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(2) : String(+v.toPrecision(4)));
+
+// Where `value` lies along a legend's bar, 0..1.
+export function barPosition(value, [lo, hi], log = false) {
+  if (log && lo > 0) return (Math.log10(value) - Math.log10(lo)) / (Math.log10(hi) - Math.log10(lo));
+  return (value - lo) / (hi - lo);
+}
+
+// The values between the ends worth a tick: round numbers (1, 2 or 5 times a power of ten)
+// about `count` of them, or on a log bar the powers of ten (with 2 and 5 times them when few);
+// none nearer an end than a fifth of the bar, where they would run into its end labels.
+export function legendTicks(range, log = false, count = 4) {
+  const [lo, hi] = range;
+  let values = [];
+  if (log && lo > 0) {
+    for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); ++e) values.push(10 ** e);
+    if (values.length < 4) values = values.flatMap((v) => [v, 2 * v, 5 * v]);
+  } else {
+    const raw = (hi - lo) / count, power = 10 ** Math.floor(Math.log10(raw));
+    const step = [1, 2, 5, 10].map((m) => m * power).find((s) => s >= raw) ?? raw;
+    for (let v = Math.ceil(lo / step) * step; v < hi; v += step) values.push(+v.toPrecision(12));
+  }
+  return values.filter((v) => {
+    const t = barPosition(v, range, log);
+    return t >= 0.2 && t <= 0.8;
+  });
+}
+
+// The legends over the view, in `container`: a title the user can edit (onTitle(key, text);
+// empty: the default again), what it colours, the bar and its ticks.
+export function showLegends(container, legends, onTitle) {
+  container.hidden = !legends.length;
+  container.replaceChildren(...legends.map((legend) => {
+    const box = Object.assign(document.createElement('div'), { className: 'legend' });
+    box.dataset.key = legend.key;
+    const title = Object.assign(document.createElement('span'), { className: 'legend-title', textContent: legend.title, title: 'the legend\'s title: click to edit' });
+    title.contentEditable = 'plaintext-only';
+    title.spellcheck = false;
+    title.addEventListener('keydown', (e) => {
+      e.stopPropagation();  // typing is not a shortcut
+      if (e.key === 'Enter' || e.key === 'Escape') title.blur();
+    });
+    title.addEventListener('blur', () => onTitle(legend.key, title.textContent.trim()));
+    const caption = Object.assign(document.createElement('span'), { className: 'legend-caption', textContent: legend.caption });
+    const bar = Object.assign(document.createElement('canvas'), { className: 'legend-bar', width: 200, height: 12 });
+    drawColorBar(bar.getContext('2d'), legend.colors, 0, 0, bar.width, bar.height);
+    const ticks = Object.assign(document.createElement('div'), { className: 'legend-ticks' });
+    const tick = (value, align, t) => {
+      const span = Object.assign(document.createElement('span'), { textContent: legendLabel(value) });
+      span.dataset.align = align;
+      span.style.left = `${(100 * t).toFixed(2)}%`;
+      return span;
+    };
+    ticks.append(tick(legend.range[0], 'start', 0), ...legendTicks(legend.range, legend.log).map((v) => tick(v, 'middle', barPosition(v, legend.range, legend.log))), tick(legend.range[1], 'end', 1));
+    box.append(title, caption, bar, ticks);
+    return box;
+  }));
+}
+
+// One legend composited at (x0, y0) with scale s: its box, title, bar, tick marks and labels,
+// in an ink chosen from what is under the box once darkened (never the bar's colours).
+function drawLegend(g, legend, x0, y0, s) {
+  const pad = 10 * s, barWidth = Math.round(220 * s), barHeight = Math.round(14 * s), font = Math.round(12 * s);
+  const boxWidth = barWidth + 2 * pad, boxHeight = barHeight + 3 * font + 3 * pad;
+  g.fillStyle = 'rgba(0, 0, 0, 0.55)';
+  g.fillRect(x0, y0, boxWidth, boxHeight);
+  const ink = inkOn(meanColour(g, x0, y0, boxWidth, boxHeight));
+  g.fillStyle = ink;
+  g.font = `bold ${font}px system-ui, sans-serif`;
+  g.textBaseline = 'top';
+  g.textAlign = 'left';
+  g.fillText(legend.title, x0 + pad, y0 + pad, barWidth);
+  // what it colours after the title, where it fits
+  const titleWidth = g.measureText(legend.title).width;
+  g.font = `${font}px system-ui, sans-serif`;
+  const caption = legend.caption ? `  (${legend.caption})` : '';
+  if (caption && titleWidth + g.measureText(caption).width <= barWidth) g.fillText(caption, x0 + pad + titleWidth, y0 + pad);
+  const barX = Math.round(x0 + pad), barY = y0 + 2 * pad + font;
+  drawColorBar(g, legend.colors, barX, Math.round(barY), barWidth, barHeight);
+  g.fillStyle = ink;  // drawColorBar left its last colour
+  const marks = [legend.range[0], ...legendTicks(legend.range, legend.log), legend.range[1]];
+  for (const v of marks) g.fillRect(Math.round(barX + barPosition(v, legend.range, legend.log) * (barWidth - 1)), Math.round(barY + barHeight), Math.max(1, Math.round(s)), Math.round(pad / 3));
+  g.font = `${font}px system-ui, sans-serif`;
+  const labelY = barY + barHeight + pad / 2;
+  g.fillText(legendLabel(legend.range[0]), x0 + pad, labelY);
+  g.textAlign = 'center';
+  for (const v of legendTicks(legend.range, legend.log)) g.fillText(legendLabel(v), barX + barPosition(v, legend.range, legend.log) * barWidth, labelY);
+  g.textAlign = 'right';
+  g.fillText(legendLabel(legend.range[1]), x0 + pad + barWidth, labelY);
+  return boxWidth;
+}
 
 // The still (an ImageBitmap) with the bounding box (`box`: {camera, bounds}, the camera the
-// still was drawn with; null: none) and the legend, dataset and attribute in its lower left,
-// scaled to the image's size; resolves to a PNG blob.
-export async function composeStill(bitmap, { colors, range, attribute, dataset, box = null }) {
+// still was drawn with; null: none) and the legends side by side in its lower left (the first
+// in the corner), scaled to the image's size; resolves to a PNG blob.
+export async function composeStill(bitmap, { legends, box = null }) {
   const canvas = document.createElement('canvas');
   canvas.width = bitmap.width;
   canvas.height = bitmap.height;
@@ -142,23 +235,12 @@ export async function composeStill(bitmap, { colors, range, attribute, dataset, 
   g.drawImage(bitmap, 0, 0);
   if (box) drawBox(g, box.camera, box.bounds, bitmap.width, bitmap.height, inkOn(backgroundOf(g, bitmap.width, bitmap.height)));
   const s = Math.max(1, Math.min(bitmap.width, bitmap.height) / 600);  // 1 at 800x600
-  const pad = 10 * s, barWidth = Math.round(220 * s), barHeight = Math.round(14 * s), font = Math.round(12 * s);
-  const boxWidth = barWidth + 2 * pad, boxHeight = barHeight + 3 * font + 3 * pad;
-  const x0 = pad, y0 = bitmap.height - boxHeight - pad;
-  g.fillStyle = 'rgba(0, 0, 0, 0.55)';
-  g.fillRect(x0, y0, boxWidth, boxHeight);
-  // the labels' ink from what is under them now (the darkened still), never the bar's colours
-  const ink = inkOn(meanColour(g, x0, y0, boxWidth, boxHeight));
-  g.fillStyle = ink;
-  g.font = `bold ${font}px system-ui, sans-serif`;
-  g.textBaseline = 'top';
-  g.fillText(`${dataset} — ${attribute}`, x0 + pad, y0 + pad, barWidth);
-  const barY = y0 + 2 * pad + font;
-  drawColorBar(g, colors, Math.round(x0 + pad), Math.round(barY), barWidth, barHeight);
-  g.font = `${font}px system-ui, sans-serif`;
-  g.fillStyle = ink;  // drawColorBar left its last colour
-  g.fillText(label(range[0]), x0 + pad, barY + barHeight + pad / 2);
-  g.textAlign = 'right';
-  g.fillText(label(range[1]), x0 + pad + barWidth, barY + barHeight + pad / 2);
+  const pad = 10 * s, boxHeight = Math.round(14 * s) + 3 * Math.round(12 * s) + 3 * pad;
+  const boxWidth = Math.round(220 * s) + 2 * pad;
+  let x = pad, y = bitmap.height - boxHeight - pad;
+  for (const legend of legends) {
+    if (x > pad && x + boxWidth > bitmap.width) [x, y] = [pad, y - boxHeight - pad];  // a row up
+    x += drawLegend(g, legend, x, y, s) + pad;
+  }
   return new Promise((resolve) => canvas.toBlob(resolve, 'image/png'));
 }

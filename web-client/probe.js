@@ -38,6 +38,17 @@ export class Probe {
     this.overlay.hidden = true;
   }
 
+  // Beside the cursor, below and to the right, or on whichever side keeps it inside the view
+  // (a phone's view is narrower than the popup of a vector's components).
+  place() {
+    const view = this.overlay.offsetParent?.getBoundingClientRect() ?? this.canvas.getBoundingClientRect();
+    const { offsetWidth: w, offsetHeight: h } = this.overlay;
+    const margin = 4, { left, top } = this.asked;
+    const x = left + 12 + w <= view.width - margin ? left + 12 : Math.max(margin, Math.min(left - 12 - w, view.width - margin - w));
+    const y = top + 12 + h <= view.height - margin ? top + 12 : Math.max(margin, Math.min(top - 12 - h, view.height - margin - h));
+    Object.assign(this.overlay.style, { left: `${x}px`, top: `${y}px` });
+  }
+
   // a probe.result from the server
   show(message) {
     this.last = message;
@@ -49,8 +60,8 @@ export class Probe {
     this.overlay.textContent = message.hit
       ? `${rows.join('\n')}\nat (${message.position.map(fmt).join(', ')}) on the ${message.surface}`
       : 'nothing under the cursor';
-    Object.assign(this.overlay.style, { left: `${this.asked.left + 12}px`, top: `${this.asked.top + 12}px` });
     this.overlay.hidden = false;
+    this.place();
     clearTimeout(this.timer);
     this.timer = setTimeout(() => (this.overlay.hidden = true), 6000);
   }

@@ -2,7 +2,7 @@
 // reopens the same image) and what is sent again after every reconnect. Colour and opacity
 // points are kept in normalised units t in [0, 1] over the range, so a new range keeps the
 // curve's shape; tfBody() maps them onto attribute values for tf.set.
-import { DEFAULT_PRESET, PRESETS } from './colormaps.js';
+import { DEFAULT_PRESET, PRESETS, colorAt } from './colormaps.js';
 import { defaultLines, linesFromHash, linesToHash } from './lines.js';
 import { planesFromHash, planesToHash } from './planes.js';
 
@@ -51,9 +51,13 @@ export function defaultView() {
     opacityScale: 1,
     unitDistance: null,         // world units; null: the renderer's (1/100 of the box diagonal)
     outsideTransparent: false,  // else values outside the range take the end colours (ParaView)
+    background: null,           // [r, g, b] in [0, 1]; null: the renderer's dark grey
+    logScale: false,            // colours over log10 of the range (logScale(): only where it is above 0)
+    legendTitles: {},           // legend key -> the title the user gave it (overlays.js showLegends)
     dvr: true, iso: false, surface: false, wireframe: false, box: false,
     isovalues: [],              // attribute units; empty: mid-range
     isoOpacity: 1,
+    isoColorBy: null,           // an attribute colouring the isosurfaces; null: their value
     budget: null, interactionBudget: null,  // null: the server's
     interactionQuality: 60, stillQuality: 90, pngStills: false,
     clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
@@ -64,10 +68,12 @@ export function defaultView() {
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
-  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines };
+  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null };
 }
 
 // ---------- URL fragment ----------
+
+const kLegendKeys = ['attribute', 'iso', 'lines'];
 
 const num = (x) => String(+(+x).toPrecision(6));
 const list = (v) => v.map(num).join(',');
@@ -94,11 +100,15 @@ export function viewToHash(view) {
   if (view.opacityScale !== 1) put('oscale', num(view.opacityScale));
   if (view.unitDistance) put('unit', num(view.unitDistance));
   if (view.outsideTransparent) put('outside', 'transparent');
-  put('mode', [...['dvr', 'iso', 'surface'].filter((m) => view[m]), ...(view.lines?.on ? ['lines'] : []), ...(view.lines?.points ? ['points'] : [])].join('+'));
+  if (view.logScale) put('log', 1);
+  if (view.background) put('bg', view.background.map(hex).join(''));
+  for (const [key, title] of Object.entries(view.legendTitles ?? {})) if (title && kLegendKeys.includes(key)) put(`title.${key}`, title);
+  put('mode', [...['dvr', 'iso', 'surface'].filter((m) => view[m]), ...(view.lines?.on ? ['lines'] : []), ...(view.lines?.points ? ['points'] : [])].join('+') || 'slice');
   if (view.wireframe) put('wireframe', 1);
   if (view.box) put('box', 1);
   if (view.isovalues.length) put('iso', list(view.isovalues));
   if (view.isoOpacity !== 1) put('isoopacity', num(view.isoOpacity));
+  put('isocolor', view.isoColorBy);
   if (view.budget) put('budget', view.budget);
   if (view.interactionBudget) put('ibudget', view.interactionBudget);
   put('quality', `${view.interactionQuality},${view.stillQuality}${view.pngStills ? ',png' : ''}`);
@@ -154,15 +164,18 @@ export function viewFromHash(hash) {
   if (finite(h.get('oscale'))) view.opacityScale = Math.min(Math.max(Number(h.get('oscale')), 0), 3);
   if (finite(h.get('unit')) && Number(h.get('unit')) > 0) view.unitDistance = Number(h.get('unit'));
   view.outsideTransparent = h.get('outside') === 'transparent';
+  view.logScale = h.get('log') === '1';
+  if (/^[0-9a-fA-F]{6}$/.test(h.get('bg') ?? '')) view.background = [0, 2, 4].map((i) => parseInt(h.get('bg').slice(i, i + 2), 16) / 255);
+  for (const key of kLegendKeys) if (h.get(`title.${key}`)) view.legendTitles[key] = h.get(`title.${key}`).slice(0, 200);
   const modes = h.get('mode')?.split('+') ?? [];
   view.lines = linesFromHash(h, modes);
-  if (h.has('mode')) {
-    for (const m of ['dvr', 'iso', 'surface']) view[m] = modes.includes(m);
-    if (!view.dvr && !view.iso && !view.surface && !view.lines.on && !view.lines.points) view.dvr = true;
-  }
+  // 'slice': none of the others (the slice planes alone); a mode of nothing known keeps the default
+  const known = ['dvr', 'iso', 'surface', 'lines', 'points', 'slice'];
+  if (h.has('mode') && modes.some((m) => known.includes(m))) for (const m of ['dvr', 'iso', 'surface']) view[m] = modes.includes(m);
   view.wireframe = h.get('wireframe') === '1';
   view.box = h.get('box') === '1';
   view.isovalues = (numbers('iso') ?? []).slice(0, 16);
+  view.isoColorBy = h.get('isocolor')?.slice(0, 128) || null;
   if (finite(h.get('isoopacity'))) view.isoOpacity = Math.min(Math.max(Number(h.get('isoopacity')), 0.05), 1);
   const whole = (key) => (/^\d{1,10}$/.test(h.get(key) ?? '') && Number(h.get(key)) >= 1 ? Number(h.get(key)) : null);
   view.budget = whole('budget');
@@ -189,9 +202,18 @@ export function sentAlpha(alpha, view, defaultUnit) {
   return Math.min(Math.max(a, 0), 1);
 }
 
+// A log scale applies where the whole range is above 0 (a legend and the colours say so).
+export const logScale = (view) => !!view.logScale && view.range?.[0] > 0;
+const kLogColorPoints = 64;
+
 export function tfBody(view, defaultUnit) {
   const [lo, hi] = view.range;
   const at = (t) => lo + t * (hi - lo);
+  // on a log scale the colour at value x is the colour points' at t = log(x / lo) / log(hi / lo),
+  // sent as points evenly spaced in log10 (the renderer interpolates linearly between them)
+  const colors = logScale(view)
+    ? Array.from({ length: kLogColorPoints }, (_, k) => [lo * (hi / lo) ** (k / (kLogColorPoints - 1)), ...colorAt(view.colors, k / (kLogColorPoints - 1))])
+    : view.colors.map(([t, r, g, b]) => [at(t), r, g, b]);
   let opacity = effectiveOpacity(view).map(([t, a]) => [at(t), sentAlpha(a, view, defaultUnit)]);
   if (view.outsideTransparent) {
     // the renderer clamps values outside the range to the end points: make the ends 0,
@@ -199,5 +221,5 @@ export function tfBody(view, defaultUnit) {
     const eps = (hi - lo) * 1e-3;
     opacity = [[lo, 0], ...opacity.map(([v, a]) => [Math.min(Math.max(v, lo + eps), hi - eps), a]), [hi, 0]];
   }
-  return { attribute: view.attribute, range: [lo, hi], opacity, colors: view.colors.map(([t, r, g, b]) => [at(t), r, g, b]) };
+  return { attribute: view.attribute, range: [lo, hi], opacity, colors };
 }

@@ -140,6 +140,11 @@ const checkers = {
     }
     f.boolean('wireframe');
     f.boolean('box');
+    const background = f.find('background');
+    if (background !== undefined) {
+      if (!Array.isArray(background) || background.length !== 3) f.fail('background', 'expected [r, g, b], each 0 to 1');
+      background.forEach((v) => f.number('background', v, 0, 1));
+    }
   },
   'iso.set'(f, limits) {
     const values = f.find('values');

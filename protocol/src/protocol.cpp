@@ -117,6 +117,12 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     }
     m.wireframe = f.boolean("wireframe");
     m.box = f.boolean("box");
+    if (const json* background = f.find("background")) {
+      if (!background->is_array() || background->size() != 3) f.fail("background", "expected [r, g, b], each 0 to 1");
+      std::array<float, 3> rgb{};
+      for (size_t k = 0; k < 3; ++k) rgb[k] = static_cast<float>(f.number("background", (*background)[k], 0, 1));
+      m.background = rgb;
+    }
     return m;
   }
   if (type == "iso.set") {

@@ -29,6 +29,16 @@ const storage::StoreAttribute* find_attribute(const storage::StoreManifest& mani
   return it == manifest.attributes.end() ? nullptr : &*it;
 }
 
+// Whether the volume shows anything: drawn, with some opacity. Where it shows nothing the cut
+// is not weighted by its opacity (that would rank everything as unseen and leave a slice, the
+// boundary or the lines at the coarsest level): every part then counts by its error and its
+// share of the view, and slices first.
+bool volume_shown(const RenderSettings& s) {
+  if (!s.dvr) return false;
+  if (s.tf.opacity.empty()) return true;  // the default ramp
+  return std::any_of(s.tf.opacity.begin(), s.tf.opacity.end(), [](const auto& point) { return point[1] > 0; });
+}
+
 }  // namespace
 
 ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache, std::shared_ptr<const lod::VertexHierarchy> vertices)
@@ -40,6 +50,7 @@ ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, sto
 
 void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, ViewTimings& t, bool trace) {
   lod::FrontCriteria criteria = lod::front_criteria(*vertices_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
+  if (!s.iso && !volume_shown(s)) criteria.opacity.clear();
   criteria.camera = s.camera;
   criteria.clip = request.clip.half_spaces();
   criteria.slices = request.slices.planes;
@@ -86,7 +97,14 @@ void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
 }
 
 void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute) {
-  scene_ = std::make_unique<const SceneMesh>(SceneMesh::from(mesh, attribute, iso_color_attribute));
+  SceneMesh scene = SceneMesh::from(mesh, attribute, iso_color_attribute);
+  // isosurfaces coloured by an attribute over its range over the whole dataset, as with the
+  // stream lines: the same value the same colour whatever the cut
+  if (const storage::StoreAttribute* a = store_ && !iso_color_attribute.empty() ? find_attribute(store_->manifest(), iso_color_attribute) : nullptr; a && a->max > a->min) {
+    scene.iso_color_min = a->components == 1 ? a->min : std::max(0.0, a->min);
+    scene.iso_color_max = a->max;
+  }
+  scene_ = std::make_unique<const SceneMesh>(std::move(scene));
   attribute_ = attribute;
   iso_color_attribute_ = iso_color_attribute;
   scene_generation_ = next_scene_generation++;
@@ -109,7 +127,14 @@ void ViewPipeline::trace_lines(const storage::TetMesh& mesh, const LineRequest& 
   const lod::StreamlineTracer tracer(mesh, opposite, field);
   lod::StreamlineOptions options;
   options.max_steps = request.max_steps;
-  lines_ = std::make_shared<const LineSet>(line_set_from(tracer.trace(seeds, options), field));
+  LineSet set = line_set_from(tracer.trace(seeds, options), field);
+  // coloured over the field's magnitude range over the whole dataset, as the store records it:
+  // the same speed the same colour on every trace, and the range a legend can state
+  if (const storage::StoreAttribute* a = store_ ? find_attribute(store_->manifest(), field) : nullptr; a && a->max > a->min) {
+    set.value_min = a->min;
+    set.value_max = a->max;
+  }
+  lines_ = std::make_shared<const LineSet>(std::move(set));
   traced_ = request;
   selected_for_.reset();
   lines_cut_error_ = cut_estimated_error_;
@@ -178,6 +203,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
       return s;
     }
     lod::CutCriteria criteria = lod::criteria_for(*store_, *dag_, s.tf, s.iso ? std::span<const double>(s.isovalues) : std::span<const double>());
+    if (!s.iso && !volume_shown(s)) criteria.opacity.clear();
     lod::set_view(criteria, s.camera);
     criteria.unit_distance = s.unit_distance;
     criteria.clip = request.clip.half_spaces();

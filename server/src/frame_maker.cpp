@@ -26,9 +26,15 @@ double ms_since(Clock::time_point start) { return std::chrono::duration<double, 
 // The smallest share of the view an interaction frame shrinks to when even the coarsest cut
 // is over the frame time (a store built with a large coarsest level).
 constexpr double kMinFrameScale = 0.125;
+// Nor, when it shrinks, below this many pixels on its shorter side (or the interaction scale's
+// size, when smaller): a phone's view is small in pixels already, and an eighth of it is a smear.
+constexpr uint32_t kMinMovingSide = 200;
 // A refinement step whose cut holds less than this share of its budget may hold all the view
 // wants: the next step asks for the still budget (and is the last).
 constexpr double kFullCutShare = 0.5;
+
+// The smallest scale a moving frame of a width x height view is drawn at.
+double min_moving_scale(uint32_t width, uint32_t height) { return std::min(1.0, double(kMinMovingSide) / std::max<uint32_t>(1, std::min(width, height))); }
 
 uint32_t scaled(uint32_t side, double scale) { return std::max<uint32_t>(protocol::kMinImageSide, static_cast<uint32_t>(std::lround(side * scale))); }
 
@@ -105,7 +111,8 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
     if (frame.covered_pixels > 0 && cost.predict(double(coarsest_tets_), frame.covered_pixels) > options.frame_ms) {
       const double fits = cost.pixels_for(options.frame_ms, double(coarsest_tets_));
-      scale = std::max(kMinFrameScale, scale * std::sqrt(std::max(fits, 1.0) / frame.covered_pixels));
+      const double floor_scale = std::min(scale, min_moving_scale(state.view.width, state.view.height));
+      scale = std::max({kMinFrameScale, floor_scale, scale * std::sqrt(std::max(fits, 1.0) / frame.covered_pixels)});
       request.width = scaled(state.view.width, scale);
       request.height = scaled(state.view.height, scale);
       frame.covered_pixels = covered_pixels(camera, pipeline_->bounds(), request.width, request.height);
@@ -142,6 +149,7 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
     if (!final_step && double(tets) < kFullCutShare * double(request.budget)) frame.budget = still_budget;
   }
   settings.should_stop = plan.should_stop;
+  if (state.background) settings.background = *state.background;
   if (plan.should_stop && plan.should_stop()) {  // input came during the cut update and assembly: no upload, no draw
     frame.interrupted = true;
     return frame;

@@ -3,9 +3,11 @@
 // runs the session's turn, encoded and prefixed with the frame header).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "datasets.h"
@@ -25,6 +27,7 @@ struct ViewState {
   int interaction_quality = 60, still_quality = 90;
   bool png_stills = false;
   double interaction_scale = 1;  // of the view size, for interaction frames
+  std::optional<std::array<float, 3>> background;  // mode.set's; none: the renderer's
   uint32_t message_id = 0;       // the last control message applied
 };
 

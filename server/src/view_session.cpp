@@ -179,6 +179,7 @@ ViewSession::Then ViewSession::on_message(const protocol::ModeSet& m, uint32_t i
     s.view.points = m.points;
     if (m.wireframe) s.view.wireframe = *m.wireframe;
     if (m.box) s.view.box = *m.box;
+    if (m.background) s.background = *m.background;
   });
   return Then::kStill;
 }

@@ -150,3 +150,26 @@ test('the camera: zoom at the cursor keeps the point there; fit frames the point
   // the near corners (z = 1) just fit the height: distance 1 / tan(15°) + 1
   assert.ok(Math.abs(camera.eye[2] - (1 / Math.tan(Math.PI / 12) + 1)) < 1e-9, `${camera.eye}`);
 });
+
+test('none of the modes, a log scale, a background and legend titles survive the URL', () => {
+  const view = { ...full(), dvr: false, iso: false, surface: false, logScale: true, background: [1, 1, 1], isoColorBy: 'Pres', legendTitles: { attribute: 'T (K) & more', iso: 'p', lines: '|U|' } };
+  const hash = viewToHash(view);
+  assert.match(hash, /mode=slice/);
+  assert.deepEqual(viewFromHash(`#${hash}`), view);
+  // a mode of nothing known keeps the default; a malformed background is dropped
+  assert.equal(viewFromHash('#mode=xray&bg=zz0000').dvr, true);
+  assert.equal(viewFromHash('#mode=xray&bg=zz0000').background, null);
+});
+
+test('a log scale sends the colours evenly in log10 over a range above 0, and not over one reaching 0', () => {
+  const view = { ...defaultView(), attribute: 'p', range: [1, 1000], logScale: true };
+  const colors = tfBody(view, 1).colors;
+  assert.equal(colors.length, 64);
+  assert.ok(Math.abs(colors[0][0] - 1) < 1e-12 && Math.abs(colors.at(-1)[0] - 1000) < 1e-9);
+  assert.deepEqual(colors.at(-1).slice(1), colorAt(view.colors, 1));
+  // the value 10 (a third of the way in log10) takes the colour a third along the map
+  const k = 21;  // 63 / 3
+  assert.ok(Math.abs(colors[k][0] - 10) < 1e-9);
+  assert.deepEqual(colors[k].slice(1), colorAt(view.colors, 1 / 3));
+  assert.equal(tfBody({ ...view, range: [0, 1000] }, 1).colors.length, view.colors.length, 'linear where the range reaches 0');
+});

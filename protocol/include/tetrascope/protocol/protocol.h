@@ -115,6 +115,7 @@ Modes parse_modes(std::string_view text);
 struct ModeSet {
   bool dvr = true, iso = false, surface = false, lines = false, points = false;
   std::optional<bool> wireframe, box;
+  std::optional<std::array<float, 3>> background;  // r g b in [0, 1]
 };
 struct IsoSet {
   std::vector<double> values;
