@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 #include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/core/tet_topology.h"
+#include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/ray_caster.h"
 
@@ -86,7 +88,9 @@ void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
 }
 
 void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute) {
-  scene_ = std::make_unique<const SceneMesh>(SceneMesh::from(mesh, attribute, iso_color_attribute));
+  SceneMesh scene = SceneMesh::from(mesh, attribute, iso_color_attribute);
+  if (regions_) scene.boundary_region = regions_->classify(scene);
+  scene_ = std::make_unique<const SceneMesh>(std::move(scene));
   attribute_ = attribute;
   iso_color_attribute_ = iso_color_attribute;
   scene_generation_ = next_scene_generation++;
@@ -152,7 +156,16 @@ void ViewPipeline::update_clip(const view::ClipSpec& clip, ViewTimings& timings)
     clipped_.reset();
     drawn_generation_ = scene_generation_;
   } else if (!clipped_ || clipped_from_ != scene_generation_ || !(clip_ == clip)) {
-    clipped_ = std::make_unique<const SceneMesh>(clip_scene(*scene_, clip));
+    SceneMesh clipped = clip_scene(*scene_, clip);
+    if (regions_) {  // the cut faces on the clip's planes belong to no region
+      std::vector<std::array<double, 4>> planes;
+      for (const view::Plane& p : clip.half_spaces()) {
+        const double n = std::max(1e-300, std::sqrt(p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2]));
+        planes.push_back({p.normal[0] / n, p.normal[1] / n, p.normal[2] / n, p.offset / n});
+      }
+      clipped.boundary_region = regions_->classify(clipped, planes);
+    }
+    clipped_ = std::make_unique<const SceneMesh>(std::move(clipped));
     clip_ = clip;
     clipped_from_ = scene_generation_;
     drawn_generation_ = next_scene_generation++;

@@ -29,6 +29,7 @@
 namespace tetrascope::renderer {
 
 class RayCaster;
+class RegionMap;
 
 // The request a view draws (view/view_request.h).
 using view::LineRequest;
@@ -63,6 +64,11 @@ class ViewPipeline {
   ~ViewPipeline();
   ViewPipeline(const ViewPipeline&) = delete;
   ViewPipeline& operator=(const ViewPipeline&) = delete;
+
+  // The dataset's boundary regions (boundary_regions.h), shared between its views: each scene's
+  // boundary faces are classified by them, so DrawOptions::hidden_regions can leave regions
+  // out. Set before the first update; none: every face is shown.
+  void set_regions(std::shared_ptr<const RegionMap> regions) { regions_ = std::move(regions); }
 
   // Resolves the request, updates the cut and reassembles the scene when the cut or the
   // attributes changed; returns the settings to draw with. Throws std::invalid_argument for
@@ -143,6 +149,7 @@ class ViewPipeline {
   bool scene_stale_ = false;              // a reassembly was stopped: scene_ is not the cut's
   uint64_t clipped_from_ = 0;             // the scene generation clipped_ was cut from
   uint64_t drawn_generation_ = 0;         // of scene(): clipped_'s own or scene_generation_
+  std::shared_ptr<const RegionMap> regions_;  // null: none
   std::unique_ptr<RayCaster> caster_;     // of the scene of caster_generation_
   uint64_t caster_generation_ = 0;
 };
