@@ -11,6 +11,7 @@
 #include "tetrascope/lod/cut/variants.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/boundary_regions.h"
 
 namespace tetrascope::server {
 namespace fs = std::filesystem;
@@ -169,6 +170,32 @@ std::optional<std::string> DatasetRegistry::damage_of(const std::string& name) c
   return it->second.why;
 }
 
+namespace {
+
+// The boundary regions of a store, on its finest cut (the input mesh); null above kMaxRegionTets.
+std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag) {
+  if (store.manifest().tet_count > kMaxRegionTets) return nullptr;
+  storage::SegmentCache cache(store, kRegionCacheBytes);
+  lod::Cut finest(dag);
+  finest.refine_all();
+  return renderer::RegionMap::from(lod::assemble_cut(store, cache, finest, false).mesh);
+}
+
+nlohmann::json regions_json(const renderer::RegionMap* regions) {
+  nlohmann::json out = nlohmann::json::array();
+  if (!regions) return out;
+  for (const renderer::BoundaryRegion& r : regions->regions())
+    out.push_back({{"id", r.id},
+                   {"name", r.name},
+                   {"triangles", r.triangles},
+                   {"area", r.area},
+                   {"bounds", {{"min", r.bounds.min}, {"max", r.bounds.max}}},
+                   {"touches_domain_box", r.touches_domain_box}});
+  return out;
+}
+
+}  // namespace
+
 std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   if (!valid_name(name)) throw NotFound("no dataset named '" + name + "'");
   std::lock_guard lock(mutex_);
@@ -201,6 +228,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   storage::TetMesh mesh;
   try {
     mesh = lod::assemble_cut(*d->store, *d->cache, coarse, false).mesh;
+    d->regions = find_regions(*d->store, *d->dag);
   } catch (const std::exception& e) {  // a coarsest segment fails its checksum
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);
@@ -208,6 +236,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   d->info["coarsest_tets"] = mesh.tet_count();
+  d->info["regions"] = regions_json(d->regions.get());
   for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
     const auto& attr = mesh.attributes[a];
     auto& out = d->info["attributes"][a];
