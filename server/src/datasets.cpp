@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
 
@@ -173,12 +174,19 @@ std::optional<std::string> DatasetRegistry::damage_of(const std::string& name) c
 namespace {
 
 // The boundary regions of a store, on its finest cut (the input mesh); null above kMaxRegionTets.
-std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag) {
+// A segment that fails its checks leaves the dataset without regions rather than unopened: the
+// open checks the coarsest level only, and the frame that maps the segment reports it.
+std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag, const fs::path& data_dir) {
   if (store.manifest().tet_count > kMaxRegionTets) return nullptr;
-  storage::SegmentCache cache(store, kRegionCacheBytes);
-  lod::Cut finest(dag);
-  finest.refine_all();
-  return renderer::RegionMap::from(lod::assemble_cut(store, cache, finest, false).mesh);
+  try {
+    storage::SegmentCache cache(store, kRegionCacheBytes);
+    lod::Cut finest(dag);
+    finest.refine_all();
+    return renderer::RegionMap::from(lod::assemble_cut(store, cache, finest, false).mesh);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tetrascope serve: no boundary regions for %s: %s\n", store.path().filename().c_str(), without_server_paths(e.what(), data_dir).c_str());
+    return nullptr;
+  }
 }
 
 nlohmann::json regions_json(const renderer::RegionMap* regions) {
@@ -228,7 +236,6 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   storage::TetMesh mesh;
   try {
     mesh = lod::assemble_cut(*d->store, *d->cache, coarse, false).mesh;
-    d->regions = find_regions(*d->store, *d->dag);
   } catch (const std::exception& e) {  // a coarsest segment fails its checksum
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);
@@ -236,6 +243,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   d->info["coarsest_tets"] = mesh.tet_count();
+  d->regions = find_regions(*d->store, *d->dag, data_dir_);
   d->info["regions"] = regions_json(d->regions.get());
   for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
     const auto& attr = mesh.attributes[a];
