@@ -1,8 +1,11 @@
-// A dataset's boundary regions carried to other meshes of its domain: a bounding volume
-// hierarchy over the full-resolution boundary triangles (median splits, four triangles a
-// leaf), searched nearest first with branch and bound; the point-triangle distance after
-// Ericson, Real-Time Collision Detection (2005), §5.1.5.
+// A dataset's boundary regions carried to other meshes of its domain: a face that is one of the
+// full-resolution boundary triangles (a cut's finest patches) is found by its corners in a
+// sorted table of their hashes; any other face by a bounding volume hierarchy over those
+// triangles (median splits, four triangles a leaf), searched nearest first with branch and
+// bound; the point-triangle distance after Ericson, Real-Time Collision Detection (2005),
+// §5.1.5.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <thread>
 
@@ -41,6 +44,21 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return a + ab * (vb / denominator) + ac * (vc / denominator);
 }
 
+// A triangle's corners in a fixed order (lexicographic), so that the same triangle from two
+// meshes compares equal however its corners are numbered, and their hash.
+using Corners = std::array<std::array<float, 3>, 3>;
+Corners sorted_corners(const float* a, const float* b, const float* c) {
+  Corners k{{{a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {c[0], c[1], c[2]}}};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+uint64_t corners_hash(const Corners& k) {
+  uint64_t h = 1469598103934665603ull;  // FNV-1a over the floats' bits
+  for (const auto& p : k)
+    for (float v : p) h = (h ^ std::bit_cast<uint32_t>(v)) * 1099511628211ull;
+  return h;
+}
+
 }  // namespace
 
 struct RegionMap::Tree {
@@ -52,6 +70,7 @@ struct RegionMap::Tree {
   std::vector<Node> nodes;
   std::vector<uint32_t> order;
   std::vector<float> normal;  // unit, 3 a triangle
+  std::vector<std::pair<uint64_t, uint32_t>> exact;  // (corners_hash, triangle), sorted
 
   double box_distance(const Node& n, const Vec3& p) const {
     double d2 = 0;
@@ -125,7 +144,9 @@ RegionMap::RegionMap(std::vector<float> corners, BoundaryRegions regions)
       tree_->normal[3 * size_t{t} + k] = static_cast<float>(n[k]);
     }
     tree_->order[t] = t;
+    tree_->exact.push_back({corners_hash(sorted_corners(c, c + 3, c + 6)), t});
   }
+  std::sort(tree_->exact.begin(), tree_->exact.end());
   if (count) tree_->build(corners_, centre, 0, count);
 }
 
@@ -159,6 +180,16 @@ std::vector<uint32_t> RegionMap::classify(const SceneMesh& scene, std::span<cons
     for (const auto& q : planes) {  // a clip's cut face
       auto off = [&](const Vec3& p) { return std::abs(q[0] * p[0] + q[1] * p[1] + q[2] * p[2] - q[3]); };
       if (off(a) <= slack && off(b) <= slack && off(c) <= slack) return;
+    }
+    // one of the map's own triangles
+    const Corners key = sorted_corners(&scene.xyz[3 * size_t{t[0]}], &scene.xyz[3 * size_t{t[1]}], &scene.xyz[3 * size_t{t[2]}]);
+    const uint64_t hash = corners_hash(key);
+    for (auto it = std::lower_bound(tree_->exact.begin(), tree_->exact.end(), std::pair<uint64_t, uint32_t>{hash, 0}); it != tree_->exact.end() && it->first == hash; ++it) {
+      const float* k = &corners_[9 * size_t{it->second}];
+      if (sorted_corners(k, k + 3, k + 6) == key) {
+        out[f] = regions_.triangle_region[it->second];
+        return;
+      }
     }
     const Vec3 p = (a + b + c) * (1.0 / 3), n = normalise(cross(b - a, c - a), Vec3{0, 0, 0});
     const double radius = std::max({length(b - a), length(c - b), length(a - c)}) + slack;
