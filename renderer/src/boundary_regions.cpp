@@ -116,12 +116,14 @@ std::vector<uint32_t> merge_small(const std::vector<uint32_t>& label, uint32_t c
   }
   std::vector<uint32_t> out(count);
   for (uint32_t c = 0; c < count; ++c) out[c] = into.find(c);
-  // past the cap, the smallest components with no neighbour share one
-  for (size_t i = 0; alive > max_regions && i + 1 < alone.size(); ++i) {
-    const uint32_t c = alone[i], rest = alone.back();
+  // past the cap, the smallest components with no neighbour join the largest of them (one pass:
+  // a mesh of a million loose tets has a million)
+  if (alive > max_regions && alone.size() > 1) {
+    const size_t joining = std::min<size_t>(alive - max_regions, alone.size() - 1);
+    std::vector<uint8_t> joins(count, 0);
+    for (size_t i = 0; i < joining; ++i) joins[alone[i]] = 1;
     for (uint32_t& o : out)
-      if (o == c) o = rest;
-    --alive;
+      if (joins[o]) o = alone.back();
   }
   return out;
 }

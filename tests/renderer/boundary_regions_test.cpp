@@ -162,6 +162,23 @@ TEST(BoundaryRegions, SmallRegionsMergeIntoANeighbourAndTheCountIsCapped) {
   EXPECT_EQ(total, s.triangles.size());
 }
 
+// Threat: a mesh of many loose pieces (tets that share no face) gives a component each; the
+// list stays at kMaxRegions, every triangle in one of them, in one pass.
+TEST(BoundaryRegions, ManyLoosePiecesAreCappedAtTheMostRegions) {
+  Surface s;
+  constexpr uint32_t kPieces = 20000;
+  for (uint32_t i = 0; i < kPieces; ++i) {
+    const double x = 3.0 * i;
+    s.triangles.push_back({s.vertex(x, 0, 0), s.vertex(x + 1, 0, 0), s.vertex(x, 1, 0)});
+  }
+  const BoundaryRegions r = find_boundary_regions(s.xyz, s.triangles);
+  ASSERT_EQ(r.regions.size(), kMaxRegions);
+  uint64_t total = 0;
+  for (const auto& region : r.regions) total += region.triangles;
+  EXPECT_EQ(total, kPieces);
+  for (uint32_t id : r.triangle_region) EXPECT_LT(id, kMaxRegions);
+}
+
 // The unit cube in 6 tets (Kuhn's split along the diagonal from (0,0,0) to (1,1,1)).
 storage::TetMesh cube() {
   storage::TetMesh m;
