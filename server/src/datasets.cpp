@@ -173,11 +173,13 @@ std::optional<std::string> DatasetRegistry::damage_of(const std::string& name) c
 
 namespace {
 
-// The boundary regions of a store, on its finest cut (the input mesh); null above kMaxRegionTets.
-// A segment that fails its checks leaves the dataset without regions rather than unopened: the
-// open checks the coarsest level only, and the frame that maps the segment reports it.
-std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag, const fs::path& data_dir) {
-  if (store.manifest().tet_count > kMaxRegionTets) return nullptr;
+// The boundary regions of a store, on its finest cut (the input mesh); null above kMaxRegionTets
+// or past `memory_bytes` at kRegionBytesPerTet. A segment that fails its checks leaves the
+// dataset without regions rather than unopened: the open checks the coarsest level only, and
+// the frame that maps the segment reports it.
+std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag, const fs::path& data_dir, uint64_t memory_bytes) {
+  const uint64_t tets = store.manifest().tet_count;
+  if (tets > kMaxRegionTets || tets > memory_bytes / kRegionBytesPerTet) return nullptr;
   try {
     storage::SegmentCache cache(store, kRegionCacheBytes);
     lod::Cut finest(dag);
@@ -243,7 +245,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   d->info["coarsest_tets"] = mesh.tet_count();
-  d->regions = find_regions(*d->store, *d->dag, data_dir_);
+  d->regions = find_regions(*d->store, *d->dag, data_dir_, pool_->budget());
   d->info["regions"] = regions_json(d->regions.get());
   for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
     const auto& attr = mesh.attributes[a];

@@ -44,10 +44,13 @@ std::string without_server_paths(std::string message, const std::filesystem::pat
 size_t sweep_data_leftovers(const std::filesystem::path& data_dir);
 
 // Boundary regions (renderer/boundary_regions.h) are found when a dataset opens, on its full
-// resolution, for stores of at most this many tets; a larger store lists none (its boundary
-// is shown whole). The finest cut is read through a segment cache of its own, of this budget,
-// so the shared cache keeps what the views use.
+// resolution, for stores of at most kMaxRegionTets tets whose finding fits the segment cache's
+// budget at kRegionBytesPerTet (the finest cut, its face pairing and the map: about 130 bytes a
+// tet measured on ONERA M6), so a server fitted to a memory limit is not pushed past it; a
+// larger store lists none (its boundary is shown whole). The finest cut is read through a
+// segment cache of its own, of kRegionCacheBytes, so the shared cache keeps what the views use.
 constexpr uint64_t kMaxRegionTets = 20'000'000;
+constexpr uint64_t kRegionBytesPerTet = 160;
 constexpr uint64_t kRegionCacheBytes = uint64_t{256} << 20;
 
 class NotFound : public std::runtime_error {
