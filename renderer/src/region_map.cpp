@@ -12,6 +12,7 @@
 #include "tetrascope/core/parallel_for.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/core/vec3.h"
+#include "tetrascope/lod/cut/cut.h"
 #include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/render.h"
 
@@ -167,6 +168,13 @@ std::shared_ptr<const RegionMap> RegionMap::from(const storage::TetMesh& mesh, s
   for (size_t f = 0; f < triangles.size(); ++f)
     for (int c = 0; c < 3; ++c) std::copy_n(&xyz[3 * size_t{triangles[f][c]}], 3, &corners[9 * f + 3 * c]);
   return std::make_shared<const RegionMap>(std::move(corners), std::move(regions));
+}
+
+std::shared_ptr<const RegionMap> RegionMap::of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes) {
+  storage::SegmentCache cache(store, cache_bytes);
+  lod::Cut finest(dag);
+  finest.refine_all();
+  return from(lod::assemble_cut(store, cache, finest, false).mesh);
 }
 
 std::vector<uint32_t> RegionMap::classify(const SceneMesh& scene, std::span<const std::array<double, 4>> planes) const {

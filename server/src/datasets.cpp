@@ -181,10 +181,7 @@ std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& st
   const uint64_t tets = store.manifest().tet_count;
   if (tets > kMaxRegionTets || tets > memory_bytes / kRegionBytesPerTet) return nullptr;
   try {
-    storage::SegmentCache cache(store, kRegionCacheBytes);
-    lod::Cut finest(dag);
-    finest.refine_all();
-    return renderer::RegionMap::from(lod::assemble_cut(store, cache, finest, false).mesh);
+    return renderer::RegionMap::of_store(store, dag, kRegionCacheBytes);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tetrascope serve: no boundary regions for %s: %s\n", store.path().filename().c_str(), without_server_paths(e.what(), data_dir).c_str());
     return nullptr;

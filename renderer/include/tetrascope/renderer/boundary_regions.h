@@ -16,7 +16,9 @@
 #include <string>
 #include <vector>
 
+#include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/store.h"
 
 namespace tetrascope::renderer {
 
@@ -86,6 +88,9 @@ class RegionMap {
   // The boundary of `mesh` (its full resolution), split by find_boundary_regions.
   static std::shared_ptr<const RegionMap> from(const storage::TetMesh& mesh, std::span<const uint32_t> tags = {},
                                                std::span<const std::string> tag_names = {}, const RegionOptions& options = {});
+  // The regions of a multiresolution store, on its finest cut (the input mesh) read through a
+  // segment cache of its own of `cache_bytes`. Throws what reading a segment throws.
+  static std::shared_ptr<const RegionMap> of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes);
   RegionMap(std::vector<float> corners, BoundaryRegions regions);
   ~RegionMap();
   const std::vector<BoundaryRegion>& regions() const { return regions_.regions; }
