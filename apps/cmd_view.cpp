@@ -19,6 +19,7 @@
 #include "tetrascope/lod/vertex/vertex_front.h"
 #include "tetrascope/protocol/planes.h"
 #include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/ray_caster.h"
 #include "tetrascope/renderer/render.h"
@@ -102,6 +103,7 @@ Arguments take_plane_options(const Arguments& raw, protocol::ClipSpec& clip, pro
 struct RenderOptions {
   r::ViewRequest view;
   std::string mode, output, camera_text, compare;
+  std::string hide_regions;  // --hide-regions: region ids, or "box"
   std::optional<std::array<double, 2>> select_pixel;  // pixels, made fractions once the size is known
   int quality = kDefaultQuality;
   uint32_t orbit = 0;
@@ -183,6 +185,8 @@ RenderOptions render_options(const Args& args) {
   }
   v.wireframe = args.has("--wireframe");
   v.box = args.has("--box");
+  o.hide_regions = args.get("--hide-regions");
+  if (args.has("--hide-regions") && !v.surface) throw std::invalid_argument("--hide-regions needs a mode with surface (e.g. --mode surface)");
   if (args.has("--tf")) v.tf = read_tf(args.get("--tf"));
   if (args.has("--attribute")) v.tf.attribute = args.get("--attribute");
   if (args.has("--size")) {
@@ -236,6 +240,36 @@ view::Camera orbit_camera(uint32_t f, uint32_t n, const storage::Bounds& bounds,
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
+}
+
+// --hide-regions: the boundary regions the surface leaves out, ids of `regions` or "box" (every
+// region on the domain's bounding box, as the viewer's Bodies only), checked against them.
+void hide_regions(const std::string& text, const r::RegionMap& regions, r::ViewRequest& v) {
+  const auto& list = regions.regions();
+  if (text == "box") {
+    for (const auto& region : list)
+      if (region.touches_domain_box) v.hidden_regions.push_back(region.id);
+    return;
+  }
+  for (double id : number_list("--hide-regions", text)) {
+    if (!(id >= 0 && id == std::floor(id) && id < double(list.size()))) {
+      char shown[32];
+      std::snprintf(shown, sizeof shown, "%g", id);
+      const std::string has = list.empty() ? "none" : std::to_string(list.size()) + ": 0 to " + std::to_string(list.size() - 1);
+      throw std::invalid_argument(std::string("--hide-regions: no region ") + shown + " (the boundary has " + has + "; or 'box')");
+    }
+    v.hidden_regions.push_back(static_cast<uint32_t>(id));
+  }
+  std::sort(v.hidden_regions.begin(), v.hidden_regions.end());
+  v.hidden_regions.erase(std::unique(v.hidden_regions.begin(), v.hidden_regions.end()), v.hidden_regions.end());
+}
+
+nlohmann::json regions_report(const r::RegionMap& regions, const r::ViewRequest& v) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& region : regions.regions())
+    out.push_back({{"id", region.id}, {"triangles", region.triangles}, {"area", region.area}, {"touches_domain_box", region.touches_domain_box},
+                   {"hidden", std::binary_search(v.hidden_regions.begin(), v.hidden_regions.end(), region.id)}});
+  return out;
 }
 
 nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& settings, const r::SceneMesh& scene, const std::string& description,
@@ -357,9 +391,9 @@ int run_render(const Arguments& all) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
-             "--point-target", "--compare", "--volume", "--lod", "--backend"});
+             "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
@@ -373,14 +407,22 @@ int run_render(const Arguments& all) {
   OpenedStore opened;
   std::unique_ptr<storage::SegmentCache> cache;
   std::unique_ptr<r::ViewPipeline> pipeline;
+  std::shared_ptr<const r::RegionMap> regions;  // found only for --hide-regions
   if (std::filesystem::is_directory(input)) {
     opened = open_multires(input, "; render the mesh file or preprocess it");
     cache = std::make_unique<storage::SegmentCache>(*opened.store, kCutCacheBytes);
     pipeline = std::make_unique<r::ViewPipeline>(*opened.store, *opened.dag, *cache, o.view.segment_cut ? nullptr : lod::open_vertex_hierarchy(opened.store->path()));
     o.view.budget = args.number("--budget", kDefaultRenderBudget);
+    if (args.has("--hide-regions")) regions = r::RegionMap::of_store(*opened.store, *opened.dag, kCutCacheBytes);
   } else {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
-    pipeline = std::make_unique<r::ViewPipeline>(storage::load_mesh(input));
+    storage::TetMesh mesh = storage::load_mesh(input);
+    if (args.has("--hide-regions")) regions = r::RegionMap::from(mesh);
+    pipeline = std::make_unique<r::ViewPipeline>(std::move(mesh));
+  }
+  if (regions) {
+    hide_regions(o.hide_regions, *regions, o.view);
+    pipeline->set_regions(regions);
   }
   if (!o.camera_text.empty()) o.view.camera = view::parse_camera(o.camera_text, pipeline->bounds());
   r::ViewTimings update_timings;  // the one-off cost of this view: cut, assembly, clip
@@ -445,6 +487,7 @@ int run_render(const Arguments& all) {
     if (auto error = pipeline->lines_cut_error()) j["lines"]["cut_estimated_error"] = *error;
   }
   if (settings.points) j["points"] = frames.back().points;
+  if (regions) j["regions"] = regions_report(*regions, o.view);
   if (!o.compare.empty()) j["compare_psnr_db"] = r::psnr(image, r::read_png(o.compare));
   j["update"] = {{"cut_ms", update_timings.cut_ms}, {"assemble_ms", update_timings.assemble_ms}, {"clip_ms", update_timings.clip_ms}};
   if (o.json) std::cout << j.dump() << "\n";

@@ -10,6 +10,7 @@ import { LinesPanel } from './lines.js';
 import { backgroundOf, composeStill, drawAxes, drawBox, inkOn, showLegends } from './overlays.js';
 import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
+import { RegionsPanel, shownBounds } from './regions.js';
 import { TfEditor } from './tf-editor.js';
 import { effectiveOpacity, forDataset, logScale, tfBody, viewFromHash, viewToHash } from './view-state.js';
 import { visibleCorners } from './visible.js';
@@ -87,6 +88,15 @@ const planes = new PlanesPanel($('planes'), {
   view: () => state.view,
   bounds: () => state.dataset?.bounds ?? null,
   viewDirection: () => camera && camera.get().target.map((t, i) => t - camera.get().eye[i]),
+  saved: () => saveViewInHash(),
+});
+const regionsPanel = new RegionsPanel($('boundary-panel'), {
+  send,
+  view: () => state.view,
+  showBoundary: () => {
+    $('mode-surface').checked = true;
+    onModes();
+  },
   saved: () => saveViewInHash(),
 });
 const probe = new Probe(frameCanvas, $('probe'), { send });
@@ -429,6 +439,7 @@ function onDataset(info) {
   if (datasetNotice) $('dataset-summary').textContent += `\n${datasetNotice}`;
   datasetNotice = '';
   linesPanel.setDataset(info);
+  regionsPanel.setDataset(info);
   showView();
   planes.show();
   sendAll();
@@ -556,6 +567,7 @@ function sendAll() {
   sendLod();
   sendQuality();
   planes.sendAll();
+  regionsPanel.send();
   sendCamera(false);  // last: the still that follows shows everything
   saveViewInHash();
 }
@@ -778,9 +790,10 @@ function viewPreset(name) {
 }
 
 // The camera keeps its direction and frames the part of the dataset's box the clip planes
-// keep: the whole domain, or the region a clip cut out.
+// keep: the whole domain, or the region a clip cut out; the boundary alone with regions
+// hidden: the box of the regions shown (regions.js).
 function frameVisible() {
-  const corners = visibleCorners(state.dataset?.bounds, state.view.clips);
+  const corners = visibleCorners(shownBounds(state.dataset, state.view), state.view.clips);
   if (corners.length) camera.fit(corners, frameCanvas.width / frameCanvas.height);
 }
 

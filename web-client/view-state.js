@@ -5,6 +5,7 @@
 import { DEFAULT_PRESET, PRESETS, colorAt } from './colormaps.js';
 import { defaultLines, linesFromHash, linesToHash } from './lines.js';
 import { planesFromHash, planesToHash } from './planes.js';
+import { regionsFromHash, regionsToHash } from './regions.js';
 
 // The default opacity curve, chosen by looking at the shared datasets (disk_out_ref,
 // fea_bracket, nasa_bluntfin, freefem_leman, onera_m6, nasa_combustion_chamber,
@@ -62,13 +63,14 @@ export function defaultView() {
     interactionQuality: 60, stillQuality: 90, pngStills: false,
     clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
     lines: defaultLines(),      // stream lines and point isosurfaces (lines.js)
+    hiddenRegions: [],          // boundary regions left out (regions.js)
   };
 }
 
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
-  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null };
+  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
 }
 
 // ---------- URL fragment ----------
@@ -114,6 +116,7 @@ export function viewToHash(view) {
   put('quality', `${view.interactionQuality},${view.stillQuality}${view.pngStills ? ',png' : ''}`);
   p.push(...planesToHash(view));
   p.push(...linesToHash(view));
+  p.push(...regionsToHash(view));
   return p.join('&');
 }
 
@@ -187,6 +190,7 @@ export function viewFromHash(hash) {
     view.pngStills = quality[2] === 'png';
   }
   Object.assign(view, planesFromHash(h));
+  Object.assign(view, regionsFromHash(h));
   return view;
 }
 

@@ -26,6 +26,7 @@ export const LINE_LIMITS = Object.freeze({
   max_line_width: 32,
   max_point_size: 64,
 });
+export const MAX_HIDDEN_REGIONS = 1024;  // regions.set hidden: ids below this, at most this many
 export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points', 'slice'];
 
 export class ProtocolError extends Error {
@@ -223,6 +224,13 @@ const checkers = {
     f.optNumber('size', 0, LINE_LIMITS.max_point_size);
   },
   ping() {},
+  'regions.set'(f) {
+    const hidden = f.find('hidden');
+    if (hidden === undefined) f.fail('hidden', 'missing');
+    if (!Array.isArray(hidden)) f.fail('hidden', 'expected a list of region ids');
+    if (hidden.length > MAX_HIDDEN_REGIONS) f.fail('hidden', `more than ${MAX_HIDDEN_REGIONS} regions`);
+    for (const id of hidden) if (!isWhole(id) || id >= MAX_HIDDEN_REGIONS) f.fail('hidden', `expected region ids from 0 to ${MAX_HIDDEN_REGIONS - 1}`);
+  },
   ...planeCheckers,
 };
 

@@ -172,6 +172,20 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     return m;
   }
   if (type == "ping") return Ping{};
+  if (type == "regions.set") {
+    RegionsSet m;
+    const json& hidden = f.require("hidden");
+    if (!hidden.is_array()) f.fail("hidden", "expected a list of region ids");
+    const std::string most = std::to_string(kMaxHiddenRegions);
+    if (hidden.size() > kMaxHiddenRegions) f.fail("hidden", "more than " + most + " regions");
+    for (const json& region : hidden) {
+      if (!region.is_number_unsigned() || region.get<uint64_t>() >= kMaxHiddenRegions) f.fail("hidden", "expected region ids from 0 to " + std::to_string(kMaxHiddenRegions - 1));
+      m.hidden.push_back(static_cast<uint32_t>(region.get<uint64_t>()));
+    }
+    std::sort(m.hidden.begin(), m.hidden.end());
+    m.hidden.erase(std::unique(m.hidden.begin(), m.hidden.end()), m.hidden.end());
+    return m;
+  }
   if (type == "clip.set") return ClipSet{parse_clip_spec(f.object(), id)};  // planes.cpp
   if (type == "slice.set") return SliceSet{parse_slice_spec(f.object(), id)};
   if (type == "probe") return parse_probe(f.object(), limits.max_image_side, id);

@@ -16,6 +16,7 @@
 #include "lines.h"
 #include "projected_tets.h"
 #include "scene_geometry.h"
+#include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
 #include "tetrascope/core/vec3.h"
@@ -197,7 +198,7 @@ class GlRenderer final : public Renderer {
     auto stop = [&] { return s.should_stop && (tm.interrupted = tm.interrupted || s.should_stop()); };
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1, 1);
-    if (s.surface) opaque |= draw_boundary_surface(setup);
+    if (s.surface) opaque |= draw_boundary_surface(setup, s.hidden_regions);
     const bool translucent_iso = s.iso && !s.dvr && s.iso_opacity < 1;
     const bool iso_triangles_drawn = s.iso && !s.isovalues.empty() && !isosurfaces_in_volume(s);
     if (iso_triangles_drawn && !translucent_iso && !stop()) opaque |= draw_opaque_isosurfaces(setup, s, tm);
@@ -208,7 +209,7 @@ class GlRenderer final : public Renderer {
     if (s.points && !stop()) opaque |= point_pass_.draw(pass_view, s, tm);
     if (s.lines && !stop()) opaque |= line_pass_.draw_opaque(pass_view, s, tm);
     if (s.slices.edges && !s.slices.planes.empty()) draw_lines(setup, slices_.edges);
-    if (s.surface && !stop()) draw_boundary_edges(setup, s.wireframe);
+    if (s.surface && !stop()) draw_boundary_edges(setup, s.wireframe, s.hidden_regions);
     if (s.box) draw_box(setup);
     if (iso_triangles_drawn && translucent_iso && !stop()) draw_translucent_isosurfaces(setup, s, tm);
     if (s.dvr && !mesh.tets.empty() && !stop()) draw_volume(setup, s, opaque, stop, tm);
@@ -246,6 +247,7 @@ class GlRenderer final : public Renderer {
     }
     glNamedBufferData(surface_buffer_, static_cast<GLsizeiptr>(boundary_.corners.size() * 4), boundary_.corners.data(), GL_STATIC_DRAW);
     surface_vertices_ = static_cast<GLsizei>(boundary_.corners.size() / 4);
+    surface_hidden_.clear();
   }
 
   void upload(GLuint& buffer, const void* data, size_t bytes) {
@@ -421,7 +423,24 @@ class GlRenderer final : public Renderer {
 
   // ---- the passes ----
 
-  bool draw_boundary_surface(const FrameSetup& setup) {
+  // The boundary less its hidden regions: the surface buffer is filled again when the hidden
+  // set changes.
+  bool draw_boundary_surface(const FrameSetup& setup, const std::vector<uint32_t>& hidden) {
+    if (hidden != surface_hidden_) {
+      const std::vector<uint8_t> skip = hidden_faces(*mesh_, hidden);
+      std::vector<float> corners;
+      if (skip.empty()) {
+        corners = boundary_.corners;
+      } else {
+        corners.reserve(boundary_.corners.size());
+        for (size_t f = 0; f < skip.size(); ++f)
+          if (!skip[f]) corners.insert(corners.end(), boundary_.corners.begin() + 12 * f, boundary_.corners.begin() + 12 * (f + 1));
+      }
+      glNamedBufferData(surface_buffer_, static_cast<GLsizeiptr>(std::max<size_t>(corners.size(), 1) * 4), corners.data(), GL_STATIC_DRAW);
+      surface_vertices_ = static_cast<GLsizei>(corners.size() / 4);
+      surface_hidden_ = hidden;
+    }
+    if (surface_vertices_ == 0) return false;
     use_surface_program(setup, false);
     glBindVertexArray(surface_vao_);
     glDrawArrays(GL_TRIANGLES, 0, surface_vertices_);
@@ -457,9 +476,9 @@ class GlRenderer final : public Renderer {
   }
 
   // Silhouette edges of the boundary (every boundary edge with `wireframe`).
-  void draw_boundary_edges(const FrameSetup& setup, bool wireframe) {
+  void draw_boundary_edges(const FrameSetup& setup, bool wireframe, const std::vector<uint32_t>& hidden) {
     std::vector<float> lines;
-    append_boundary_edges(*mesh_, boundary_, setup.frame, wireframe, lines);
+    append_boundary_edges(*mesh_, boundary_, setup.frame, wireframe, lines, hidden_faces(*mesh_, hidden));
     draw_lines(setup, lines);
   }
 
@@ -702,6 +721,7 @@ class GlRenderer final : public Renderer {
   GLuint framebuffer_ = 0, color_ = 0, depth_ = 0, distance_texture_ = 0, distance_copy_ = 0, table_texture_ = 0, colormap_texture_ = 0;
   uint32_t fb_width_ = 0, fb_height_ = 0;
   GLsizei surface_vertices_ = 0;
+  std::vector<uint32_t> surface_hidden_;  // the regions the surface buffer leaves out
   const SceneMesh* mesh_ = nullptr;
   TetSortInputs sort_inputs_;
   BoundaryGeometry boundary_;

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "camera_math.h"
+#include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/core/vec3.h"
 
@@ -83,7 +84,11 @@ ProbeHit probe(const SceneMesh& scene, const RenderSettings& settings, double x,
   // slice or isosurface inside it is what the click means
   if (!best.surface.empty() && !settings.surface) return best;
   const bool iso_color = scene.iso_color_value.size() == scene.value.size() && !scene.iso_color_attribute.empty();
-  for (const auto& f : scene.boundary) {
+  // the regions the surface leaves out (the volume's boundary stays whole)
+  const std::vector<uint8_t> hidden = settings.surface ? hidden_faces(scene, settings.hidden_regions) : std::vector<uint8_t>{};
+  for (size_t i = 0; i < scene.boundary.size(); ++i) {
+    if (!hidden.empty() && hidden[i]) continue;
+    const auto& f = scene.boundary[i];
     Vec3 p[3];
     for (int c = 0; c < 3; ++c) p[c] = {scene.xyz[3 * size_t{f[c]}], scene.xyz[3 * size_t{f[c]} + 1], scene.xyz[3 * size_t{f[c]} + 2]};
     const auto hit = intersect(r, p[0], p[1], p[2]);

@@ -115,7 +115,8 @@ BoundaryGeometry boundary_geometry(const SceneMesh& mesh) {
   return out;
 }
 
-void append_boundary_edges(const SceneMesh& mesh, const BoundaryGeometry& boundary, const Frame& frame, bool all_edges, std::vector<float>& lines) {
+void append_boundary_edges(const SceneMesh& mesh, const BoundaryGeometry& boundary, const Frame& frame, bool all_edges, std::vector<float>& lines,
+                           const std::vector<uint8_t>& hidden) {
   std::vector<int8_t> facing(mesh.boundary.size());
   for (size_t i = 0; i < mesh.boundary.size(); ++i) {
     const auto& t = mesh.boundary[i];
@@ -123,8 +124,11 @@ void append_boundary_edges(const SceneMesh& mesh, const BoundaryGeometry& bounda
     const Vec3 n = cross(b - a, c - a);
     facing[i] = (frame.ortho ? -dot(n, frame.forward) : dot(n, frame.eye - a)) > 0;
   }
+  auto shown = [&](uint32_t face) { return face != kNoOppositeFace && (hidden.empty() || !hidden[face]); };
   for (const auto& e : boundary.edges) {
-    const bool silhouette = e[3] == kNoOppositeFace || facing[e[2]] != facing[e[3]];  // or an open edge
+    if (!shown(e[2]) && !shown(e[3])) continue;
+    const bool open = !shown(e[2]) || !shown(e[3]);
+    const bool silhouette = open || facing[e[2]] != facing[e[3]];
     if (!silhouette && !all_edges) continue;
     for (uint32_t v : {e[0], e[1]}) lines.insert(lines.end(), {mesh.xyz[3 * size_t{v}], mesh.xyz[3 * size_t{v} + 1], mesh.xyz[3 * size_t{v} + 2], 0.0f});
   }

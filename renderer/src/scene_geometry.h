@@ -41,8 +41,11 @@ struct BoundaryGeometry {
 BoundaryGeometry boundary_geometry(const SceneMesh& mesh);
 
 // Appends (x, y, z, 0) line corners: the silhouette edges of the boundary as seen from
-// `frame` (and open edges), or every boundary edge with `all_edges` (a wireframe).
-void append_boundary_edges(const SceneMesh& mesh, const BoundaryGeometry& boundary, const Frame& frame, bool all_edges, std::vector<float>& lines);
+// `frame` (and open edges), or every boundary edge with `all_edges` (a wireframe). Faces
+// marked in `hidden` (per boundary face; empty: none) are left out: an edge of a shown face
+// next to a hidden one is an open edge.
+void append_boundary_edges(const SceneMesh& mesh, const BoundaryGeometry& boundary, const Frame& frame, bool all_edges, std::vector<float>& lines,
+                           const std::vector<uint8_t>& hidden = {});
 
 // Appends the 12 edges of the mesh's bounding box as (x, y, z, 0) line corners.
 void append_box_edges(const storage::Bounds& bounds, std::vector<float>& lines);

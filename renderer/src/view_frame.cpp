@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 #include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/lod/field/streamlines.h"
 #include "tetrascope/core/tet_topology.h"
+#include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/ray_caster.h"
 
@@ -71,6 +73,7 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   }
   t.assemble_ms = ms_since(start);
   update_clip(request.clip, t);
+  classify_regions(request, t);
   if (trace) trace_lines(mesh ? *mesh : front_->mesh(), request.line);
   if (request.lines) apply_lines(request.line, s);
 }
@@ -104,7 +107,7 @@ void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string
     scene.iso_color_min = a->components == 1 ? a->min : std::max(0.0, a->min);
     scene.iso_color_max = a->max;
   }
-  scene_ = std::make_unique<const SceneMesh>(std::move(scene));
+  scene_ = std::make_unique<SceneMesh>(std::move(scene));
   attribute_ = attribute;
   iso_color_attribute_ = iso_color_attribute;
   scene_generation_ = next_scene_generation++;
@@ -177,12 +180,30 @@ void ViewPipeline::update_clip(const view::ClipSpec& clip, ViewTimings& timings)
     clipped_.reset();
     drawn_generation_ = scene_generation_;
   } else if (!clipped_ || clipped_from_ != scene_generation_ || !(clip_ == clip)) {
-    clipped_ = std::make_unique<const SceneMesh>(clip_scene(*scene_, clip));
+    clipped_ = std::make_unique<SceneMesh>(clip_scene(*scene_, clip));
     clip_ = clip;
     clipped_from_ = scene_generation_;
     drawn_generation_ = next_scene_generation++;
   }
   timings.clip_ms = ms_since(start);
+}
+
+// The regions of the drawn scene's boundary faces, found when a frame hides some (the surface
+// with regions hidden; otherwise no frame pays for them), once per scene: a scene's faces keep
+// their regions, so a renderer's buffers built from them stay right.
+void ViewPipeline::classify_regions(const ViewRequest& request, ViewTimings& timings) {
+  if (!regions_ || !request.surface || request.hidden_regions.empty()) return;
+  const auto start = Clock::now();
+  if (scene_->boundary_region.size() != scene_->boundary.size()) scene_->boundary_region = regions_->classify(*scene_);
+  if (clipped_ && clipped_->boundary_region.size() != clipped_->boundary.size()) {
+    std::vector<std::array<double, 4>> planes;  // the cut faces on the clip's planes belong to no region
+    for (const view::Plane& p : clip_.half_spaces()) {
+      const double n = std::max(1e-300, std::sqrt(p.normal[0] * p.normal[0] + p.normal[1] * p.normal[1] + p.normal[2] * p.normal[2]));
+      planes.push_back({p.normal[0] / n, p.normal[1] / n, p.normal[2] / n, p.offset / n});
+    }
+    clipped_->boundary_region = regions_->classify(*clipped_, planes);
+  }
+  timings.regions_ms = ms_since(start);
 }
 
 RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* timings, const std::function<bool()>& should_stop) {
@@ -232,6 +253,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     }
     t.assemble_ms = ms_since(start);
     update_clip(request.clip, t);
+    classify_regions(request, t);
     if (trace) {
       if (!assembled) assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip);
       trace_lines(assembled->mesh, request.line);
@@ -245,6 +267,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   s.tf.attribute = scene_->attribute;
   if (s.iso && s.isovalues.empty()) s.isovalues = {0.5 * (scene_->value_min + scene_->value_max)};
   update_clip(request.clip, t);
+  classify_regions(request, t);
   if (trace) trace_lines(*mesh_, request.line);
   if (request.lines) apply_lines(request.line, s);
   return s;

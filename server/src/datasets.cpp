@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
 
@@ -11,6 +12,7 @@
 #include "tetrascope/lod/cut/variants.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/protocol/protocol.h"
+#include "tetrascope/renderer/boundary_regions.h"
 
 namespace tetrascope::server {
 namespace fs = std::filesystem;
@@ -169,6 +171,38 @@ std::optional<std::string> DatasetRegistry::damage_of(const std::string& name) c
   return it->second.why;
 }
 
+namespace {
+
+// The boundary regions of a store, on its finest cut (the input mesh); null above kMaxRegionTets
+// or past `memory_bytes` at kRegionBytesPerTet. A segment that fails its checks leaves the
+// dataset without regions rather than unopened: the open checks the coarsest level only, and
+// the frame that maps the segment reports it.
+std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag, const fs::path& data_dir, uint64_t memory_bytes) {
+  const uint64_t tets = store.manifest().tet_count;
+  if (tets > kMaxRegionTets || tets > memory_bytes / kRegionBytesPerTet) return nullptr;
+  try {
+    return renderer::RegionMap::of_store(store, dag, kRegionCacheBytes);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tetrascope serve: no boundary regions for %s: %s\n", store.path().filename().c_str(), without_server_paths(e.what(), data_dir).c_str());
+    return nullptr;
+  }
+}
+
+nlohmann::json regions_json(const renderer::RegionMap* regions) {
+  nlohmann::json out = nlohmann::json::array();
+  if (!regions) return out;
+  for (const renderer::BoundaryRegion& r : regions->regions())
+    out.push_back({{"id", r.id},
+                   {"name", r.name},
+                   {"triangles", r.triangles},
+                   {"area", r.area},
+                   {"bounds", {{"min", r.bounds.min}, {"max", r.bounds.max}}},
+                   {"touches_domain_box", r.touches_domain_box}});
+  return out;
+}
+
+}  // namespace
+
 std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   if (!valid_name(name)) throw NotFound("no dataset named '" + name + "'");
   std::lock_guard lock(mutex_);
@@ -208,6 +242,8 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   d->info["coarsest_tets"] = mesh.tet_count();
+  d->regions = find_regions(*d->store, *d->dag, data_dir_, pool_->budget());
+  d->info["regions"] = regions_json(d->regions.get());
   for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
     const auto& attr = mesh.attributes[a];
     auto& out = d->info["attributes"][a];

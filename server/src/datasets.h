@@ -16,6 +16,7 @@
 
 #include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
+#include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/storage/store.h"
 
 namespace tetrascope::server {
@@ -42,6 +43,16 @@ std::string without_server_paths(std::string message, const std::filesystem::pat
 // written, StoreWriter's NAME.tmp). Returns how many entries were removed.
 size_t sweep_data_leftovers(const std::filesystem::path& data_dir);
 
+// Boundary regions (renderer/boundary_regions.h) are found when a dataset opens, on its full
+// resolution, for stores of at most kMaxRegionTets tets whose finding fits the segment cache's
+// budget at kRegionBytesPerTet (the finest cut, its face pairing and the map: about 130 bytes a
+// tet measured on ONERA M6), so a server fitted to a memory limit is not pushed past it; a
+// larger store lists none (its boundary is shown whole). The finest cut is read through a
+// segment cache of its own, of kRegionCacheBytes, so the shared cache keeps what the views use.
+constexpr uint64_t kMaxRegionTets = 20'000'000;
+constexpr uint64_t kRegionBytesPerTet = 160;
+constexpr uint64_t kRegionCacheBytes = uint64_t{256} << 20;
+
 class NotFound : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -53,7 +64,8 @@ struct Dataset {
   std::unique_ptr<lod::Dag> dag;
   std::unique_ptr<storage::SegmentCache> cache;
   std::shared_ptr<const lod::VertexHierarchy> vertices;  // vertices.bin, null when the store has none
-  nlohmann::json info;  // name, counts, levels, bounds, attributes (range, 64-bin histogram of the coarsest level)
+  nlohmann::json info;  // name, counts, levels, bounds, attributes (range, 64-bin histogram of the coarsest level), regions
+  std::shared_ptr<const renderer::RegionMap> regions;  // null: none found (a store above kMaxRegionTets)
 
   // Sessions viewing the dataset register here; closing it (deleted, or found damaged) calls
   // each callback once with an error code and message (from the closing thread: a callback

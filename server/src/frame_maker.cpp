@@ -84,6 +84,7 @@ void FrameMaker::open(const std::shared_ptr<Dataset>& dataset) {
   dataset_.reset();
   pipeline_.reset();
   auto pipeline = std::make_unique<renderer::ViewPipeline>(*dataset->store, *dataset->dag, *dataset->cache, dataset->vertices);
+  pipeline->set_regions(dataset->regions);
   coarsest_tets_ = lod::Cut(*dataset->dag).tet_count();
   finest_tets_ = dataset->info.value("tets", uint64_t{0});
   pipeline_ = std::move(pipeline);

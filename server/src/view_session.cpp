@@ -118,6 +118,7 @@ ViewSession::Then ViewSession::on_message(const protocol::DatasetOpen& m, uint32
     s.view.tf = view::TransferFunction{};
     s.view.isovalues.clear();
     s.view.iso_color_attribute.clear();
+    s.view.hidden_regions.clear();  // the last dataset's ids
     s.view.line = view::LineRequest{};  // fields and seeds of the last dataset
     s.view.clip = {};
     s.view.slices = {};
@@ -230,6 +231,17 @@ ViewSession::Then ViewSession::on_message(const protocol::LinesSet& m, uint32_t 
 
 ViewSession::Then ViewSession::on_message(const protocol::PointsSet& m, uint32_t id) {
   change_state(id, [&](ViewState& s) { apply_points_set(m, s.view); });
+  return Then::kStill;
+}
+
+// The ids were checked against kMaxHiddenRegions at the edge; here against the dataset's count.
+ViewSession::Then ViewSession::on_message(const protocol::RegionsSet& m, uint32_t id) {
+  const auto dataset = need_dataset(id);
+  const size_t count = dataset->regions ? dataset->regions->regions().size() : 0;
+  if (!m.hidden.empty() && m.hidden.back() >= count)
+    throw protocol::ProtocolError(protocol::code::kBadField,
+                                  "hidden: no region " + std::to_string(m.hidden.back()) + " in " + dataset->name + " (it has " + std::to_string(count) + ")", id);
+  change_state(id, [&](ViewState& s) { s.view.hidden_regions = m.hidden; });
   return Then::kStill;
 }
 

@@ -16,7 +16,7 @@ const full = () => ({
   opacity: [[0, 0.1], [0.3, 0.5], [1, 0.2]], range: [300, 900], opacityScale: 0.5, unitDistance: 0.25,
   outsideTransparent: true, dvr: false, iso: true, surface: true, wireframe: true, box: true,
   isovalues: [400, 500.5], isoOpacity: 0.4, budget: 50000, interactionBudget: 20000,
-  interactionQuality: 40, stillQuality: 95, pngStills: true,
+  interactionQuality: 40, stillQuality: 95, pngStills: true, hiddenRegions: [0, 2, 17],
 });
 
 test('a view survives the URL fragment whole', () => {
@@ -39,6 +39,12 @@ test('a hostile or broken fragment leaves the defaults', () => {
     assert.equal(view.unitDistance, null, hash);
     assert.equal(view.opacityScale, 1, hash);
   }
+});
+
+test('hidden regions from a link: whole ids below the limit, once each, in order', () => {
+  assert.deepEqual(viewFromHash('#hide=5,x,1,-2,99999,1024,1023,5,1.5,2').hiddenRegions, [1, 2, 5, 1023]);
+  assert.deepEqual(viewFromHash('#hide=').hiddenRegions, []);
+  assert.deepEqual(viewFromHash(`#hide=${Array.from({ length: 5000 }, (_, i) => i).join(',')}`).hiddenRegions.length, 1024);
 });
 
 test('the opacity sent: scaled, then the unit distance as equal extinction', () => {

@@ -146,6 +146,36 @@ TEST(RenderCli, ASliceIsLitUnlessSliceFlat) {
   EXPECT_NE(bytes(dir / "lit.png"), bytes(dir / "flat.png")) << "the oblique slice is shaded when lit";
 }
 
+// --hide-regions leaves boundary regions out of the surface (ids, or "box": every region on the
+// domain's box); the report lists the regions; an id the boundary lacks, or a mode without the
+// surface, is a clear error.
+TEST(RenderCli, HiddenBoundaryRegionsLeaveTheSurfaceAndBadIdsAreClearErrors) {
+  const auto dir = scratch_dir("render-cli-regions");
+  const std::string mesh = sample_mesh().string(), all = (dir / "all.png").string(), box = (dir / "box.png").string();
+  Result shown = run("render " + mesh + " -o " + all + " --size 96x96 --mode surface");
+  ASSERT_EQ(shown.status, 0) << shown.out;
+  Result hidden = run("render " + mesh + " -o " + box + " --size 96x96 --mode surface --hide-regions box --json");
+  ASSERT_EQ(hidden.status, 0) << hidden.out;
+  const auto j = last_json_line(hidden.out);
+  ASSERT_GE(j["regions"].size(), 2u) << j.dump();
+  size_t hidden_count = 0;
+  for (const auto& region : j["regions"]) {
+    EXPECT_EQ(region["hidden"], region["touches_domain_box"]) << region.dump();
+    hidden_count += region["hidden"].get<bool>();
+  }
+  EXPECT_GT(hidden_count, 0u);
+  EXPECT_NE(read_file(all), read_file(box)) << "the regions on the box are gone";
+  Result past = run("render " + mesh + " -o " + box + " --mode surface --hide-regions 0,99");
+  EXPECT_NE(past.status, 0);
+  EXPECT_NE(past.out.find("no region 99"), std::string::npos) << past.out;
+  Result fraction = run("render " + mesh + " -o " + box + " --mode surface --hide-regions 1.5");
+  EXPECT_NE(fraction.status, 0);
+  EXPECT_NE(fraction.out.find("no region 1.5"), std::string::npos) << fraction.out;
+  Result volume = run("render " + mesh + " -o " + box + " --hide-regions 0");
+  EXPECT_NE(volume.status, 0);
+  EXPECT_NE(volume.out.find("needs a mode with surface"), std::string::npos) << volume.out;
+}
+
 TEST(RenderCli, ImageSidesAreLimited) {
   const auto dir = scratch_dir("render-cli-limits");
   const std::string out = (dir / "frame.png").string();

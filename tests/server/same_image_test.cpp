@@ -53,6 +53,7 @@ struct View {
   uint64_t budget = 0;
   uint32_t width = 0, height = 0;
   std::string backend = "gl";    // render --backend, ServerOptions::backend
+  std::vector<uint32_t> hidden_regions{};  // regions.set, render --hide-regions
 };
 
 renderer::Image render_with_cli(const fs::path& store, const View& v, const fs::path& dir) {
@@ -75,6 +76,14 @@ renderer::Image render_with_cli(const fs::path& store, const View& v, const fs::
     auto triple = [](const nlohmann::json& a) { return a[0].dump() + "," + a[1].dump() + "," + a[2].dump(); };
     arguments += " --camera eye=" + triple(c["eye"]) + ",target=" + triple(c["target"]) + ",up=" + triple(c["up"]) + ",fov=" + c["fov"].dump();
   }
+  if (!v.hidden_regions.empty()) {
+    std::string list;
+    for (uint32_t id : v.hidden_regions) {
+      if (!list.empty()) list += ',';
+      list += std::to_string(id);
+    }
+    arguments += " --hide-regions " + list;
+  }
   EXPECT_EQ(run(arguments), 0) << arguments;
   return decode_png(read_file(dir / "cli.png"));
 }
@@ -92,6 +101,7 @@ renderer::Image render_with_session(const std::string& url, const View& v) {
   // after dataset.open, which resets the isovalues, transfer function and camera
   if (!v.isovalues.empty()) last = c.send("iso.set", {{"values", v.isovalues}});
   if (!v.tf.is_null()) last = c.send("tf.set", v.tf);
+  if (!v.hidden_regions.empty()) last = c.send("regions.set", {{"hidden", v.hidden_regions}});
   if (v.camera) {
     nlohmann::json camera = *v.camera;
     camera["interacting"] = false;
@@ -166,6 +176,12 @@ TEST_F(SameImage, ServerSessionAndCliRenderAGivenCameraAndTransferFunctionAlike)
   const nlohmann::json tf = {{"attribute", "Temp"}, {"colormap", "plasma"}, {"range", {300, 900}}, {"opacity", {{300, 0}, {900, 0.8}}}};
   const nlohmann::json camera = {{"eye", {20.0, -25.0, 15.0}}, {"target", {0.0, 0.0, 5.0}}, {"up", {0.0, 0.0, 1.0}}, {"fov", 35}};
   expect_same_image({.mode = "dvr+iso", .isovalues = {450, 700}, .tf = tf, .camera = camera, .budget = 100000, .width = 160, .height = 160});
+}
+
+// Boundary regions hidden in a session (regions.set) and by render --hide-regions: the same
+// image from a cut the budget limits (its simplified faces classified alike).
+TEST_F(SameImage, ServerSessionAndCliHideTheSameBoundaryRegions) {
+  expect_same_image({.mode = "surface", .isovalues = {}, .tf = nullptr, .camera = std::nullopt, .budget = 20000, .width = 200, .height = 150, .hidden_regions = {0, 2}});
 }
 
 // The CPU ray caster draws the session's frames as it draws render --backend cpu's.

@@ -1,5 +1,5 @@
 // The real server on an ephemeral loopback port, driven by a real WebSocket client (Beast)
-// and HTTP requests: frames, latest-wins, stills, hostile messages, limits, auth, path
+// and HTTP requests: frames, latest-wins, stills, hostile messages, boundary regions, limits, auth, path
 // traversal, uploads and the job lifecycle, a restart, and a 4-client load test.
 #include <signal.h>
 #include <turbojpeg.h>
@@ -267,6 +267,90 @@ TEST_F(ServerTest, StreamLinesOnAScalarOrMissingFieldAreRefusedAndLinesChangeThe
   c.send("mode.set", {{"mode", "points"}});
   const Frame points = still_for(c.send("points.set", {{"values", {400, 600}}}));
   EXPECT_TRUE(points.jpeg != plain.jpeg);
+  EXPECT_FALSE(c.closed());
+}
+
+// Pixels of a JPEG frame unlike the background (its green channel, 26, off by more than 30).
+size_t lit_pixels(const std::string& jpeg) {
+  tjhandle tj = tjInitDecompress();
+  int w = 0, h = 0, sub = 0, space = 0;
+  std::vector<unsigned char> rgb;
+  if (tjDecompressHeader3(tj, reinterpret_cast<const unsigned char*>(jpeg.data()), jpeg.size(), &w, &h, &sub, &space) == 0) {
+    rgb.resize(size_t(w) * h * 3);
+    if (tjDecompress2(tj, reinterpret_cast<const unsigned char*>(jpeg.data()), jpeg.size(), rgb.data(), w, 0, h, TJPF_RGB, 0) != 0) rgb.clear();
+  }
+  tjDestroy(tj);
+  size_t lit = 0;
+  for (size_t i = 0; i < rgb.size(); i += 3)
+    if (std::abs(int(rgb[i + 1]) - 26) > 30) ++lit;
+  return lit;
+}
+
+// Boundary regions: dataset.info lists them; in surface mode hiding one changes the still,
+// hiding them all leaves the background, and showing them again gives the first image back.
+TEST_F(ServerTest, HiddenBoundaryRegionsChangeTheSurfaceImage) {
+  start();
+  SessionClient c(ws_);
+  const auto info = open(c);
+  const auto& regions = info["regions"];
+  ASSERT_GE(regions.size(), 2u) << info.dump();
+  uint64_t triangles = 0;
+  for (size_t i = 0; i < regions.size(); ++i) {
+    EXPECT_EQ(regions[i]["id"], i);
+    EXPECT_GT(regions[i]["triangles"].get<uint64_t>(), 0u);
+    triangles += regions[i]["triangles"].get<uint64_t>();
+  }
+  EXPECT_TRUE(regions[0]["touches_domain_box"].get<bool>()) << "the largest region of a closed domain lies on its box";
+  auto still_for = [&](uint32_t id) {
+    for (;;) {
+      Frame f = next_still(c);
+      if (f.header.width == 0 || f.header.message_id >= id) return f;
+    }
+  };
+  const Frame all = still_for(c.send("mode.set", {{"mode", "surface"}}));
+  const Frame one_hidden = still_for(c.send("regions.set", {{"hidden", {0}}}));
+  EXPECT_TRUE(one_hidden.jpeg != all.jpeg) << "region 0 is gone";
+  nlohmann::json every = nlohmann::json::array();
+  for (size_t i = 0; i < regions.size(); ++i) every.push_back(i);
+  const Frame none_shown = still_for(c.send("regions.set", {{"hidden", every}}));
+  EXPECT_GT(lit_pixels(all.jpeg), 320u * 240 / 10) << "the boundary covers the view's middle";
+  EXPECT_LT(lit_pixels(none_shown.jpeg), 320u * 240 / 1000) << "every region hidden: the background";
+  const Frame again = still_for(c.send("regions.set", {{"hidden", nlohmann::json::array()}}));
+  EXPECT_TRUE(again.jpeg == all.jpeg) << "every region shown again";
+  // the volume ignores them: the boundary's regions are the surface's
+  const Frame volume = still_for(c.send("mode.set", {{"mode", "dvr"}}));
+  const Frame volume_hidden = still_for(c.send("regions.set", {{"hidden", every}}));
+  EXPECT_TRUE(volume.jpeg == volume_hidden.jpeg);
+  EXPECT_FALSE(c.closed());
+}
+
+// Threat: a client naming regions the dataset does not have (an id past its count) or a list
+// of thousands: refused with bad_field saying why, nothing hidden, the session lives on.
+TEST_F(ServerTest, ARegionIdPastTheDatasetOrAHugeHiddenListIsRefused) {
+  start();
+  SessionClient c(ws_);
+  const auto info = open(c);
+  const size_t count = info["regions"].size();
+  ASSERT_GT(count, 0u);
+  c.send("regions.set", {{"hidden", {count}}});
+  auto j = c.expect("error");
+  EXPECT_EQ(j["code"], "bad_field");
+  EXPECT_NE(j["message"].get<std::string>().find("no region " + std::to_string(count)), std::string::npos) << j.dump();
+  c.send("regions.set", {{"hidden", {0, 1023}}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "the largest id the protocol takes, past the dataset's";
+  c.send("regions.set", {{"hidden", std::vector<uint32_t>(5000, 0)}});
+  j = c.expect("error");
+  EXPECT_EQ(j["code"], "bad_field");
+  EXPECT_NE(j["message"].get<std::string>().find("more than 1024"), std::string::npos) << j.dump();
+  c.send("regions.set", {{"hidden", {uint64_t{1} << 40}}});
+  EXPECT_EQ(error_code_of(c), "bad_field");
+  c.send("regions.set", {{"hidden", {-1}}});
+  EXPECT_EQ(error_code_of(c), "bad_field");
+  // nothing was hidden: the surface still shows
+  const uint32_t id = c.send("mode.set", {{"mode", "surface"}});
+  Frame f = next_still(c);
+  while (f.header.width != 0 && f.header.message_id < id) f = next_still(c);
+  EXPECT_GT(lit_pixels(f.jpeg), 320u * 240 / 10);
   EXPECT_FALSE(c.closed());
 }
 

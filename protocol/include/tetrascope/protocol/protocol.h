@@ -42,6 +42,7 @@ constexpr uint32_t kMaxLineSteps = 100000;        // lines.set max_steps
 constexpr uint32_t kMaxSelectedLines = 4096;      // lines.set select.lines
 constexpr double kMaxLineWidthPixels = 32;        // lines.set line_width, from 1
 constexpr double kMaxPointSizePixels = 64;        // points.set size, from 0 (covering)
+constexpr uint32_t kMaxHiddenRegions = 1024;      // regions.set hidden: ids below this, at most this many
 
 // Every limit of a session, each configurable (ServerOptions::limits; `serve` has options for
 // the sessions, message size and rate and the image side) and tested at and past it.
@@ -159,9 +160,14 @@ struct PointsSet {
   std::optional<double> size;       // splat pixels; 0: covering
 };
 struct Ping {};
+// Boundary regions the surface leaves out (ids of dataset.info's regions), the whole set each
+// time. The session checks the ids against the dataset.
+struct RegionsSet {
+  std::vector<uint32_t> hidden;  // ascending, each once
+};
 
 using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, LinesSet, PointsSet, Ping,
-                             ClipSet, SliceSet, Probe>;
+                             ClipSet, SliceSet, Probe, RegionsSet>;
 
 struct Envelope {
   std::string type;

@@ -149,6 +149,8 @@ struct SceneMesh {
   std::vector<float> value;    // attribute value per vertex, attribute units
   std::vector<uint32_t> tets;
   std::vector<std::array<uint32_t, 3>> boundary;  // outward
+  // per boundary face, its region (boundary_regions.h; kNoRegion: none); empty: no regions known
+  std::vector<uint32_t> boundary_region;
   storage::Bounds bounds;
   double diagonal = 1, max_edge = 0;
   std::string attribute;

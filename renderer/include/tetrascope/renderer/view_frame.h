@@ -29,6 +29,7 @@
 namespace tetrascope::renderer {
 
 class RayCaster;
+class RegionMap;
 
 // The request a view draws (view/view_request.h).
 using view::LineRequest;
@@ -40,6 +41,7 @@ using view::ViewRequest;
 struct ViewTimings {
   double cut_ms = 0, assemble_ms = 0, upload_ms = 0, draw_ms = 0;
   double clip_ms = 0;  // clipping the scene (0 when neither the scene nor the planes changed)
+  double regions_ms = 0;  // the scene's boundary faces classified into regions (0 unless regions are hidden)
   bool interrupted = false;  // update's should_stop stopped the reassembly: do not draw
   FrameTimings draw;  // the renderer's own split
 };
@@ -63,6 +65,12 @@ class ViewPipeline {
   ~ViewPipeline();
   ViewPipeline(const ViewPipeline&) = delete;
   ViewPipeline& operator=(const ViewPipeline&) = delete;
+
+  // The dataset's boundary regions (boundary_regions.h), shared between its views: a scene's
+  // boundary faces are classified by them when a request first hides regions in surface mode,
+  // so DrawOptions::hidden_regions can leave regions out. Set before the first update; none:
+  // every face is shown.
+  void set_regions(std::shared_ptr<const RegionMap> regions) { regions_ = std::move(regions); }
 
   // Resolves the request, updates the cut and reassembles the scene when the cut or the
   // attributes changed; returns the settings to draw with. Throws std::invalid_argument for
@@ -127,7 +135,7 @@ class ViewPipeline {
   storage::Bounds bounds_;
   std::optional<double> cut_estimated_error_;
   std::optional<CutBudget> cut_budget_;
-  std::unique_ptr<const SceneMesh> scene_;
+  std::unique_ptr<SceneMesh> scene_;  // its boundary faces' regions filled when first needed (classify_regions)
   std::string attribute_, iso_color_attribute_;      // the scene's
   uint64_t scene_generation_ = 0;         // unique over all pipelines of the process
   std::shared_ptr<const LineSet> lines_;
@@ -137,12 +145,14 @@ class ViewPipeline {
   std::optional<double> lines_cut_error_;
   // the clipped scene, rebuilt when the scene or the clip changes
   void update_clip(const view::ClipSpec& clip, ViewTimings& timings);
-  std::unique_ptr<const SceneMesh> clipped_;
+  void classify_regions(const ViewRequest& request, ViewTimings& timings);
+  std::unique_ptr<SceneMesh> clipped_;
   view::ClipSpec clip_;
   std::vector<view::Plane> assembled_clip_;  // the half-spaces the scene was assembled with
   bool scene_stale_ = false;              // a reassembly was stopped: scene_ is not the cut's
   uint64_t clipped_from_ = 0;             // the scene generation clipped_ was cut from
   uint64_t drawn_generation_ = 0;         // of scene(): clipped_'s own or scene_generation_
+  std::shared_ptr<const RegionMap> regions_;  // null: none
   std::unique_ptr<RayCaster> caster_;     // of the scene of caster_generation_
   uint64_t caster_generation_ = 0;
 };

@@ -40,6 +40,9 @@ struct DrawOptions {
   // without `slices.lit`), with the tets' edges on them when `slices.edges`; the cut refines
   // where they cross.
   SliceSpec slices;
+  // Boundary regions the surface leaves out (renderer/boundary_regions.h): ids ascending, each
+  // below the dataset's region count (checked where the request arrived).
+  std::vector<uint32_t> hidden_regions;
 };
 
 // Stream lines of a view (§7.3): traced on the view's mesh when the field, seeds or steps
