@@ -67,6 +67,64 @@ LinesSet parse_lines_set(const Fields& f, uint32_t) {
   return m;
 }
 
+CameraSet parse_camera_set(const Fields& f) {
+  CameraSet m;
+  m.eye = f.vector3("eye");
+  m.target = f.vector3("target");
+  if (f.find("up")) m.up = f.vector3("up");
+  m.fov = f.number("fov", 1, 170).value_or(30);
+  m.orthographic = f.boolean("orthographic").value_or(false);
+  m.height = f.number("height", 1e-30, 1e30).value_or(1);
+  m.interacting = f.boolean("interacting").value_or(true);
+  const std::array<double, 3> d{m.target[0] - m.eye[0], m.target[1] - m.eye[1], m.target[2] - m.eye[2]};
+  const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (!(dl > 0)) f.fail("target", "equals eye");
+  const std::array<double, 3> c{d[1] * m.up[2] - d[2] * m.up[1], d[2] * m.up[0] - d[0] * m.up[2], d[0] * m.up[1] - d[1] * m.up[0]};
+  const double ul = std::sqrt(m.up[0] * m.up[0] + m.up[1] * m.up[1] + m.up[2] * m.up[2]);
+  if (!(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * dl * ul)) f.fail("up", "zero or parallel to the view direction");
+  return m;
+}
+
+ModeSet parse_mode_set(const Fields& f) {
+  ModeSet m;
+  const std::string mode = f.string("mode", 64).value_or("");
+  if (mode.empty()) f.fail("mode", "missing");
+  try {
+    const Modes modes = parse_modes(mode);
+    m.dvr = modes.dvr;
+    m.iso = modes.iso;
+    m.surface = modes.surface;
+    m.lines = modes.lines;
+    m.points = modes.points;
+  } catch (const std::invalid_argument& e) {
+    f.fail("mode", e.what());
+  }
+  m.wireframe = f.boolean("wireframe");
+  m.box = f.boolean("box");
+  if (const json* background = f.find("background")) {
+    if (!background->is_array() || background->size() != 3) f.fail("background", "expected [r, g, b], each 0 to 1");
+    std::array<float, 3> rgb{};
+    for (size_t k = 0; k < 3; ++k) rgb[k] = static_cast<float>(f.number("background", (*background)[k], 0, 1));
+    m.background = rgb;
+  }
+  return m;
+}
+
+RegionsSet parse_regions_set(const Fields& f) {
+  RegionsSet m;
+  const json& hidden = f.require("hidden");
+  if (!hidden.is_array()) f.fail("hidden", "expected a list of region ids");
+  const std::string most = std::to_string(kMaxHiddenRegions);
+  if (hidden.size() > kMaxHiddenRegions) f.fail("hidden", "more than " + most + " regions");
+  for (const json& region : hidden) {
+    if (!region.is_number_unsigned() || region.get<uint64_t>() >= kMaxHiddenRegions) f.fail("hidden", "expected region ids from 0 to " + std::to_string(kMaxHiddenRegions - 1));
+    m.hidden.push_back(static_cast<uint32_t>(region.get<uint64_t>()));
+  }
+  std::sort(m.hidden.begin(), m.hidden.end());
+  m.hidden.erase(std::unique(m.hidden.begin(), m.hidden.end()), m.hidden.end());
+  return m;
+}
+
 Message parse_body(const std::string& type, const Fields& f, const Limits& limits, uint32_t id) {
   if (type == "hello") {
     Hello m;
@@ -83,48 +141,9 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     if (m.name.empty()) f.fail("name", "missing");
     return m;
   }
-  if (type == "camera.set") {
-    CameraSet m;
-    m.eye = f.vector3("eye");
-    m.target = f.vector3("target");
-    if (f.find("up")) m.up = f.vector3("up");
-    m.fov = f.number("fov", 1, 170).value_or(30);
-    m.orthographic = f.boolean("orthographic").value_or(false);
-    m.height = f.number("height", 1e-30, 1e30).value_or(1);
-    m.interacting = f.boolean("interacting").value_or(true);
-    const std::array<double, 3> d{m.target[0] - m.eye[0], m.target[1] - m.eye[1], m.target[2] - m.eye[2]};
-    const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    if (!(dl > 0)) f.fail("target", "equals eye");
-    const std::array<double, 3> c{d[1] * m.up[2] - d[2] * m.up[1], d[2] * m.up[0] - d[0] * m.up[2], d[0] * m.up[1] - d[1] * m.up[0]};
-    const double ul = std::sqrt(m.up[0] * m.up[0] + m.up[1] * m.up[1] + m.up[2] * m.up[2]);
-    if (!(std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * dl * ul)) f.fail("up", "zero or parallel to the view direction");
-    return m;
-  }
+  if (type == "camera.set") return parse_camera_set(f);
   if (type == "tf.set") return TfSet{parse_transfer_function(f.object(), limits.max_tf_points, id)};
-  if (type == "mode.set") {
-    ModeSet m;
-    const std::string mode = f.string("mode", 64).value_or("");
-    if (mode.empty()) f.fail("mode", "missing");
-    try {
-      const Modes modes = parse_modes(mode);
-      m.dvr = modes.dvr;
-      m.iso = modes.iso;
-      m.surface = modes.surface;
-      m.lines = modes.lines;
-      m.points = modes.points;
-    } catch (const std::invalid_argument& e) {
-      f.fail("mode", e.what());
-    }
-    m.wireframe = f.boolean("wireframe");
-    m.box = f.boolean("box");
-    if (const json* background = f.find("background")) {
-      if (!background->is_array() || background->size() != 3) f.fail("background", "expected [r, g, b], each 0 to 1");
-      std::array<float, 3> rgb{};
-      for (size_t k = 0; k < 3; ++k) rgb[k] = static_cast<float>(f.number("background", (*background)[k], 0, 1));
-      m.background = rgb;
-    }
-    return m;
-  }
+  if (type == "mode.set") return parse_mode_set(f);
   if (type == "iso.set") {
     IsoSet m;
     const json& values = f.require("values");
@@ -172,20 +191,7 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     return m;
   }
   if (type == "ping") return Ping{};
-  if (type == "regions.set") {
-    RegionsSet m;
-    const json& hidden = f.require("hidden");
-    if (!hidden.is_array()) f.fail("hidden", "expected a list of region ids");
-    const std::string most = std::to_string(kMaxHiddenRegions);
-    if (hidden.size() > kMaxHiddenRegions) f.fail("hidden", "more than " + most + " regions");
-    for (const json& region : hidden) {
-      if (!region.is_number_unsigned() || region.get<uint64_t>() >= kMaxHiddenRegions) f.fail("hidden", "expected region ids from 0 to " + std::to_string(kMaxHiddenRegions - 1));
-      m.hidden.push_back(static_cast<uint32_t>(region.get<uint64_t>()));
-    }
-    std::sort(m.hidden.begin(), m.hidden.end());
-    m.hidden.erase(std::unique(m.hidden.begin(), m.hidden.end()), m.hidden.end());
-    return m;
-  }
+  if (type == "regions.set") return parse_regions_set(f);
   if (type == "clip.set") return ClipSet{parse_clip_spec(f.object(), id)};  // planes.cpp
   if (type == "slice.set") return SliceSet{parse_slice_spec(f.object(), id)};
   if (type == "probe") return parse_probe(f.object(), limits.max_image_side, id);
