@@ -728,15 +728,8 @@ DiffusionSurfaces DiffusionSurfaceTracer::trace_dense(uint32_t resolution, const
 
 void write_diffusion_surfaces_vtk(const std::filesystem::path& path, const DiffusionSurfaces& s, const std::string& title) {
   using detail::put_big_endian;
-  std::ofstream file(path, std::ios::binary);
-  if (!file) throw std::runtime_error("cannot write " + path.string());
-  std::string heading = title.substr(0, 200);
-  std::replace(heading.begin(), heading.end(), '\n', ' ');
+  std::ofstream file = detail::start_polydata(path, title, s.x, s.y, s.z);
   const size_t points = s.vertex_count(), triangles = s.triangle_count();
-  file << "# vtk DataFile Version 3.0\n" << heading << "\nBINARY\nDATASET POLYDATA\nPOINTS " << points << " float\n";
-  std::vector<float> xyz(3 * points);
-  for (size_t i = 0; i < points; ++i) xyz[3 * i] = s.x[i], xyz[3 * i + 1] = s.y[i], xyz[3 * i + 2] = s.z[i];
-  put_big_endian(file, xyz.data(), xyz.size());
   file << "\nPOLYGONS " << triangles << " " << 4 * triangles << "\n";
   std::vector<int32_t> cells;
   cells.reserve(4 * triangles);
@@ -748,8 +741,7 @@ void write_diffusion_surfaces_vtk(const std::filesystem::path& path, const Diffu
     for (uint32_t t = s.surface_first[k]; t < s.surface_first[k + 1]; ++t) surface[t] = int32_t(k);
   put_big_endian(file, surface.data(), surface.size());
   file << "\nPOINT_DATA " << points << "\nNORMALS minor_eigenvector float\n";
-  for (size_t i = 0; i < points; ++i) xyz[3 * i] = s.nx[i], xyz[3 * i + 1] = s.ny[i], xyz[3 * i + 2] = s.nz[i];
-  put_big_endian(file, xyz.data(), xyz.size());
+  detail::put_triples(file, s.nx, s.ny, s.nz);
   file << "\nSCALARS cp float 1\nLOOKUP_TABLE default\n";
   put_big_endian(file, s.planar.data(), s.planar.size());
   file << "\n";

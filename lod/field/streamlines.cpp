@@ -666,15 +666,8 @@ using detail::put_big_endian;
 using detail::vtk_name;
 
 void write_streamlines_vtk(const std::filesystem::path& path, const Streamlines& lines, const std::string& field, const std::string& title) {
-  std::ofstream file(path, std::ios::binary);
-  if (!file) throw std::runtime_error("cannot write " + path.string());
-  std::string heading = title.substr(0, 200);
-  std::replace(heading.begin(), heading.end(), '\n', ' ');
+  std::ofstream file = detail::start_polydata(path, title, lines.x, lines.y, lines.z);
   const size_t points = lines.point_count(), count = lines.line_count();
-  file << "# vtk DataFile Version 3.0\n" << heading << "\nBINARY\nDATASET POLYDATA\nPOINTS " << points << " float\n";
-  std::vector<float> xyz(3 * points);
-  for (size_t i = 0; i < points; ++i) xyz[3 * i] = lines.x[i], xyz[3 * i + 1] = lines.y[i], xyz[3 * i + 2] = lines.z[i];
-  put_big_endian(file, xyz.data(), xyz.size());
   file << "\nLINES " << count << " " << (count + points) << "\n";
   std::vector<int32_t> cells;
   cells.reserve(count + points);
@@ -687,8 +680,7 @@ void write_streamlines_vtk(const std::filesystem::path& path, const Streamlines&
   std::vector<int32_t> seeds(lines.line_seed.begin(), lines.line_seed.end());
   put_big_endian(file, seeds.data(), seeds.size());
   file << "\nPOINT_DATA " << points << "\nVECTORS " << vtk_name(field) << " float\n";
-  for (size_t i = 0; i < points; ++i) xyz[3 * i] = lines.vx[i], xyz[3 * i + 1] = lines.vy[i], xyz[3 * i + 2] = lines.vz[i];
-  put_big_endian(file, xyz.data(), xyz.size());
+  detail::put_triples(file, lines.vx, lines.vy, lines.vz);
   for (size_t k = 0; k < lines.value_names.size(); ++k) {
     file << "\nSCALARS " << vtk_name(lines.value_names[k]) << " float 1\nLOOKUP_TABLE default\n";
     put_big_endian(file, lines.values[k].data(), lines.values[k].size());

@@ -29,11 +29,14 @@ export async function startServer(data, serveArgs = []) {
   return { server, url };
 }
 
-// Preprocesses the sample as "disk", starts the server (one worker, `serveArgs` added) and a
-// page of `viewport`. Returns { data, url, browser, page, stop }.
-export async function startViewer({ prefix, serveArgs = [], viewport = { width: 900, height: 700 } }) {
+const kSampleBuild = ['--segment-tets', '2000', '--base-tets', '3000'];
+
+// Preprocesses `mesh` (the sample unless given) as `name` ("disk") with `build` options,
+// starts the server (one worker, `serveArgs` added) and a page of `viewport`. Returns
+// { data, url, browser, page, stop }.
+export async function startViewer({ prefix, serveArgs = [], viewport = { width: 900, height: 700 }, mesh = sample, name = 'disk', build = kSampleBuild }) {
   const data = mkdtempSync(join(tmpdir(), prefix));
-  execFileSync(binary, ['preprocess', sample, '-o', join(data, 'disk'), '--segment-tets', '2000', '--base-tets', '3000', '--progress', 'none']);
+  execFileSync(binary, ['preprocess', mesh, '-o', join(data, name), ...build, '--progress', 'none']);
   const { server, url } = await startServer(data, serveArgs);
   const browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
   const page = await browser.newPage({ viewport });

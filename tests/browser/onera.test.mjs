@@ -11,12 +11,9 @@
 //   TETRA_DOC_IMAGES=docs/images: also writes onera-wing.png, the view reached
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
-import { binary, root, settled as settledOn, startServer } from './harness.mjs';
+import { root, settled as settledOn, startViewer } from './harness.mjs';
 import { project } from './projection.mjs';
 
 const onera = join(root, '..', 'shared', 'data', 'onera_m6_potential.vtk');
@@ -25,25 +22,18 @@ const absent = existsSync(onera) ? false : `no ${onera}: the shared data is not 
 const kWing = { min: [-0.1, 0.002, -0.1], max: [1.3, 1.25, 0.1] };
 const onWing = (r) => r.hit && r.surface === 'boundary' && r.position.every((v, k) => v >= kWing.min[k] && v <= kWing.max[k]);
 
-let data, server, browser, page;
+let viewer, page;
 
 before(async () => {
   if (absent) return;
-  data = mkdtempSync(join(tmpdir(), 'tetrascope-onera-'));
-  execFileSync(binary, ['preprocess', onera, '-o', join(data, 'onera'), '--progress', 'none']);
-  let url;
-  ({ server, url } = await startServer(data));
-  browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
-  page = await browser.newPage({ viewport: { width: 900, height: 560 } });
-  page.on('pageerror', (e) => console.error('page error:', e));
-  await page.goto(url);
+  viewer = await startViewer({ prefix: 'tetrascope-onera-', mesh: onera, name: 'onera', build: [], viewport: { width: 900, height: 560 } });
+  page = viewer.page;
+  await page.goto(viewer.url);
   await settledOn(page, 0);
 });
 
 after(async () => {
-  await browser?.close();
-  server?.kill('SIGTERM');
-  if (data) rmSync(data, { recursive: true, force: true });
+  await viewer?.stop();
 });
 
 const view = () => page.evaluate(() => ({ camera: window.tetrascope.view.camera, width: document.getElementById('frame').width, height: document.getElementById('frame').height }));

@@ -10,12 +10,9 @@
 //   node --test tests/browser/regions.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
-import { binary, clientErrors, lastSent, root, settled as settledOn, startServer } from './harness.mjs';
+import { clientErrors, lastSent, root, settled as settledOn, startViewer } from './harness.mjs';
 
 const onera = join(root, '..', 'shared', 'data', 'onera_m6_potential.vtk');
 const absent = existsSync(onera) ? false : `no ${onera}: the shared data is not here`;
@@ -25,25 +22,18 @@ const onWing = (r) => r.hit && r.surface === 'boundary' && r.position.every((v, 
 const onFarField = (r) => r.hit && r.surface === 'boundary' && Math.hypot(...r.position) > 50 && r.position[1] > 1e-3;
 const kBackground = [26, 26, 31];  // the renderer's background, (0.1, 0.1, 0.12)
 
-let data, server, browser, page;
+let viewer, page;
 
 before(async () => {
   if (absent) return;
-  data = mkdtempSync(join(tmpdir(), 'tetrascope-regions-'));
-  execFileSync(binary, ['preprocess', onera, '-o', join(data, 'onera'), '--progress', 'none']);
-  let url;
-  ({ server, url } = await startServer(data));
-  browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: ['--no-sandbox'] });
-  page = await browser.newPage({ viewport: { width: 900, height: 560 } });
-  page.on('pageerror', (e) => console.error('page error:', e));
-  await page.goto(url);
+  viewer = await startViewer({ prefix: 'tetrascope-regions-', mesh: onera, name: 'onera', build: [], viewport: { width: 900, height: 560 } });
+  page = viewer.page;
+  await page.goto(viewer.url);
   await settledOn(page, 0);
 });
 
 after(async () => {
-  await browser?.close();
-  server?.kill('SIGTERM');
-  if (data) rmSync(data, { recursive: true, force: true });
+  await viewer?.stop();
 });
 
 const settled = () => settledOn(page, 200);
