@@ -7,13 +7,12 @@
 // as T n⊥ of the text without its length; edges have one length (options.edge) rather than a
 // length scaled by the eigenvalues, so that the surface's points are spaced evenly; a border
 // vertex a proposed triangle covers is looked up in a uniform grid of the border's vertices
-// (the text's octree of border edges), and an operation that would put an edge in a third
-// triangle ends the gate as a border (B) instead.
+// (the text's octree of border edges); a triangle that would overlap the surface, put an edge
+// in a third triangle or (S) leave a short loop turning clockwise ends the gate as a border (B)
+// instead, and the small holes so left are closed by ears at the end.
 #include "tetrascope/lod/field/diffusion_surfaces.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <numbers>
