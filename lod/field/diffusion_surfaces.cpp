@@ -179,12 +179,7 @@ struct DiffusionSurfaceTracer::Impl {
     double w[4];
     const uint32_t t = locator.containing(p, w, 1e-9);
     if (t == detail::kNoTet) return out;
-    double c[6] = {0, 0, 0, 0, 0, 0};
-    for (int i = 0; i < 4; ++i) {
-      const float* f = field + 6 * size_t{mesh.tets[4 * size_t{t} + i]};
-      for (int k = 0; k < 6; ++k) c[k] += w[i] * f[k];
-    }
-    const storage::SymmetricTensor tensor{c[0], c[1], c[2], c[3], c[4], c[5]};
+    const storage::SymmetricTensor tensor = storage::interpolate_tensor(field, &mesh.tets[4 * size_t{t}], w);
     const storage::Eigensystem e = storage::eigensystem(tensor);
     std::array<int, 3> order{0, 1, 2};  // by magnitude, largest first (stress tensors are indefinite)
     std::sort(order.begin(), order.end(), [&](int i, int j) { return std::fabs(e.values[size_t(i)]) > std::fabs(e.values[size_t(j)]); });

@@ -172,12 +172,7 @@ struct StreamlineTracer::Impl {
 
   // The major eigenvector of the tensor interpolated at b, times cl (its sign arbitrary).
   Vec3 major_direction(uint32_t t, const double b[4]) const {
-    double c[6] = {0, 0, 0, 0, 0, 0};
-    for (int i = 0; i < 4; ++i) {
-      const float* f = field + 6 * size_t{mesh.tets[4 * size_t{t} + i]};
-      for (int k = 0; k < 6; ++k) c[k] += b[i] * f[k];
-    }
-    const storage::SymmetricTensor tensor_at{c[0], c[1], c[2], c[3], c[4], c[5]};
+    const storage::SymmetricTensor tensor_at = storage::interpolate_tensor(field, &mesh.tets[4 * size_t{t}], b);
     const storage::Eigensystem e = storage::eigensystem(tensor_at);
     const double cl = storage::tensor_quantities(tensor_at)[size_t(storage::TensorQuantity::kLinear)];
     return Vec3{e.vectors[0][0], e.vectors[0][1], e.vectors[0][2]} * cl;

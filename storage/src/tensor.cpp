@@ -47,6 +47,15 @@ void store_tensor(const SymmetricTensor& t, float* six) {
   six[5] = static_cast<float>(t.xz);
 }
 
+SymmetricTensor interpolate_tensor(const float* six_per_vertex, const uint32_t corners[4], const double weights[4]) {
+  double c[6] = {0, 0, 0, 0, 0, 0};
+  for (int i = 0; i < 4; ++i) {
+    const float* f = six_per_vertex + 6 * size_t{corners[i]};
+    for (int k = 0; k < 6; ++k) c[k] += weights[i] * f[k];
+  }
+  return {c[0], c[1], c[2], c[3], c[4], c[5]};
+}
+
 std::array<double, 3> eigenvalues(const SymmetricTensor& t) {
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   if (!finite(t)) return {kNaN, kNaN, kNaN};

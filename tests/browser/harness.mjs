@@ -32,9 +32,9 @@ export async function startServer(data, serveArgs = []) {
 const kSampleBuild = ['--segment-tets', '2000', '--base-tets', '3000'];
 
 // Preprocesses `mesh` (the sample unless given) as `name` ("disk") with `build` options,
-// starts the server (one worker, `serveArgs` added) and a page of `viewport`. Returns
-// { data, url, browser, page, stop }.
-export async function startViewer({ prefix, serveArgs = [], viewport = { width: 900, height: 700 }, mesh = sample, name = 'disk', build = kSampleBuild }) {
+// starts the server (one worker, `serveArgs` added) and a page of `viewport`; with `open`, the
+// page goes to the viewer and waits for its first image. Returns { data, url, browser, page, stop }.
+export async function startViewer({ prefix, serveArgs = [], viewport = { width: 900, height: 700 }, mesh = sample, name = 'disk', build = kSampleBuild, open = false }) {
   const data = mkdtempSync(join(tmpdir(), prefix));
   execFileSync(binary, ['preprocess', mesh, '-o', join(data, name), ...build, '--progress', 'none']);
   const { server, url } = await startServer(data, serveArgs);
@@ -46,6 +46,10 @@ export async function startViewer({ prefix, serveArgs = [], viewport = { width: 
     server.kill('SIGTERM');
     rmSync(data, { recursive: true, force: true });
   };
+  if (open) {
+    await page.goto(url);
+    await settled(page, 0);
+  }
   return { data, url, browser, page, stop };
 }
 

@@ -26,10 +26,8 @@ let viewer, page;
 
 before(async () => {
   if (absent) return;
-  viewer = await startViewer({ prefix: 'tetrascope-regions-', mesh: onera, name: 'onera', build: [], viewport: { width: 900, height: 560 } });
+  viewer = await startViewer({ prefix: 'tetrascope-regions-', mesh: onera, name: 'onera', build: [], viewport: { width: 900, height: 560 }, open: true });
   page = viewer.page;
-  await page.goto(viewer.url);
-  await settledOn(page, 0);
 });
 
 after(async () => {

@@ -37,6 +37,9 @@ SymmetricTensor tensor_from_symmetric(const float* six);
 // From a row-major 3x3: the symmetric part (A + A^T) / 2; `asymmetry` gets max |A_ij - A_ji| / 2.
 SymmetricTensor tensor_from_full(const float* nine, double& asymmetry);
 void store_tensor(const SymmetricTensor& t, float* six);
+// The tensor at barycentric `weights` in the tet of `corners`, from 6 stored components a
+// vertex in `six_per_vertex` (linear interpolation, componentwise).
+SymmetricTensor interpolate_tensor(const float* six_per_vertex, const uint32_t corners[4], const double weights[4]);
 
 // Eigenvalues, λ1 >= λ2 >= λ3: closed form (the trigonometric solution of the characteristic
 // cubic, Smith 1961), exact for diagonal tensors; where two eigenvalues nearly coincide (the
