@@ -20,23 +20,25 @@ inline void ray(const Frame& f, int x, int y, Vec3* origin, Vec3* direction) { f
 inline bool project(const Frame& f, const Vec3& p, double* px, double* py) { return f.project(p, px, py); }
 
 // The pixels the projection of `corners` may cover: their pixel box grown by one pixel and
-// kept inside the image; the whole image when a corner is behind the eye.
+// kept inside the image; the whole image when a corner is behind the eye, and none when
+// every corner is (no ray reaches behind the eye).
 struct PixelBox {
   int x0 = 0, x1 = -1, y0 = 0, y1 = -1;  // inclusive
 };
 inline PixelBox pixel_box(const Frame& f, std::span<const Vec3> corners) {
   double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
-  bool behind = false;
+  size_t behind = 0;
   for (const Vec3& q : corners) {
     double px, py;
-    if (!project(f, q, &px, &py)) behind = true;
+    if (!project(f, q, &px, &py)) ++behind;
     x0 = std::min(x0, px);
     x1 = std::max(x1, px);
     y0 = std::min(y0, py);
     y1 = std::max(y1, py);
   }
+  if (behind == corners.size()) return {};
   PixelBox box{0, static_cast<int>(f.width) - 1, 0, static_cast<int>(f.height) - 1};
-  if (!behind) {
+  if (behind == 0) {
     box.x0 = std::max(box.x0, static_cast<int>(std::floor(x0)) - 1);
     box.x1 = std::min(box.x1, static_cast<int>(std::ceil(x1)) + 1);
     box.y0 = std::max(box.y0, static_cast<int>(std::floor(y0)) - 1);
