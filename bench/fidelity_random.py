@@ -243,6 +243,7 @@ def main():
     parser.add_argument("--size", default="256x192")
     parser.add_argument("--meshes", default=",".join(str(DATA / m) for m in DEFAULT_MESHES))
     parser.add_argument("--tetrascope", default=str(ROOT / "build" / "release" / "apps" / "tetrascope"))
+    parser.add_argument("--commit", help="the commit --tetrascope was built from (default: HEAD when the run starts)")
     parser.add_argument("--preprocess-args", default="", help="extra options for tetrascope preprocess")
     parser.add_argument("--output", default=str(RESULTS), help="the results file (records by seed)")
     parser.add_argument("--work", default=str(OUT), help="where stores, decimations and images are kept (a store there is reused)")
@@ -250,6 +251,7 @@ def main():
     parser.add_argument("--timeout", type=float, default=0, help="skip a view (counted in the record) when one of its renders takes longer (s; 0: no limit)")
     parser.add_argument("--summarise", action="store_true", help="only recompute the record of --seed from its cells and images")
     a = parser.parse_args()
+    a.commit = a.commit or run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip()
     if a.summarise:
         return resummarise(a)
     global TIMEOUT
@@ -294,7 +296,7 @@ def main():
                 continue
             cells += view_cells
     record = {"seed": a.seed, "skipped_views": skipped, "date": datetime.date.today().isoformat(), "views_per_mesh": a.views, "budgets_pct": budgets, "size": a.size,
-              "commit": run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip(), "preprocess_args": a.preprocess_args, "render_args": a.render_args,
+              "commit": a.commit, "preprocess_args": a.preprocess_args, "render_args": a.render_args,
               "method": "PSNR against the full mesh by the exact CPU integrator (float colours; isosurfaces: GL, 8 bits); the decimation by tetrascope simplify --tets to the budget; gain = cut - decimation",
               "cells": cells}
     finish(record, cells)

@@ -115,8 +115,10 @@ def main():
     p.add_argument("--tag", default="")
     p.add_argument("--work", default=str(ROOT / "bench" / "out" / "time_to_quality"))
     p.add_argument("--tetrascope", default=str(ROOT / "build" / "release" / "apps" / "tetrascope"))
+    p.add_argument("--commit", help="the commit --tetrascope was built from (default: HEAD when the run starts)")
     p.add_argument("--output", default=str(RESULTS))
     a = p.parse_args()
+    a.commit = a.commit or run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip()
     if (a.seed is None) == (not a.view):
         p.error("give either --view or --seed")
     work = Path(a.work)
@@ -132,7 +134,7 @@ def main():
     measured = [measure(a, view, input_tets, work) for view in views]
     record = {"mesh": Path(a.mesh).name, "input_tets": input_tets, "store": a.store, "tag": a.tag, "seed": a.seed, "target_db": a.target, "repeat": a.repeat,
               "date": datetime.date.today().isoformat(), "load": os.getloadavg(),
-              "commit": run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip(),
+              "commit": a.commit,
               "method": "PSNR by the exact CPU integrator at 256x192 against the full mesh (isosurfaces: GL, 8 bits); times: GL renderer, 1024x768, median of repeat runs of one frame",
               "views": measured}
     out = Path(a.output)
