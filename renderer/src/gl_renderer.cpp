@@ -149,6 +149,8 @@ class GlRenderer final : public Renderer {
     surface_vertices_ = 0;
     if (table_texture_) glDeleteTextures(1, &table_texture_);
     table_texture_ = 0;
+    glDeleteTextures(2, fine_textures_.data());
+    fine_textures_ = {};
     table_ = {};
     table_key_.clear();
     mesh_ = nullptr;  // render() needs a set_mesh first
@@ -165,7 +167,7 @@ class GlRenderer final : public Renderer {
   // one point is drawn with rasteriser discard, and the queued work is finished.
   void forget_bindings() {
     for (GLuint i = 0; i < 4; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
-    for (GLuint unit = 1; unit < 3; ++unit) glBindTextureUnit(unit, 0);
+    for (GLuint unit = 1; unit < 5; ++unit) glBindTextureUnit(unit, 0);
     const float point[4] = {};
     glNamedBufferData(line_buffer_, sizeof(point), point, GL_STATIC_DRAW);
     glUseProgram(line_program_);
@@ -372,8 +374,25 @@ class GlRenderer final : public Renderer {
     }
     glTextureSubImage3D(table_texture_, 0, 0, 0, 0, static_cast<GLsizei>(table_.n), static_cast<GLsizei>(table_.n), static_cast<GLsizei>(table_.lengths),
                         GL_RGBA, GL_FLOAT, table_.rgba.data());
+    update_fine_transfer(fine_transfer(tf, lo, hi, unit, table_.n - 1, kFineCells));
     visibility_.set_transfer_function(tf, lo, hi);
     table_key_ = key;
+  }
+
+  // The fine transfer function (FineTransfer) in two 2D float textures, read by texelFetch.
+  void update_fine_transfer(const FineTransfer& f) {
+    const GLsizei w = static_cast<GLsizei>(f.cells + 1), h = static_cast<GLsizei>(f.blocks);
+    if (!fine_textures_[0]) {
+      glCreateTextures(GL_TEXTURE_2D, 2, fine_textures_.data());
+      for (GLuint t : fine_textures_) {
+        glTextureStorage2D(t, 1, GL_RGBA32F, w, h);
+        glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      }
+    }
+    glTextureSubImage2D(fine_textures_[0], 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, f.at.data());
+    glTextureSubImage2D(fine_textures_[1], 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, f.local.data());
+    fine_blocks_ = f.blocks;
   }
 
   // Clears colour, distance and depth; opaque drawing state.
@@ -565,6 +584,7 @@ class GlRenderer final : public Renderer {
     glBindTextureUnit(0, colormap_texture_);
     glBindTextureUnit(1, table_texture_);
     glBindTextureUnit(2, distance_copy_);
+    for (GLuint k = 0; k < 2; ++k) glBindTextureUnit(3 + k, fine_textures_[k]);
     glFrontFace(GL_CCW);
     glProvokingVertex(GL_FIRST_VERTEX_CONVENTION);  // the fans' thick vertex
     glEnable(GL_BLEND);
@@ -617,6 +637,10 @@ class GlRenderer final : public Renderer {
     glUniform1i(glGetUniformLocation(p, "colormap"), 0);
     glUniform1i(glGetUniformLocation(p, "table"), 1);
     glUniform1i(glGetUniformLocation(p, "depth_limit"), 2);
+    glUniform1i(glGetUniformLocation(p, "fine_at"), 3);
+    glUniform1i(glGetUniformLocation(p, "fine_local"), 4);
+    glUniform1i(glGetUniformLocation(p, "fine_blocks"), static_cast<GLint>(fine_blocks_));
+    glUniform1i(glGetUniformLocation(p, "fine_cells"), static_cast<GLint>(kFineCells));
     glUniform1i(glGetUniformLocation(p, "clip_depth"), opaque);
     glUniform2f(glGetUniformLocation(p, "viewport"), float(s.width), float(s.height));
     glUniform1f(glGetUniformLocation(p, "length_scale"), float(table_.length_scale));
@@ -735,6 +759,9 @@ class GlRenderer final : public Renderer {
   std::array<RingBuffer, kRingBuffers> projected_ring_;
   int ring_next_ = 0;
   PreintegrationTable table_;
+  static constexpr uint32_t kFineCells = 512;  // fine intervals a bin of the table: 127 x 512 = 65,024 (the ray caster's 65,536)
+  std::array<GLuint, 2> fine_textures_{};
+  uint32_t fine_blocks_ = 0;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
   LinePass line_pass_;       // after context_: made with a current context, gone before it

@@ -194,6 +194,21 @@ struct PreintegrationTable {
 PreintegrationTable preintegrate(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double max_length, uint32_t n = 128,
                                  uint32_t lengths = 32);
 
+// The transfer function on a fine grid of `blocks` x `cells` intervals over [0, 1], for
+// segments whose value changes by less than a bin of the pre-integrated table: there the
+// table's interpolation between bins (over a kink of the opacity, say) would veil thin opacity
+// over long paths, while a segment's optical depth is exactly its length times the mean
+// extinction over its values. Both arrays are [block][cells + 1][4], a block's last node
+// being the next block's first: `at` holds the extinction per unit length and the colour at
+// each node, `local` the integrals of extinction and of colour times extinction from the
+// start of the node's block (trapezoids), so that the difference of two nearby values keeps
+// its precision in floats; a block's last `local` node is its whole integral.
+struct FineTransfer {
+  uint32_t blocks = 0, cells = 0;
+  std::vector<float> at, local;
+};
+FineTransfer fine_transfer(const view::TransferFunction& tf, double lo, double hi, double unit_distance, uint32_t blocks, uint32_t cells);
+
 // Colour and opacity of one ray segment through a tet, integrated exactly (fine steps): the
 // reference the table approximates.
 std::array<double, 4> integrate_segment(const view::TransferFunction& tf, double lo, double hi, double unit_distance, double front, double back,
