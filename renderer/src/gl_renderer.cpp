@@ -149,8 +149,8 @@ class GlRenderer final : public Renderer {
     surface_vertices_ = 0;
     if (table_texture_) glDeleteTextures(1, &table_texture_);
     table_texture_ = 0;
-    glDeleteTextures(2, fine_textures_.data());
-    fine_textures_ = {};
+    if (fine_texture_) glDeleteTextures(1, &fine_texture_);
+    fine_texture_ = 0;
     table_ = {};
     table_key_.clear();
     mesh_ = nullptr;  // render() needs a set_mesh first
@@ -167,7 +167,7 @@ class GlRenderer final : public Renderer {
   // one point is drawn with rasteriser discard, and the queued work is finished.
   void forget_bindings() {
     for (GLuint i = 0; i < 4; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
-    for (GLuint unit = 1; unit < 5; ++unit) glBindTextureUnit(unit, 0);
+    for (GLuint unit = 1; unit < 4; ++unit) glBindTextureUnit(unit, 0);
     const float point[4] = {};
     glNamedBufferData(line_buffer_, sizeof(point), point, GL_STATIC_DRAW);
     glUseProgram(line_program_);
@@ -379,19 +379,17 @@ class GlRenderer final : public Renderer {
     table_key_ = key;
   }
 
-  // The fine transfer function (FineTransfer) in two 2D float textures, read by texelFetch.
+  // The fine transfer function (FineTransfer) in a 2D float texture, filtered along its rows.
   void update_fine_transfer(const FineTransfer& f) {
     const GLsizei w = static_cast<GLsizei>(f.cells + 1), h = static_cast<GLsizei>(f.blocks);
-    if (!fine_textures_[0]) {
-      glCreateTextures(GL_TEXTURE_2D, 2, fine_textures_.data());
-      for (GLuint t : fine_textures_) {
-        glTextureStorage2D(t, 1, GL_RGBA32F, w, h);
-        glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-      }
+    if (!fine_texture_) {
+      glCreateTextures(GL_TEXTURE_2D, 1, &fine_texture_);
+      glTextureStorage2D(fine_texture_, 1, GL_RGBA32F, w, h);
+      glTextureParameteri(fine_texture_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTextureParameteri(fine_texture_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T}) glTextureParameteri(fine_texture_, wrap, GL_CLAMP_TO_EDGE);
     }
-    glTextureSubImage2D(fine_textures_[0], 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, f.at.data());
-    glTextureSubImage2D(fine_textures_[1], 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, f.local.data());
+    glTextureSubImage2D(fine_texture_, 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, f.at.data());
     fine_blocks_ = f.blocks;
   }
 
@@ -584,7 +582,7 @@ class GlRenderer final : public Renderer {
     glBindTextureUnit(0, colormap_texture_);
     glBindTextureUnit(1, table_texture_);
     glBindTextureUnit(2, distance_copy_);
-    for (GLuint k = 0; k < 2; ++k) glBindTextureUnit(3 + k, fine_textures_[k]);
+    glBindTextureUnit(3, fine_texture_);
     glFrontFace(GL_CCW);
     glProvokingVertex(GL_FIRST_VERTEX_CONVENTION);  // the fans' thick vertex
     glEnable(GL_BLEND);
@@ -638,7 +636,6 @@ class GlRenderer final : public Renderer {
     glUniform1i(glGetUniformLocation(p, "table"), 1);
     glUniform1i(glGetUniformLocation(p, "depth_limit"), 2);
     glUniform1i(glGetUniformLocation(p, "fine_at"), 3);
-    glUniform1i(glGetUniformLocation(p, "fine_local"), 4);
     glUniform1i(glGetUniformLocation(p, "fine_blocks"), static_cast<GLint>(fine_blocks_));
     glUniform1i(glGetUniformLocation(p, "fine_cells"), static_cast<GLint>(kFineCells));
     glUniform1i(glGetUniformLocation(p, "clip_depth"), opaque);
@@ -760,7 +757,7 @@ class GlRenderer final : public Renderer {
   int ring_next_ = 0;
   PreintegrationTable table_;
   static constexpr uint32_t kFineCells = 512;  // fine intervals a bin of the table: 127 x 512 = 65,024 (the ray caster's 65,536)
-  std::array<GLuint, 2> fine_textures_{};
+  GLuint fine_texture_ = 0;
   uint32_t fine_blocks_ = 0;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color

@@ -47,50 +47,18 @@ uniform int iso_count;
 uniform float isos[8];
 uniform float iso_opacity;
 uniform sampler1D colormap;
-uniform sampler2D fine_at, fine_local;  // FineTransfer: [block][cells + 1]
+uniform sampler2D fine_at;  // FineTransfer, [block][cells + 1], filtered linearly
 uniform int fine_blocks, fine_cells;
-// The node of the fine grid at or below s (in [0, 1]) and the fraction to the next.
-ivec2 fine_cell(float s, out float f) {
-  int intervals = fine_blocks * fine_cells;
-  float x = clamp(s, 0.0, 1.0) * float(intervals);
-  int j = min(int(x), intervals - 1);
-  f = x - float(j);
-  return ivec2(j % fine_cells, j / fine_cells);
-}
-// Extinction and colour at s, between the nodes.
-vec4 fine_node(float s) {
-  float f;
-  ivec2 p = fine_cell(s, f);
-  return mix(texelFetch(fine_at, p, 0), texelFetch(fine_at, p + ivec2(1, 0), 0), f);
-}
-// A segment whose value changes by less than a bin of the table: its optical depth is its
-// length times the mean extinction over its values (past the range's ends the transfer
-// function holds its end values), its colour the extinction-weighted mean; within a node of
-// the fine grid, the extinction and colour at its middle.
+// A segment whose value changes by less than a bin of the table: the extinction and colour at
+// its middle value (the transfer function's own, to 1/65,024 of the range) give its optical
+// depth and colour, however long it is.
 vec4 near_constant(float sf, float sb, float t) {
-  float span = sb - sf, depth;
-  vec3 rgb;
-  if (abs(span) * float(fine_blocks * fine_cells) < 1.0) {
-    vec4 m = fine_node(0.5 * (sf + sb));
-    depth = m.x * t;
-    rgb = m.yzw;
-  } else {
-    // the integrals from the start of each end's block; the ends are in one block or in two
-    // neighbouring ones, whose whole integral (its last node) joins them
-    float ff, fb;
-    ivec2 pf = fine_cell(sf, ff), pb = fine_cell(sb, fb);
-    vec4 i = mix(texelFetch(fine_local, pb, 0), texelFetch(fine_local, pb + ivec2(1, 0), 0), fb) -
-             mix(texelFetch(fine_local, pf, 0), texelFetch(fine_local, pf + ivec2(1, 0), 0), ff);
-    if (pb.y > pf.y) i += texelFetch(fine_local, ivec2(fine_cells, pf.y), 0);
-    else if (pb.y < pf.y) i -= texelFetch(fine_local, ivec2(fine_cells, pb.y), 0);
-    vec4 e0 = texelFetch(fine_at, ivec2(0, 0), 0), e1 = texelFetch(fine_at, ivec2(fine_cells, fine_blocks - 1), 0);
-    i += (min(sb, 0.0) - min(sf, 0.0)) * vec4(e0.x, e0.x * e0.yzw) + (max(sb, 1.0) - max(sf, 1.0)) * vec4(e1.x, e1.x * e1.yzw);
-    if (i.x == 0.0) return vec4(0.0);
-    depth = max(0.0, t * i.x / span);
-    rgb = clamp(i.yzw / i.x, 0.0, 1.0);
-  }
+  float x = clamp(0.5 * (sf + sb), 0.0, 1.0) * float(fine_blocks * fine_cells);
+  float block = min(floor(x / float(fine_cells)), float(fine_blocks - 1));
+  vec4 m = texture(fine_at, vec2((x - block * float(fine_cells) + 0.5) / float(fine_cells + 1), (block + 0.5) / float(fine_blocks)));
+  float depth = m.x * t;
   float alpha = depth < 1e-3 ? depth * (1.0 - 0.5 * depth) : 1.0 - exp(-depth);
-  return vec4(rgb * alpha, alpha);
+  return vec4(m.yzw * alpha, alpha);
 }
 vec4 lookup(float sf, float sb, float t) {
   if (abs(sb - sf) * (table_n - 1.0) < 1.0) return near_constant(sf, sb, t);

@@ -48,27 +48,15 @@ FineTransfer fine_transfer(const view::TransferFunction& tf, double lo, double h
   FineTransfer f;
   f.blocks = blocks;
   f.cells = cells;
-  const uint32_t intervals = blocks * cells;
-  std::vector<Classified> node(intervals + 1);
-  for (uint32_t i = 0; i <= intervals; ++i) node[i] = classify(tf, lo, hi, unit_distance, double(i) / intervals);
   f.at.resize(size_t{blocks} * (cells + 1) * 4);
-  f.local.resize(f.at.size());
-  const double h = 1.0 / intervals;
-  for (uint32_t b = 0; b < blocks; ++b) {
-    double sum[4] = {0, 0, 0, 0};
+  const double intervals = double(blocks) * cells;
+  for (uint32_t b = 0; b < blocks; ++b)
     for (uint32_t c = 0; c <= cells; ++c) {
-      const Classified& p = node[b * cells + c];
+      const Classified p = classify(tf, lo, hi, unit_distance, (double(b) * cells + c) / intervals);
       float* at = &f.at[(size_t{b} * (cells + 1) + c) * 4];
-      float* local = &f.local[(size_t{b} * (cells + 1) + c) * 4];
       at[0] = static_cast<float>(p.tau);
       for (int k = 0; k < 3; ++k) at[1 + k] = p.color[k];
-      for (int k = 0; k < 4; ++k) local[k] = static_cast<float>(sum[k]);
-      if (c == cells) break;
-      const Classified& q = node[b * cells + c + 1];
-      sum[0] += 0.5 * h * (p.tau + q.tau);
-      for (int k = 0; k < 3; ++k) sum[1 + k] += 0.5 * h * (p.tau * p.color[k] + q.tau * q.color[k]);
     }
-  }
   return f;
 }
 

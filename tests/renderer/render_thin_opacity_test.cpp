@@ -6,8 +6,8 @@
 // A segment's value there changes by less than a bin of the pre-integrated table, whose
 // interpolation between bins would turn the nearly clear volume into a veil: on ONERA through
 // the symmetry plane the exact method read 30.7, 14.6 and 12.0 dB at unit distances 2, 0.2
-// and 0.05 (256x192) before such segments took their optical depth from the fine transfer
-// function (llvmpipe).
+// and 0.05 (256x192) before such segments took their extinction and colour from the fine
+// transfer function at their middle value, and 73.0, 63.8 and 59.0 dB after (llvmpipe).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -197,15 +197,13 @@ PreintegrationTable preintegrate(const view::TransferFunction& tf, double lo, do
 // The transfer function on a fine grid of `blocks` x `cells` intervals over [0, 1], for
 // segments whose value changes by less than a bin of the pre-integrated table: there the
 // table's interpolation between bins (over a kink of the opacity, say) would veil thin opacity
-// over long paths, while a segment's optical depth is exactly its length times the mean
-// extinction over its values. Both arrays are [block][cells + 1][4], a block's last node
-// being the next block's first: `at` holds the extinction per unit length and the colour at
-// each node, `local` the integrals of extinction and of colour times extinction from the
-// start of the node's block (trapezoids), so that the difference of two nearby values keeps
-// its precision in floats; a block's last `local` node is its whole integral.
+// over long paths, while the extinction and colour at the segment's middle value give its
+// optical depth (length times extinction) and colour. `at` is [block][cells + 1][4]
+// (extinction per unit length, colour), a block's last node being the next block's first,
+// so that a 2D texture of it interpolates within its rows only.
 struct FineTransfer {
   uint32_t blocks = 0, cells = 0;
-  std::vector<float> at, local;
+  std::vector<float> at;
 };
 FineTransfer fine_transfer(const view::TransferFunction& tf, double lo, double hi, double unit_distance, uint32_t blocks, uint32_t cells);
 
