@@ -298,8 +298,11 @@ TEST_F(ServerTest, AVectorComponentHasItsOwnRangeAndImage) {
   ASSERT_EQ(v["component_histograms"].size(), 3u);
   EXPECT_EQ(v["component_histograms"][0].size(), 64u);
   EXPECT_NE(v["component_histograms"][0], v["histogram"]);
-  for (const auto& a : info["attributes"])
-    if (a["components"] == 1) EXPECT_FALSE(a.contains("component_ranges")) << a.dump();
+  for (const auto& a : info["attributes"]) {
+    if (a["components"] == 1) {
+      EXPECT_FALSE(a.contains("component_ranges")) << a.dump();
+    }
+  }
 
   auto still_for = [&](uint32_t id) {
     for (;;) {
