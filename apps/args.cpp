@@ -87,6 +87,13 @@ view::TransferFunction read_tf(const std::string& path) {
   return protocol::transfer_function_from_json(j);
 }
 
+int parse_component(const std::string& text) {
+  if (text == "magnitude") return view::kMagnitude;
+  for (size_t k = 0; k < view::kComponentNames.size(); ++k)
+    if (text == view::kComponentNames[k]) return static_cast<int>(k);
+  throw std::invalid_argument("--component expects magnitude, x, y or z, got '" + text + "'");
+}
+
 ImageSize parse_size(const std::string& option, const std::string& text, uint32_t min_side, uint32_t max_side) {
   const size_t x = text.find('x');
   uint64_t w = 0, h = 0;

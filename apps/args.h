@@ -39,6 +39,8 @@ storage::Progress::Mode progress_mode(const Args& args);
 std::vector<double> number_list(const std::string& option, const std::string& list);
 // A transfer-function file (`--tf FILE`), checked by protocol::transfer_function_from_json.
 view::TransferFunction read_tf(const std::string& path);
+// `--component`: "magnitude" (view::kMagnitude), "x", "y" or "z" (0, 1, 2).
+int parse_component(const std::string& text);
 struct ImageSize {
   uint32_t width = 0, height = 0;
 };

@@ -189,6 +189,7 @@ RenderOptions render_options(const Args& args) {
   if (args.has("--hide-regions") && !v.surface) throw std::invalid_argument("--hide-regions needs a mode with surface (e.g. --mode surface)");
   if (args.has("--tf")) v.tf = read_tf(args.get("--tf"));
   if (args.has("--attribute")) v.tf.attribute = args.get("--attribute");
+  if (args.has("--component")) v.tf.component = parse_component(args.get("--component"));
   if (args.has("--size")) {
     const ImageSize size = parse_size("--size", args.get("--size"), 1, r::kMaxImageSide);
     v.width = size.width;
@@ -286,7 +287,7 @@ nlohmann::json render_report(const RenderOptions& o, const r::RenderSettings& se
                       {"median_ms", median_of(&r::FrameTimings::total_ms)}, {"median_sort_ms", median_of(&r::FrameTimings::sort_ms)},
                       {"median_draw_ms", median_of(&r::FrameTimings::draw_ms)}, {"median_classify_ms", median_of(&r::FrameTimings::classify_ms)}, {"median_cpu_ms", median_of(&r::FrameTimings::cpu_ms)}, {"median_readback_ms", median_of(&r::FrameTimings::readback_ms)},
                       {"median_encode_ms", median_of(&r::FrameTimings::encode_ms)}, {"reference_psnr_db", reference_db},
-                      {"legend", {{"attribute", scene.attribute}, {"colormap", settings.tf.colormap},
+                      {"legend", {{"attribute", scene.attribute}, {"component", scene.component == view::kMagnitude ? "magnitude" : std::string(view::kComponentNames[size_t(scene.component)])}, {"colormap", settings.tf.colormap},
                                   {"range", {settings.tf.range ? (*settings.tf.range)[0] : scene.value_min, settings.tf.range ? (*settings.tf.range)[1] : scene.value_max}}}}};
   if (settings.use_iso_color_attribute)
     j["legend"]["isosurfaces"] = {{"attribute", scene.iso_color_attribute}, {"colormap", settings.tf.colormap}, {"range", {scene.iso_color_min, scene.iso_color_max}}};
@@ -389,11 +390,11 @@ int run_render(const Arguments& all) {
   protocol::SliceSpec slices;
   const Arguments raw = take_plane_options(all, clip, &slices);
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
-            {"--output", "--mode", "--attribute", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
+            {"--output", "--mode", "--attribute", "--component", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
              "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");

@@ -12,7 +12,7 @@ import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
 import { RegionsPanel, shownBounds } from './regions.js';
 import { TfEditor } from './tf-editor.js';
-import { effectiveOpacity, forDataset, logScale, tfBody, viewFromHash, viewToHash } from './view-state.js';
+import { componentsOf, drawnName, effectiveOpacity, forDataset, histogramOfDrawn, logScale, rangeOfDrawn, tfBody, viewFromHash, viewToHash } from './view-state.js';
 import { visibleCorners } from './visible.js';
 
 const $ = (id) => document.getElementById(id);
@@ -428,11 +428,12 @@ function onDataset(info) {
   if (!view.attribute) view = { ...view, attribute: info.attributes[0]?.name ?? null };  // a link without one: the first, its range kept
   else if (!info.attributes.some((a) => a.name === view.attribute)) view = { ...view, attribute: info.attributes[0]?.name ?? null, range: null, isovalues: [] };
   const a = info.attributes.find((x) => x.name === view.attribute);
-  if (!view.range && a) view.range = a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1];
+  if (!componentsOf(a).includes(view.component)) view = { ...view, component: 'magnitude' };  // a scalar, or a component it lacks
+  if (!view.range && a) view.range = rangeOfDrawn(a, view.component);
   state.view = view;
   camera = view.camera ? new OrbitCamera(view.camera) : homeCamera();
   $('parallel').checked = camera.orthographic;
-  $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
+  $('attribute').replaceChildren(...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (vector)' : ''}`, x.name)));
   $('iso-color-by').replaceChildren(new Option('value (the colour map)', ''), ...info.attributes.map((x) => new Option(`${x.name}${x.components > 1 ? ' (magnitude)' : ''}`, x.name)));
   if (view.isoColorBy && !info.attributes.some((a) => a.name === view.isoColorBy)) view.isoColorBy = null;
   $('dataset-summary').textContent = `${info.tets.toLocaleString()} tets, ${info.vertices.toLocaleString()} vertices, ${info.levels} levels\nfrom ${info.source}`;
@@ -454,6 +455,7 @@ function attributeInfo() {
 function showView() {
   const v = state.view;
   if (v.attribute) $('attribute').value = v.attribute;
+  showComponents();
   showColormap();
   if (v.range) {
     $('range-min').value = +v.range[0].toPrecision(6);
@@ -479,8 +481,16 @@ function showView() {
   $('still-quality').value = v.stillQuality;
   $('png-stills').checked = v.pngStills;
   const a = attributeInfo();
-  if (a) tfEditor.setHistogram(a.range, a.histogram);
+  if (a) tfEditor.setHistogram(rangeOfDrawn(a, v.component), histogramOfDrawn(a, v.component));
   showTf();
+}
+
+// The component selector (ParaView's Magnitude, X, Y, Z): shown for a vector attribute only.
+function showComponents() {
+  const choices = componentsOf(attributeInfo());
+  $('component-row').hidden = choices.length === 0;
+  $('component').replaceChildren(...choices.map((c) => new Option(c === 'magnitude' ? 'Magnitude' : c.toUpperCase(), c)));
+  if (choices.length) $('component').value = state.view.component;
 }
 
 // The log scale's box: checked as the view asks, disabled while the range reaches 0 or below.
@@ -527,7 +537,8 @@ function legends() {
   const isoBy = v.iso && v.isoColorBy ? state.dataset?.attributes.find((a) => a.name === v.isoColorBy) : null;
   const colouring = [v.dvr && 'volume', v.iso && !isoBy && 'isosurface', v.surface && 'boundary', slices && 'slice', v.lines?.points && 'points'].filter(Boolean);
   if (colouring.length && v.range && v.attribute) {
-    const name = state.dataset ? `${state.dataset.name} — ${v.attribute}` : v.attribute;
+    const drawn = drawnName(attributeInfo() ?? { name: v.attribute, components: 1 }, v.component);
+    const name = state.dataset ? `${state.dataset.name} — ${drawn}` : drawn;
     out.push({ key: 'attribute', title: v.legendTitles?.attribute || name, caption: `${colouring.join(', ')}${logScale(v) ? ', log scale' : ''}`, colors: v.colors, range: v.range, log: logScale(v) });
   }
   // the lines and isosurfaces coloured by another attribute take the renderer's colour table:
@@ -699,8 +710,21 @@ function onSelectColor(rgb, openPicker = false) {
 function onAttribute() {
   const a = state.dataset?.attributes.find((x) => x.name === $('attribute').value);
   if (!a) return;
-  Object.assign(state.view, { attribute: a.name, range: a.range[1] > a.range[0] ? [...a.range] : [a.range[0], a.range[0] + 1], isovalues: [] });
+  const component = componentsOf(a).includes(state.view.component) ? state.view.component : 'magnitude';
+  Object.assign(state.view, { attribute: a.name, component, range: rangeOfDrawn(a, component), isovalues: [] });
   state.view.legendTitles = { ...state.view.legendTitles, attribute: null };  // the new attribute's name
+  showView();
+  sendTf();
+  sendIso();
+  saveViewInHash();
+}
+
+// Another component of the vector: its own range over the dataset, the isovalues again mid-range.
+function onComponent() {
+  const a = attributeInfo(), component = $('component').value;
+  if (!a || !componentsOf(a).includes(component)) return;
+  Object.assign(state.view, { component, range: rangeOfDrawn(a, component), isovalues: [] });
+  state.view.legendTitles = { ...state.view.legendTitles, attribute: null };  // the component's name
   showView();
   sendTf();
   sendIso();
@@ -1219,13 +1243,14 @@ const number = (id) => parseFloat($(id).value);
 $('dataset').addEventListener('change', () => openDataset($('dataset').value));
 $('dataset-delete').addEventListener('click', deleteDataset);
 $('attribute').addEventListener('change', onAttribute);
+$('component').addEventListener('change', onComponent);
 $('colormap').addEventListener('change', onPreset);
 $('range-min').addEventListener('change', onRange);
 $('range-max').addEventListener('change', onRange);
 $('range-reset').addEventListener('click', () => {
   const a = attributeInfo();
   if (!a) return;
-  [$('range-min').value, $('range-max').value] = a.range;
+  [$('range-min').value, $('range-max').value] = rangeOfDrawn(a, state.view.component);
   onRange();
 });
 $('tf-reset').addEventListener('click', () => {

@@ -43,6 +43,7 @@ export function defaultView() {
   return {
     dataset: null,
     attribute: null,
+    component: 'magnitude',     // of a vector attribute: 'magnitude', 'x', 'y' or 'z' (tf.set component)
     camera: null,               // {eye, target, up, fov}; null: the dataset's opening view
     preset: DEFAULT_PRESET,
     colors: PRESETS[DEFAULT_PRESET].map((p) => [...p]),
@@ -70,7 +71,43 @@ export function defaultView() {
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
-  return { ...view, dataset: name, attribute: null, camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
+  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
+}
+
+// ---------- what of an attribute is drawn ----------
+
+// protocol/js/codec.js's COMPONENTS (not imported: this module also runs under node, where
+// /protocol/ does not resolve)
+const COMPONENTS = ['magnitude', 'x', 'y', 'z'];
+
+// The components a vector attribute offers (its magnitude and x, y, z up to its own count);
+// a scalar: none to choose.
+export function componentsOf(attribute) {
+  if (!attribute || attribute.components < 2) return [];
+  return ['magnitude', ...COMPONENTS.slice(1, 1 + Math.min(attribute.components, 3))];
+}
+
+// The colour range of what is drawn: a component's over the dataset (dataset.info
+// component_ranges), else the attribute's (a vector's magnitude); never empty.
+export function rangeOfDrawn(attribute, component) {
+  const k = COMPONENTS.indexOf(component) - 1;
+  const r = k >= 0 && attribute?.component_ranges?.[k] ? attribute.component_ranges[k] : attribute?.range;
+  if (!r) return null;
+  return r[1] > r[0] ? [...r] : [r[0], r[0] + 1];
+}
+
+// The histogram of what is drawn, over rangeOfDrawn.
+export function histogramOfDrawn(attribute, component) {
+  const k = COMPONENTS.indexOf(component) - 1;
+  return k >= 0 ? attribute?.component_histograms?.[k] : attribute?.histogram;
+}
+
+// The name a legend gives what is drawn: "velocity X", "velocity Magnitude" (ParaView's), or
+// a scalar's name.
+export function drawnName(attribute, component) {
+  if (!attribute || attribute.components < 2) return attribute?.name ?? '';
+  const c = COMPONENTS.includes(component) ? component : 'magnitude';
+  return `${attribute.name} ${c === 'magnitude' ? 'Magnitude' : c.toUpperCase()}`;
 }
 
 // ---------- URL fragment ----------
@@ -88,6 +125,7 @@ export function viewToHash(view) {
   const put = (key, value) => value !== undefined && value !== null && value !== '' && p.push(`${key}=${enc(String(value))}`);
   put('dataset', view.dataset);
   put('attribute', view.attribute);
+  if (view.component && view.component !== 'magnitude') put('component', view.component);
   if (view.camera) {
     put('eye', list(view.camera.eye));
     put('target', list(view.camera.target));
@@ -148,6 +186,7 @@ export function viewFromHash(hash) {
   const name = (key) => (/^[A-Za-z0-9_.-]{1,128}$/.test(h.get(key) ?? '') ? h.get(key) : null);
   view.dataset = name('dataset');
   view.attribute = h.get('attribute')?.slice(0, 128) || null;
+  if (COMPONENTS.includes(h.get('component'))) view.component = h.get('component');
   const eye = numbers('eye', 3), target = numbers('target', 3), up = numbers('up', 3);
   if (eye && target) {
     view.camera = { eye, target, up: up ?? [0, 1, 0], fov: Math.min(Math.max(Number(h.get('fov')) || 30, 1), 170) };
@@ -225,5 +264,5 @@ export function tfBody(view, defaultUnit) {
     const eps = (hi - lo) * 1e-3;
     opacity = [[lo, 0], ...opacity.map(([v, a]) => [Math.min(Math.max(v, lo + eps), hi - eps), a]), [hi, 0]];
   }
-  return { attribute: view.attribute, range: [lo, hi], opacity, colors };
+  return { attribute: view.attribute, ...(view.component && view.component !== 'magnitude' ? { component: view.component } : {}), range: [lo, hi], opacity, colors };
 }

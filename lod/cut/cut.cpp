@@ -542,6 +542,9 @@ CutCriteria criteria_for(const storage::Store& store, const Dag& dag, const Tran
   }
   c.channel = channel;
   if (attributes.empty()) return c;
+  // one component of a vector: the channel's histograms are of the magnitude, which says
+  // nothing of where a component's value is seen; the cut goes by error and view alone
+  if (tf.component != view::kMagnitude && attributes[channel].components > 1) return c;
   const double lo = attributes[channel].components == 1 ? attributes[channel].min : 0, hi = attributes[channel].max;
   for (double v : isovalues) c.isovalues.push_back((v - lo) / (hi > lo ? hi - lo : 1));
   if (channel >= dag.channel_count()) return c;

@@ -21,10 +21,13 @@ void add_channels(IngestedMesh& out) {
   for (const auto& info : out.attributes) {
     const uint32_t c = info.components;
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    std::vector<std::array<double, 2>> components(c > 1 ? c : 0, std::array<double, 2>{lo, hi});
     for (uint32_t v = 0; v < n0; ++v) {
       const float* value = &table.values[size_t{v} * table.floats + base];
       double m = 0;
       for (uint32_t k = 0; k < c; ++k) m += double(value[k]) * value[k];
+      for (uint32_t k = 0; k < components.size(); ++k)
+        if (std::isfinite(value[k])) components[k] = {std::min<double>(components[k][0], value[k]), std::max<double>(components[k][1], value[k])};
       m = c == 1 ? double(value[0]) : std::sqrt(m);
       if (!std::isfinite(m)) continue;
       lo = std::min(lo, m);
@@ -36,6 +39,9 @@ void add_channels(IngestedMesh& out) {
     out.channels.lo.push_back(c == 1 ? lo : 0);
     out.channels.scale.push_back(c == 1 ? (hi > lo ? 1 / (hi - lo) : 0) : (hi > 0 ? 1 / hi : 0));
     out.ranges.push_back(c == 1 ? std::array<double, 2>{lo, hi} : std::array<double, 2>{0, hi});
+    for (auto& r : components)
+      if (!std::isfinite(r[0])) r = {0, 0};
+    out.component_ranges.push_back(std::move(components));
     base += c;
   }
 }

@@ -144,6 +144,7 @@ struct IngestedMesh {
   std::vector<storage::AttributeInfo> attributes;
   Channels channels;
   std::vector<std::array<double, 2>> ranges;  // for the simplifier: value range (scalars), [0, longest] (vectors)
+  std::vector<std::vector<std::array<double, 2>>> component_ranges;  // per attribute, each component's range (vectors; none for scalars)
   storage::Bounds bounds;
   double diagonal = 1;
   storage::ReadStats read_stats;

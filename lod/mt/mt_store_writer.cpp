@@ -265,6 +265,7 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
     attribute_list.push_back({{"name", mesh.attributes[a].name}, {"components", mesh.attributes[a].components}, {"min", lo}, {"max", hi},
                               {"range_of", mesh.attributes[a].components == 1 ? "value" : "magnitude"},
                               {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
+    if (a < mesh.component_ranges.size() && !mesh.component_ranges[a].empty()) attribute_list.back()["component_ranges"] = mesh.component_ranges[a];
     storage::add_attribute_kind_json(attribute_list.back(), mesh.attributes[a]);
   }
   manifest["attributes"] = attribute_list;

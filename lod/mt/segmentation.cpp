@@ -138,6 +138,9 @@ struct Segmentation {
     attributes.resize(header.attributes.size());
     for (size_t a = 0; a < attributes.size(); ++a) attributes[a].reserve(vertex_count * header.attributes[a].components);
     ranges.assign(header.attributes.size(), std::array<double, 2>{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+    component_ranges.assign(header.attributes.size(), {});
+    for (size_t a = 0; a < attributes.size(); ++a)
+      if (header.attributes[a].components > 1) component_ranges[a].assign(header.attributes[a].components, ranges[a]);
     storage::VertexChunk chunk;
     while (stream->next_vertices(chunk)) {
       for (size_t a = 0; a < attributes.size(); ++a) {
@@ -146,6 +149,10 @@ struct Segmentation {
         for (size_t i = 0; i < chunk.count; ++i) {
           double value = 0;
           for (uint32_t k = 0; k < c; ++k) value += double(chunk.attributes[a][i * c + k]) * chunk.attributes[a][i * c + k];
+          for (uint32_t k = 0; k < component_ranges[a].size(); ++k) {
+            const double x = chunk.attributes[a][i * c + k];
+            if (std::isfinite(x)) component_ranges[a][k] = {std::min(component_ranges[a][k][0], x), std::max(component_ranges[a][k][1], x)};
+          }
           value = c == 1 ? double(chunk.attributes[a][i]) : std::sqrt(value);
           if (!std::isfinite(value)) continue;
           ranges[a][0] = std::min(ranges[a][0], value);
@@ -423,6 +430,11 @@ struct Segmentation {
                                 {"range_of", header.attributes[a].components == 1 ? "value" : "magnitude"},
                                 // normalised = (value - offset) * scale maps the range to [0, 1]
                                 {"normalisation", {{"offset", lo}, {"scale", hi > lo ? 1.0 / (hi - lo) : 1.0}}}});
+      if (!component_ranges[a].empty()) {
+        nlohmann::json list = nlohmann::json::array();
+        for (const auto& r : component_ranges[a]) list.push_back(std::isfinite(r[0]) ? nlohmann::json{r[0], r[1]} : nlohmann::json{0, 0});
+        attribute_list.back()["component_ranges"] = list;
+      }
       storage::add_attribute_kind_json(attribute_list.back(), header.attributes[a]);
     }
     manifest["attributes"] = attribute_list;
@@ -467,6 +479,7 @@ struct Segmentation {
   uint32_t floats_per_vertex = 0;
   std::vector<std::vector<float>> attributes;
   std::vector<std::array<double, 2>> ranges;
+  std::vector<std::vector<std::array<double, 2>>> component_ranges;  // per attribute, each vector component's
   std::span<const float> xyz;
   // partition
   uint64_t estimated_tets = 0;

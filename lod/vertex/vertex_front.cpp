@@ -48,6 +48,9 @@ FrontCriteria front_criteria(const VertexHierarchy& h, const view::TransferFunct
     a = 0;
   }
   c.attribute = static_cast<int>(a);
+  // one component of a vector: the collapses' ranges are of the magnitude; the front goes by
+  // error and view alone
+  if (tf.component != view::kMagnitude && h.attributes[a].components > 1) return c;
   c.isovalues.assign(isovalues.begin(), isovalues.end());
   if (!c.isovalues.empty()) return c;
   if (tf.range) {

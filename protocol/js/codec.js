@@ -123,6 +123,8 @@ const checkers = {
     f.string('attribute', 128);
     const colormap = f.string('colormap', 64);
     if (colormap !== undefined && !COLORMAPS.includes(colormap)) f.fail('colormap', `unknown '${colormap}' (viridis, plasma, cool-warm, grayscale)`);
+    const component = f.string('component', 16);
+    if (component !== undefined && !COMPONENTS.includes(component)) f.fail('component', `unknown '${component}' (magnitude, x, y, z)`);
     const r = f.find('range');
     if (r !== undefined) {
       if (!Array.isArray(r) || r.length !== 2) f.fail('range', 'expected [low, high]');
@@ -266,6 +268,8 @@ export function encodeMessage(type, id, body = {}) {
 const CODECS = ['jpeg', 'png'];
 // the colormaps the renderer draws (protocol/transfer_function.h kColormapNames)
 export const COLORMAPS = ['viridis', 'plasma', 'cool-warm', 'grayscale'];
+// tf.set component: what of a vector attribute is drawn (x, y, z: components 0, 1, 2)
+export const COMPONENTS = ['magnitude', 'x', 'y', 'z'];
 
 export function decodeFrame(buffer, limits = DEFAULT_LIMITS) {
   const bytes = buffer instanceof Uint8Array ? buffer : new Uint8Array(buffer);

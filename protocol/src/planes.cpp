@@ -121,6 +121,7 @@ json ProbeResult::to_json(uint32_t id) const {
   j["surface"] = surface;
   j["position"] = position;
   j["attribute"] = attribute;
+  if (!component.empty()) j["component"] = component;
   j["value"] = number(value);
   if (iso_color) {
     j["iso_color_attribute"] = iso_color->first;
@@ -159,6 +160,10 @@ ProbeResult ProbeResult::from_json(const json& object) {
   r.surface = text("surface");
   r.position = f.vector3("position");
   r.attribute = text("attribute");
+  if (f.find("component")) {
+    r.component = text("component");
+    if (r.component != "x" && r.component != "y" && r.component != "z") f.fail("component", "expected x, y or z");
+  }
   r.value = number("value", f.require("value"));
   if (f.find("iso_color_attribute")) r.iso_color = {{text("iso_color_attribute"), number("iso_color_value", f.require("iso_color_value"))}};
   if (const json* values = f.find("values")) {

@@ -57,6 +57,11 @@ TransferFunction parse_transfer_function(const json& object, uint32_t max_points
       f.fail("colormap", "unknown '" + *colormap + "' (viridis, plasma, cool-warm, grayscale)");
     tf.colormap = *colormap;
   }
+  if (auto component = f.string("component", 16); component && *component != "magnitude") {
+    auto it = std::find(kComponentNames.begin(), kComponentNames.end(), *component);
+    if (it == kComponentNames.end()) f.fail("component", "unknown '" + *component + "' (magnitude, x, y, z)");
+    tf.component = static_cast<int>(it - kComponentNames.begin());
+  }
   if (const json* r = f.find("range")) {
     if (!r->is_array() || r->size() != 2) f.fail("range", "expected [low, high]");
     const double lo = f.number("range", (*r)[0], -kMaxValue, kMaxValue), hi = f.number("range", (*r)[1], -kMaxValue, kMaxValue);
@@ -71,8 +76,8 @@ TransferFunction parse_transfer_function(const json& object, uint32_t max_points
 TransferFunction transfer_function_from_json(const json& j) {
   if (!j.is_object()) throw std::invalid_argument("transfer function: expected a JSON object");
   for (const auto& [key, value] : j.items())
-    if (key != "attribute" && key != "range" && key != "colormap" && key != "opacity" && key != "colors" && key != "name")
-      throw std::invalid_argument("transfer function: unknown key \"" + key + "\" (attribute, range, colormap, opacity, colors, name)");
+    if (key != "attribute" && key != "component" && key != "range" && key != "colormap" && key != "opacity" && key != "colors" && key != "name")
+      throw std::invalid_argument("transfer function: unknown key \"" + key + "\" (attribute, component, range, colormap, opacity, colors, name)");
   try {
     return parse_transfer_function(j, kMaxTfPoints, std::nullopt);
   } catch (const ProtocolError& e) {
@@ -82,6 +87,7 @@ TransferFunction transfer_function_from_json(const json& j) {
 
 json transfer_function_json(const TransferFunction& tf) {
   json j = {{"attribute", tf.attribute}, {"colormap", tf.colormap}};
+  if (tf.component != view::kMagnitude) j["component"] = std::string(kComponentNames[size_t(tf.component)]);
   if (tf.range) j["range"] = {(*tf.range)[0], (*tf.range)[1]};
   json points = json::array();
   for (const auto& p : tf.opacity) points.push_back({p[0], p[1]});

@@ -178,6 +178,7 @@ SceneMesh clip_scene(const SceneMesh& scene, const view::ClipSpec& spec) {
   out.diagonal = scene.diagonal;
   out.max_edge = scene.max_edge;
   out.attribute = scene.attribute;
+  out.component = scene.component;
   out.value_min = scene.value_min;
   out.value_max = scene.value_max;
   out.iso_color_attribute = scene.iso_color_attribute;

@@ -10,14 +10,15 @@ namespace tetrascope::renderer {
 
 namespace {
 
-// values of an attribute per vertex (vector magnitude for vectors), non-finite as 0
-std::vector<float> values_of(const storage::TetMesh& mesh, const storage::Attribute& a) {
+// values of an attribute per vertex (vector magnitude for vectors, or one component when
+// `component` is not view::kMagnitude), non-finite as 0
+std::vector<float> values_of(const storage::TetMesh& mesh, const storage::Attribute& a, int component = view::kMagnitude) {
   std::vector<float> out(mesh.vertex_count(), 0.0f);
   const uint32_t c = a.info.components;
   for (size_t v = 0; v < out.size(); ++v) {
     double m = 0;
     for (uint32_t k = 0; k < c; ++k) m += double(a.values[v * c + k]) * a.values[v * c + k];
-    const double value = c == 1 ? double(a.values[v]) : std::sqrt(m);
+    const double value = component != view::kMagnitude ? double(a.values[v * c + size_t(component)]) : c == 1 ? double(a.values[v]) : std::sqrt(m);
     out[v] = std::isfinite(value) ? static_cast<float>(value) : 0.0f;
   }
   return out;
@@ -28,6 +29,16 @@ void value_range(const std::vector<float>& values, double* lo, double* hi) {
   auto [a, b] = std::minmax_element(values.begin(), values.end());
   *lo = *a;
   *hi = *b;
+}
+
+// A component of a vector attribute: one it has (a scalar has none to choose).
+void check_component(const storage::Attribute& a, int component) {
+  if (component == view::kMagnitude) return;
+  const uint32_t c = a.info.components;
+  if (component < 0 || component >= int(view::kComponentNames.size()) || c < 2 || uint32_t(component) >= c)
+    throw std::invalid_argument("attribute '" + a.info.name + "' has " + std::to_string(c) + " component" + (c == 1 ? "" : "s") + ": no component " +
+                                (component >= 0 && component < int(view::kComponentNames.size()) ? std::string(view::kComponentNames[size_t(component)]) : std::to_string(component)) +
+                                (c == 1 ? " (a scalar is drawn by its value)" : ""));
 }
 
 const storage::Attribute* chosen_attribute(const storage::TetMesh& mesh, const std::string& attribute) {
@@ -54,7 +65,7 @@ double longest_edge(const std::vector<float>& xyz, const std::vector<uint32_t>& 
 
 }  // namespace
 
-SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute) {
+SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute, int component) {
   SceneMesh s;
   const size_t n = mesh.vertex_count();
   s.xyz.resize(3 * n);
@@ -69,8 +80,10 @@ SceneMesh SceneMesh::from(const storage::TetMesh& mesh, const std::string& attri
                                          std::pow(s.bounds.max[2] - s.bounds.min[2], 2)));
   s.value.assign(n, 0.0f);
   if (const storage::Attribute* a = chosen_attribute(mesh, attribute)) {
+    check_component(*a, component);
     s.attribute = a->info.name;
-    s.value = values_of(mesh, *a);
+    s.component = component;
+    s.value = values_of(mesh, *a, component);
   }
   value_range(s.value, &s.value_min, &s.value_max);
   if (!iso_color_attribute.empty()) {

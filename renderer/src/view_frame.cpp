@@ -64,9 +64,9 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   t.cut_ms = ms_since(start);
   start = Clock::now();
   std::optional<storage::TetMesh> mesh;
-  if (!scene_ || !scene_from_front_ || scene_stale_ || changes.changed || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute) {
+  if (!scene_ || !scene_from_front_ || scene_stale_ || changes.changed || attribute_ != s.tf.attribute || component_ != s.tf.component || iso_color_attribute_ != request.iso_color_attribute) {
     mesh = front_->mesh();
-    rebuild_scene(*mesh, s.tf.attribute, request.iso_color_attribute);
+    rebuild_scene(*mesh, s.tf, request.iso_color_attribute);
     scene_from_front_ = true;
     scene_stale_ = false;
     assembled_clip_.clear();
@@ -82,8 +82,8 @@ ViewPipeline::ViewPipeline(storage::TetMesh mesh) : mesh_(std::move(mesh)), boun
 
 ViewPipeline::~ViewPipeline() = default;
 
-// The attribute defaults to the dataset's first; its colour range to the attribute's over the
-// whole dataset, so colours stay put while the cut changes.
+// The attribute defaults to the dataset's first; its colour range to the attribute's (or the
+// chosen component's) over the whole dataset, so colours stay put while the cut changes.
 void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
   if (!store_) return;  // a whole mesh: SceneMesh::from picks and ranges the attribute
   const auto& manifest = store_->manifest();
@@ -96,11 +96,20 @@ void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
     throw std::invalid_argument("no attribute '" + name + "' in the dataset (it has: " + names + ")");
   }
   tf.attribute = name;
+  if (tf.component != view::kMagnitude) {
+    if (a->components < 2 || tf.component < 0 || uint32_t(tf.component) >= std::min(a->components, uint32_t(view::kComponentNames.size())))
+      throw std::invalid_argument("attribute '" + name + "' has " + std::to_string(a->components) + " component" + (a->components == 1 ? "" : "s") + ": no component " +
+                                  (tf.component >= 0 && tf.component < 3 ? std::string(view::kComponentNames[size_t(tf.component)]) : std::to_string(tf.component)));
+    const std::array<double, 2> r = storage::component_range(*a, uint32_t(tf.component));
+    if (!tf.range) tf.range = std::array<double, 2>{r[0], r[1] > r[0] ? r[1] : r[0] + 1};
+    return;
+  }
   if (!tf.range) tf.range = std::array<double, 2>{a->components == 1 ? a->min : 0, a->max > a->min ? a->max : a->min + 1};
 }
 
-void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute) {
-  SceneMesh scene = SceneMesh::from(mesh, attribute, iso_color_attribute);
+void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const view::TransferFunction& tf, const std::string& iso_color_attribute) {
+  const std::string& attribute = tf.attribute;
+  SceneMesh scene = SceneMesh::from(mesh, attribute, iso_color_attribute, tf.component);
   // isosurfaces coloured by an attribute over its range over the whole dataset, as with the
   // stream lines: the same value the same colour whatever the cut
   if (const storage::StoreAttribute* a = store_ && !iso_color_attribute.empty() ? find_attribute(store_->manifest(), iso_color_attribute) : nullptr; a && a->max > a->min) {
@@ -109,6 +118,7 @@ void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const std::string
   }
   scene_ = std::make_unique<SceneMesh>(std::move(scene));
   attribute_ = attribute;
+  component_ = tf.component;
   iso_color_attribute_ = iso_color_attribute;
   scene_generation_ = next_scene_generation++;
 }
@@ -237,7 +247,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     start = Clock::now();
     // segments wholly clipped away are not read (a change of the clip may need others)
     std::optional<lod::CutMesh> assembled;
-    if (!scene_ || scene_from_front_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute ||
+    if (!scene_ || scene_from_front_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute || component_ != s.tf.component ||
         iso_color_attribute_ != request.iso_color_attribute || !(assembled_clip_ == criteria.clip)) {
       assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip, should_stop);
       if (assembled->interrupted || (should_stop && should_stop())) {
@@ -246,7 +256,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
         t.assemble_ms = ms_since(start);
         return s;
       }
-      rebuild_scene(assembled->mesh, s.tf.attribute, request.iso_color_attribute);
+      rebuild_scene(assembled->mesh, s.tf, request.iso_color_attribute);
       scene_from_front_ = false;
       assembled_clip_ = criteria.clip;
       scene_stale_ = false;
@@ -262,7 +272,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     return s;
   }
   const auto start = Clock::now();
-  if (!scene_ || attribute_ != s.tf.attribute || iso_color_attribute_ != request.iso_color_attribute) rebuild_scene(*mesh_, s.tf.attribute, request.iso_color_attribute);
+  if (!scene_ || attribute_ != s.tf.attribute || component_ != s.tf.component || iso_color_attribute_ != request.iso_color_attribute) rebuild_scene(*mesh_, s.tf, request.iso_color_attribute);
   t.assemble_ms = ms_since(start);
   s.tf.attribute = scene_->attribute;
   if (s.iso && s.isovalues.empty()) s.isovalues = {0.5 * (scene_->value_min + scene_->value_max)};

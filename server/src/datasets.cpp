@@ -116,6 +116,41 @@ int64_t store_change_time(const fs::path& folder) {
   return latest;
 }
 
+// 64 bins over [lo, hi] of one value per vertex: value(v).
+template <typename Value>
+std::vector<uint64_t> histogram(size_t vertices, double lo, double hi, Value&& value) {
+  std::vector<uint64_t> bins(64, 0);
+  for (size_t v = 0; v < vertices; ++v) {
+    const double t = hi > lo ? (value(v) - lo) / (hi - lo) : 0;
+    if (std::isfinite(t)) ++bins[std::clamp<int64_t>(static_cast<int64_t>(t * 64), 0, 63)];
+  }
+  return bins;
+}
+
+// An attribute's histogram in dataset.info (of the value, or a vector's magnitude) and, for a
+// vector, its components' ranges over the dataset and histograms (the colours of tf.set's
+// "component"), from the coarsest level's vertices.
+void add_histograms(const storage::Attribute& attr, const storage::StoreAttribute& stored, nlohmann::json& out) {
+  const double lo = out["range"][0], hi = out["range"][1];
+  const uint32_t c = attr.info.components;
+  const size_t n = attr.values.size() / std::max<uint32_t>(c, 1);
+  out["histogram"] = histogram(n, lo, hi, [&](size_t v) {
+    if (c == 1) return double(attr.values[v]);
+    double m = 0;
+    for (uint32_t k = 0; k < c; ++k) m += double(attr.values[v * c + k]) * attr.values[v * c + k];
+    return std::sqrt(m);
+  });
+  if (c < 2) return;
+  nlohmann::json ranges = nlohmann::json::array(), histograms = nlohmann::json::array();
+  for (uint32_t k = 0; k < std::min(c, uint32_t(view::kComponentNames.size())); ++k) {
+    const std::array<double, 2> r = storage::component_range(stored, k);
+    ranges.push_back({r[0], r[1]});
+    histograms.push_back(histogram(n, r[0], r[1], [&](size_t v) { return double(attr.values[v * c + k]); }));
+  }
+  out["component_ranges"] = ranges;
+  out["component_histograms"] = histograms;
+}
+
 nlohmann::json store_summary(const std::string& name, const storage::Store& store) {
   const auto& m = store.manifest();
   nlohmann::json attributes = nlohmann::json::array();
@@ -244,25 +279,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   d->info["coarsest_tets"] = mesh.tet_count();
   d->regions = find_regions(*d->store, *d->dag, data_dir_, pool_->budget());
   d->info["regions"] = regions_json(d->regions.get());
-  for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) {
-    const auto& attr = mesh.attributes[a];
-    auto& out = d->info["attributes"][a];
-    const double lo = out["range"][0], hi = out["range"][1];
-    std::vector<uint64_t> bins(64, 0);
-    const uint32_t c = attr.info.components;
-    for (size_t v = 0; v < mesh.vertex_count(); ++v) {
-      double value = 0;
-      if (c == 1) {
-        value = attr.values[v];
-      } else {
-        for (uint32_t k = 0; k < c; ++k) value += double(attr.values[v * c + k]) * attr.values[v * c + k];
-        value = std::sqrt(value);
-      }
-      const double t = hi > lo ? (value - lo) / (hi - lo) : 0;
-      if (std::isfinite(t)) ++bins[std::clamp<int64_t>(static_cast<int64_t>(t * 64), 0, 63)];
-    }
-    out["histogram"] = bins;
-  }
+  for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) add_histograms(mesh.attributes[a], d->store->manifest().attributes[a], d->info["attributes"][a]);
   open_[name] = d;
   return d;
 }

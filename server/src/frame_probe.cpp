@@ -17,6 +17,7 @@ std::string FrameMaker::probe(const ViewState& state, double x, double y, uint32
     r.surface = hit.surface;
     r.position = hit.position;
     r.attribute = scene.attribute;
+    if (scene.component != view::kMagnitude) r.component = std::string(view::kComponentNames[size_t(scene.component)]);
     r.value = hit.value;
     if (hit.iso_color_value) r.iso_color = {{scene.iso_color_attribute, *hit.iso_color_value}};
     // the unclipped scene's tets hold every point of the clipped one, with all attributes

@@ -1,6 +1,7 @@
 // A viewing session's control messages, one handler each (view_session.h).
 #include "view_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <variant>
 
@@ -19,6 +20,19 @@ void check_attribute(const Dataset& dataset, const std::string& name, uint32_t i
   std::string names;
   for (const auto& a : dataset.store->manifest().attributes) names += (names.empty() ? "" : ", ") + a.name;
   throw protocol::ProtocolError(protocol::code::kNotFound, "no attribute '" + name + "' in " + dataset.name + " (it has: " + names + ")", id);
+}
+
+// A transfer function's component: one the attribute (the dataset's first when none is named)
+// has; a scalar has none.
+void check_component(const Dataset& dataset, const view::TransferFunction& tf, uint32_t id) {
+  const auto& attributes = dataset.store->manifest().attributes;
+  if (tf.component == view::kMagnitude || attributes.empty()) return;
+  auto it = tf.attribute.empty() ? attributes.begin() : std::find_if(attributes.begin(), attributes.end(), [&](const auto& a) { return a.name == tf.attribute; });
+  if (it == attributes.end()) return;  // check_attribute's to refuse
+  const std::string name(view::kComponentNames[size_t(tf.component)]);
+  if (it->components < 2) throw protocol::ProtocolError(protocol::code::kBadField, "component: '" + it->name + "' is a scalar; it has no component " + name + " (only \"magnitude\")", id);
+  if (uint32_t(tf.component) >= it->components)
+    throw protocol::ProtocolError(protocol::code::kBadField, "component: '" + it->name + "' has " + std::to_string(it->components) + " components; it has no component " + name, id);
 }
 
 }  // namespace
@@ -167,6 +181,7 @@ ViewSession::Then ViewSession::on_message(const protocol::CameraSet& m, uint32_t
 
 ViewSession::Then ViewSession::on_message(const protocol::TfSet& m, uint32_t id) {
   check_attribute(*need_dataset(id), m.tf.attribute, id);
+  check_component(*need_dataset(id), m.tf, id);
   change_state(id, [&](ViewState& s) { s.view.tf = m.tf; });
   return Then::kInteraction;  // the editor sends a stream of these while dragging
 }

@@ -106,6 +106,7 @@ std::string parse_manifest(const std::string& text, const std::filesystem::path&
     for (const auto& a : j.at("attributes")) {
       m.attributes.push_back({a.at("name").get<std::string>(), a.at("components").get<uint32_t>(), a.at("min").get<double>(), a.at("max").get<double>()});
       read_attribute_kind_json(a, m.attributes.back().kind, m.attributes.back().positive_semidefinite, m.attributes.back().derived_from);
+      if (a.contains("component_ranges")) m.attributes.back().component_ranges = a.at("component_ranges").get<std::vector<std::array<double, 2>>>();
     }
     for (int k = 0; k < 3; ++k) {
       m.bounds.min[k] = j.at("bounds").at("min").at(k).get<double>();

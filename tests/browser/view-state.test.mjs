@@ -5,7 +5,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { colorAt, PRESETS } from '../../web-client/colormaps.js';
-import { defaultView, rebin, sentAlpha, tfBody, viewFromHash, viewToHash } from '../../web-client/view-state.js';
+import { componentsOf, defaultView, drawnName, rangeOfDrawn, rebin, sentAlpha, tfBody, viewFromHash, viewToHash } from '../../web-client/view-state.js';
 import { visibleCorners } from '../../web-client/visible.js';
 import { OrbitCamera } from '../../web-client/camera.js';
 
@@ -23,6 +23,23 @@ test('a view survives the URL fragment whole', () => {
   const view = full();
   assert.deepEqual(viewFromHash(`#${viewToHash(view)}`), view);
   assert.deepEqual(viewFromHash(`#${viewToHash(defaultView())}`), defaultView());
+});
+
+test('one component of a vector: kept in the link, sent in tf.set, named and ranged as drawn', () => {
+  const view = { ...full(), attribute: 'Velocity', component: 'y', range: [-2, 3] };
+  assert.deepEqual(viewFromHash(`#${viewToHash(view)}`), view);
+  assert.equal(tfBody(view, 1).component, 'y');
+  assert.equal('component' in tfBody(full(), 1), false, 'the magnitude (or a scalar) is sent as no component');
+  assert.equal(viewFromHash('#component=w').component, 'magnitude', 'an unknown component is dropped');
+  const velocity = { name: 'Velocity', components: 3, range: [0, 5], component_ranges: [[-4, 4], [-1, 2], [3, 3]] };
+  assert.deepEqual(componentsOf(velocity), ['magnitude', 'x', 'y', 'z']);
+  assert.deepEqual(componentsOf({ name: 'Temp', components: 1, range: [0, 1] }), []);
+  assert.equal(drawnName(velocity, 'x'), 'Velocity X');
+  assert.equal(drawnName(velocity, 'magnitude'), 'Velocity Magnitude');
+  assert.equal(drawnName({ name: 'Temp', components: 1 }, 'x'), 'Temp');
+  assert.deepEqual(rangeOfDrawn(velocity, 'y'), [-1, 2]);
+  assert.deepEqual(rangeOfDrawn(velocity, 'z'), [3, 4], 'never an empty range');
+  assert.deepEqual(rangeOfDrawn(velocity, 'magnitude'), [0, 5]);
 });
 
 test('a hostile or broken fragment leaves the defaults', () => {

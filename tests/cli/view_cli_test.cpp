@@ -217,5 +217,29 @@ TEST(RenderCli, RendersTheCutOfAStoreFromTheDefaultView) {
   EXPECT_NE(attribute.out.find("Nope"), std::string::npos) << attribute.out;
 }
 
+// --component: one component of a vector attribute is drawn, over its own range (the whole
+// dataset's for a store, the mesh's for a mesh file), and the legend says which; a component of
+// a scalar, or an unknown one, is a clear error.
+TEST(RenderCli, AVectorComponentIsDrawnOverItsRangeAndBadComponentsAreClearErrors) {
+  const auto dir = scratch_dir("render-cli-component");
+  const std::string out = (dir / "x.png").string();
+  Result magnitude = run("render " + sample_mesh().string() + " -o " + (dir / "m.png").string() + " --size 48x32 --attribute Velocity --json");
+  ASSERT_EQ(magnitude.status, 0) << magnitude.out;
+  Result x = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --attribute Velocity --component x --json");
+  ASSERT_EQ(x.status, 0) << x.out;
+  const auto m = last_json_line(magnitude.out)["legend"], j = last_json_line(x.out)["legend"];
+  EXPECT_EQ(m["component"], "magnitude");
+  EXPECT_EQ(j["component"], "x");
+  EXPECT_GE(m["range"][0].get<double>(), 0) << "a magnitude is never negative";
+  EXPECT_LT(j["range"][0].get<double>(), 0) << "the X component of the disk's flow takes both signs";
+  EXPECT_LE(j["range"][1].get<double>(), m["range"][1].get<double>());
+  Result scalar = run("render " + sample_mesh().string() + " -o " + out + " --size 16x16 --attribute Temp --component x");
+  EXPECT_EQ(scalar.status, 2);
+  EXPECT_NE(scalar.out.find("no component x"), std::string::npos) << scalar.out;
+  Result unknown = run("render " + sample_mesh().string() + " -o " + out + " --size 16x16 --attribute Velocity --component w");
+  EXPECT_EQ(unknown.status, 2);
+  EXPECT_NE(unknown.out.find("--component expects magnitude, x, y or z"), std::string::npos) << unknown.out;
+}
+
 }  // namespace
 }  // namespace tetrascope::testing

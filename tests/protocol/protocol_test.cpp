@@ -91,6 +91,20 @@ TEST(ProtocolVectors, ParsedFieldsCarryTheValuesSent) {
   EXPECT_EQ(tf.tf.range, (std::array<double, 2>{0, 2}));
   EXPECT_EQ(tf.tf.colormap, "viridis");
   EXPECT_DOUBLE_EQ(tf.tf.alpha(1), 0.5);
+  EXPECT_EQ(tf.tf.component, view::kMagnitude);  // without "component": a vector's magnitude
+  const auto x = std::get<TfSet>(parse_message(R"({"type":"tf.set","id":5,"attribute":"velocity","component":"x"})", limits).message);
+  EXPECT_EQ(x.tf.component, 0);
+  EXPECT_EQ(std::get<TfSet>(parse_message(R"({"type":"tf.set","id":5,"component":"z"})", limits).message).tf.component, 2);
+  EXPECT_EQ(std::get<TfSet>(parse_message(R"({"type":"tf.set","id":5,"component":"magnitude"})", limits).message).tf.component, view::kMagnitude);
+  EXPECT_NE(x.tf.key(), tf.tf.key());
+  try {
+    parse_message(R"({"type":"tf.set","id":9,"component":"w"})", limits);
+    ADD_FAILURE() << "a component other than magnitude, x, y, z was accepted";
+  } catch (const ProtocolError& e) {
+    EXPECT_EQ(e.code(), code::kBadField);
+    EXPECT_NE(std::string(e.what()).find("component"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("magnitude, x, y, z"), std::string::npos) << e.what();
+  }
   const auto lod = std::get<LodSet>(parse_message(R"({"type":"lod.set","id":6,"interaction_budget":20000})", limits).message);
   EXPECT_FALSE(lod.budget.has_value());
   EXPECT_EQ(lod.interaction_budget, 20000u);

@@ -54,6 +54,7 @@ struct View {
   uint32_t width = 0, height = 0;
   std::string backend = "gl";    // render --backend, ServerOptions::backend
   std::vector<uint32_t> hidden_regions{};  // regions.set, render --hide-regions
+  std::string component{};       // tf.set's "component", render --component; empty: none given
 };
 
 renderer::Image render_with_cli(const fs::path& store, const View& v, const fs::path& dir) {
@@ -76,6 +77,7 @@ renderer::Image render_with_cli(const fs::path& store, const View& v, const fs::
     auto triple = [](const nlohmann::json& a) { return a[0].dump() + "," + a[1].dump() + "," + a[2].dump(); };
     arguments += " --camera eye=" + triple(c["eye"]) + ",target=" + triple(c["target"]) + ",up=" + triple(c["up"]) + ",fov=" + c["fov"].dump();
   }
+  if (!v.component.empty()) arguments += " --component " + v.component;
   if (!v.hidden_regions.empty()) {
     std::string list;
     for (uint32_t id : v.hidden_regions) {
@@ -100,7 +102,11 @@ renderer::Image render_with_session(const std::string& url, const View& v) {
   c.expect("dataset.info", 60s);
   // after dataset.open, which resets the isovalues, transfer function and camera
   if (!v.isovalues.empty()) last = c.send("iso.set", {{"values", v.isovalues}});
-  if (!v.tf.is_null()) last = c.send("tf.set", v.tf);
+  if (!v.tf.is_null()) {
+    nlohmann::json tf = v.tf;
+    if (!v.component.empty()) tf["component"] = v.component;
+    last = c.send("tf.set", tf);
+  }
   if (!v.hidden_regions.empty()) last = c.send("regions.set", {{"hidden", v.hidden_regions}});
   if (v.camera) {
     nlohmann::json camera = *v.camera;
@@ -182,6 +188,13 @@ TEST_F(SameImage, ServerSessionAndCliRenderAGivenCameraAndTransferFunctionAlike)
 // image from a cut the budget limits (its simplified faces classified alike).
 TEST_F(SameImage, ServerSessionAndCliHideTheSameBoundaryRegions) {
   expect_same_image({.mode = "surface", .isovalues = {}, .tf = nullptr, .camera = std::nullopt, .budget = 20000, .width = 200, .height = 150, .hidden_regions = {0, 2}});
+}
+
+// One component of a vector (tf.set "component", render --component): both colour it over the
+// component's range over the dataset (no range given) and draw the same image.
+TEST_F(SameImage, ServerSessionAndCliColourByTheSameVectorComponent) {
+  const nlohmann::json tf = {{"attribute", "Velocity"}, {"colormap", "cool-warm"}, {"opacity", {{-5, 0.6}, {0, 0.02}, {5, 0.6}}}};
+  expect_same_image({.mode = "dvr+surface", .isovalues = {}, .tf = tf, .camera = std::nullopt, .budget = 20000, .width = 200, .height = 150, .component = "x"});
 }
 
 // The CPU ray caster draws the session's frames as it draws render --backend cpu's.

@@ -14,6 +14,7 @@
 #include "tetrascope/server/client.h"
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/server.h"
+#include "tetrascope/storage/mesh_stream.h"
 #include "test_paths.h"
 
 namespace tetrascope::server {
@@ -267,6 +268,55 @@ TEST_F(ServerTest, StreamLinesOnAScalarOrMissingFieldAreRefusedAndLinesChangeThe
   c.send("mode.set", {{"mode", "points"}});
   const Frame points = still_for(c.send("points.set", {{"values", {400, 600}}}));
   EXPECT_TRUE(points.jpeg != plain.jpeg);
+  EXPECT_FALSE(c.closed());
+}
+
+// A vector drawn by one component (tf.set "component"): dataset.info gives each component's
+// range over the dataset (the X range of the mesh's own values, unlike the magnitude's) and
+// histogram; the X component draws another image than the magnitude; a component of a scalar
+// or an unknown one is refused and the session lives on.
+TEST_F(ServerTest, AVectorComponentHasItsOwnRangeAndImage) {
+  const storage::TetMesh mesh = storage::load_mesh(testing::sample_mesh());
+  const storage::Attribute* velocity = mesh.find_attribute("Velocity");
+  ASSERT_NE(velocity, nullptr);
+  double lo = INFINITY, hi = -INFINITY;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    lo = std::min<double>(lo, velocity->values[3 * v]);
+    hi = std::max<double>(hi, velocity->values[3 * v]);
+  }
+  start();
+  SessionClient c(ws_);
+  const auto info = open(c);
+  nlohmann::json v;
+  for (const auto& a : info["attributes"])
+    if (a["name"] == "Velocity") v = a;
+  ASSERT_TRUE(v.is_object()) << info.dump();
+  ASSERT_EQ(v["component_ranges"].size(), 3u) << v.dump();
+  EXPECT_EQ(v["component_ranges"][0][0].get<double>(), lo);
+  EXPECT_EQ(v["component_ranges"][0][1].get<double>(), hi);
+  EXPECT_NE(v["component_ranges"][0], v["range"]) << "the X range is the magnitude's";
+  ASSERT_EQ(v["component_histograms"].size(), 3u);
+  EXPECT_EQ(v["component_histograms"][0].size(), 64u);
+  EXPECT_NE(v["component_histograms"][0], v["histogram"]);
+  for (const auto& a : info["attributes"]) {
+    if (a["components"] == 1) {
+      EXPECT_FALSE(a.contains("component_ranges")) << a.dump();
+    }
+  }
+
+  auto still_for = [&](uint32_t id) {
+    for (;;) {
+      Frame f = next_still(c);
+      if (f.header.width == 0 || f.header.message_id >= id) return f;
+    }
+  };
+  const Frame magnitude = still_for(c.send("tf.set", {{"attribute", "Velocity"}}));
+  const Frame x = still_for(c.send("tf.set", {{"attribute", "Velocity"}, {"component", "x"}}));
+  EXPECT_TRUE(x.jpeg != magnitude.jpeg) << "the X component drew the magnitude's image";
+  c.send("tf.set", {{"attribute", "Temp"}, {"component", "x"}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "a scalar has no X component";
+  c.send("tf.set", {{"attribute", "Velocity"}, {"component", "w"}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "no component w";
   EXPECT_FALSE(c.closed());
 }
 

@@ -72,6 +72,11 @@ TEST(View, TransferFunctionFiles) {
   EXPECT_THROW(protocol::transfer_function_from_json(nlohmann::json::parse(R"({"opacity":[[2,0],[1,1]]})")), std::invalid_argument);
   EXPECT_THROW(protocol::transfer_function_from_json(nlohmann::json::parse(R"({"opacity":[[2,1.5]]})")), std::invalid_argument);
   EXPECT_THROW(protocol::transfer_function_from_json(nlohmann::json::parse(R"({"rang":[0,1]})")), std::invalid_argument);
+  const auto y = protocol::transfer_function_from_json(nlohmann::json::parse(R"({"attribute":"V","component":"y"})"));
+  EXPECT_EQ(y.component, 1);
+  EXPECT_EQ(protocol::transfer_function_json(y)["component"], "y");  // written back as read
+  EXPECT_FALSE(protocol::transfer_function_json(tf).contains("component"));
+  EXPECT_THROW(protocol::transfer_function_from_json(nlohmann::json::parse(R"({"component":"w"})")), std::invalid_argument);
   EXPECT_THROW(protocol::transfer_function_from_json(nlohmann::json::parse(R"({"colormap":"rainbow"})")), std::invalid_argument);
   EXPECT_THROW(protocol::transfer_function_from_json(nlohmann::json::parse(R"([1, 2])")), std::invalid_argument);
   // user colour points: components in [0, 1], values ascending

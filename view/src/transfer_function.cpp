@@ -37,7 +37,7 @@ double TransferFunction::alpha(double value) const {
 }
 
 std::string TransferFunction::key() const {
-  std::string out = attribute + "|" + colormap + "|";
+  std::string out = attribute + "|" + std::to_string(component) + "|" + colormap + "|";
   char number[32];
   auto add = [&](double v) {
     std::snprintf(number, sizeof number, "%.17g,", v);

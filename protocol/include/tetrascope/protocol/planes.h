@@ -52,7 +52,7 @@ Probe parse_probe(const nlohmann::json& object, uint32_t max_image_side, std::op
 // probe.result (server to client), built by the server (server/src/frame_probe.cpp), read by
 // the viewer (protocol/js/planes.js probeRows):
 //   {"type": "probe.result", "id": n, "hit": true, "surface": "slice", "position": [x, y, z],
-//    "attribute": "a", "value": v, ["iso_color_attribute": "b", "iso_color_value": w,]
+//    "attribute": "a", ["component": "x",] "value": v, ["iso_color_attribute": "b", "iso_color_value": w,]
 //    "values": {"a": v, "velocity": [x, y, z], ...}, "magnitudes": {"velocity": m}}
 // `values` holds every point attribute at the position (a scalar as a number, a vector as its
 // components; a non-finite component as null), `magnitudes` the vectors' lengths.
@@ -61,6 +61,7 @@ struct ProbeResult {
   std::string surface;  // "slice", "isosurface" or "boundary"
   std::array<double, 3> position{};
   std::string attribute;  // the attribute shown, and its value (vector magnitude for vectors)
+  std::string component;  // "x", "y" or "z": the component of the vector shown (and `value` is it); empty: its magnitude
   double value = 0;
   std::optional<std::pair<std::string, double>> iso_color;  // the iso-colour attribute and its value
   std::vector<std::pair<std::string, std::vector<double>>> values;  // name, components

@@ -4,12 +4,14 @@
 // and the renderer; nothing past the parser checks it again.
 //
 // JSON (the same the browser sends):
-//   {"attribute": "Temp", "range": [lo, hi], "colormap": "viridis",
+//   {"attribute": "Temp", "component": "x", "range": [lo, hi], "colormap": "viridis",
 //    "opacity": [[value, alpha], ...], "colors": [[value, r, g, b], ...]}
 // values in the attribute's own units; alpha and r, g, b in [0, 1]; outside the points the
 // end values hold; without "opacity" a ramp from 0 to 1 over the range; "colors" (user colour
 // points) replace the colormap; without "range" the attribute's full range; without
-// "attribute" the dataset's first.
+// "attribute" the dataset's first; "component" ("magnitude", "x", "y" or "z"; without it the
+// magnitude) picks what of a vector attribute is drawn (the session and `render` refuse a
+// component the attribute lacks).
 #pragma once
 
 #include <array>
@@ -28,6 +30,7 @@ namespace tetrascope::protocol {
 // The transfer function itself is view's (view/transfer_function.h): this converts JSON to and
 // from it.
 using view::kColormapNames;
+using view::kComponentNames;
 using view::kMaxAttributeNameLength;
 using view::kMaxTfPoints;
 using view::TransferFunction;

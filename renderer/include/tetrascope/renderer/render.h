@@ -143,7 +143,7 @@ struct FrameTimings {
 };
 
 // A mesh prepared for drawing: positions, the chosen attribute's values (vector magnitude
-// for vectors), tets, boundary faces.
+// for vectors, or the chosen component), tets, boundary faces.
 struct SceneMesh {
   std::vector<float> xyz;      // interleaved
   std::vector<float> value;    // attribute value per vertex, attribute units
@@ -154,6 +154,7 @@ struct SceneMesh {
   storage::Bounds bounds;
   double diagonal = 1, max_edge = 0;
   std::string attribute;
+  int component = view::kMagnitude;  // of a vector attribute: the magnitude or component 0..2 (x, y, z)
   double value_min = 0, value_max = 1;
   // optional: the attribute that colours isosurfaces (`render --iso-color`), per vertex
   std::string iso_color_attribute;
@@ -162,7 +163,9 @@ struct SceneMesh {
   // every point attribute of the source mesh, vertex-aligned, for the probe (values_at in
   // probe.h); a clipped scene (clip_scene) has none: probe its source
   std::vector<storage::Attribute> attributes;
-  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute = "");  // throws std::invalid_argument
+  // `component`: view::kMagnitude, or a component (0..2) of a vector attribute; throws
+  // std::invalid_argument for an attribute the mesh lacks or a component it has not
+  static SceneMesh from(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute = "", int component = view::kMagnitude);
 };
 
 // The values the transfer function's colours and opacity span: its range, else the scene's

@@ -117,7 +117,7 @@ class ViewPipeline {
 
  private:
   void resolve_attribute(view::TransferFunction& tf) const;
-  void rebuild_scene(const storage::TetMesh& mesh, const std::string& attribute, const std::string& iso_color_attribute);
+  void rebuild_scene(const storage::TetMesh& mesh, const view::TransferFunction& tf, const std::string& iso_color_attribute);
   void trace_lines(const storage::TetMesh& mesh, const LineRequest& request);
   void apply_lines(const LineRequest& request, RenderSettings& s);
   // update() on the vertex front (stores with vertices.bin)
@@ -137,6 +137,7 @@ class ViewPipeline {
   std::optional<CutBudget> cut_budget_;
   std::unique_ptr<SceneMesh> scene_;  // its boundary faces' regions filled when first needed (classify_regions)
   std::string attribute_, iso_color_attribute_;      // the scene's
+  int component_ = view::kMagnitude;                 // the scene's attribute's component
   uint64_t scene_generation_ = 0;         // unique over all pipelines of the process
   std::shared_ptr<const LineSet> lines_;
   std::optional<LineRequest> traced_;      // the request lines_ answers (field, seeds, steps)

@@ -5,6 +5,7 @@
 // in place, without parsing.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
@@ -39,11 +40,21 @@ struct StoreAttribute {
   std::string name;
   uint32_t components = 1;
   double min = 0, max = 0;  // of the value (scalars) or the magnitude (vectors), original units
+  // of each component of a vector (manifest "component_ranges"); empty for scalars and in
+  // stores written before it was recorded
+  std::vector<std::array<double, 2>> component_ranges{};
   // As in AttributeInfo: a symmetric tensor (6 components) or a scalar derived from one.
   AttributeKind kind = AttributeKind::kValue;
   bool positive_semidefinite = false;
   std::string derived_from{};
 };
+
+// The range of component `component` (0..components-1) of a vector attribute over the whole
+// dataset: as recorded, else [-max, max] (no component exceeds the magnitude).
+inline std::array<double, 2> component_range(const StoreAttribute& a, uint32_t component) {
+  if (component < a.component_ranges.size()) return a.component_ranges[component];
+  return {-a.max, a.max};
+}
 
 struct StoreManifest {
   uint32_t version = 0;

@@ -5,7 +5,8 @@
 // again. Values in the attribute's own units; alpha and r, g, b in [0, 1]; outside the points
 // the end values hold; without opacity points a ramp from 0 to 1 over the range; colour
 // points replace the colormap; without a range the attribute's full range; without an
-// attribute the dataset's first.
+// attribute the dataset's first. A vector attribute is drawn by its magnitude, or by one
+// component (`component`: 0, 1, 2 for x, y, z).
 #pragma once
 
 #include <array>
@@ -22,6 +23,10 @@ inline constexpr std::array<std::string_view, 4> kColormapNames{"viridis", "plas
 // Opacity or colour points of a transfer function; protocol::Limits::max_tf_points defaults to it.
 inline constexpr uint32_t kMaxTfPoints = 256;
 inline constexpr size_t kMaxAttributeNameLength = 128;
+// TransferFunction::component of a vector attribute drawn by its magnitude (and of a scalar).
+inline constexpr int kMagnitude = -1;
+// The components a transfer function can choose, by index: "x", "y", "z" (and "magnitude").
+inline constexpr std::array<std::string_view, 3> kComponentNames{"x", "y", "z"};
 
 struct TransferFunction {
   std::string attribute;  // empty: the dataset's first attribute
@@ -29,6 +34,7 @@ struct TransferFunction {
   std::string colormap = "viridis";            // one of kColormapNames
   std::vector<std::array<double, 2>> opacity;  // (value, alpha), ascending values
   std::vector<std::array<double, 4>> colors;   // (value, r, g, b), ascending values; empty: the colormap
+  int component = kMagnitude;                  // of a vector attribute: kMagnitude or 0..2 (x, y, z)
 
   // Opacity at a value.
   double alpha(double value) const;
