@@ -482,22 +482,6 @@ inline void integrals_to(const Shading& sh, double s, double out[4]) {
   for (int k = 0; k < 4; ++k) out[k] = sh.prefix_base[block][k] + within[k];
 }
 
-// The prefix sums last read along a ray (at value s): a nearly constant segment starts where
-// the one before it ended, so that one of its two reads is the other's.
-struct Prefix {
-  double s = NAN;
-  double at[4] = {0, 0, 0, 0};
-};
-
-template <class Shading>
-inline void integrals_at(const Shading& sh, double s, const Prefix& last, double out[4]) {
-  if (s == last.s) {
-    for (int k = 0; k < 4; ++k) out[k] = last.at[k];
-    return;
-  }
-  integrals_to(sh, s, out);
-}
-
 // The least and the greatest of four lanes, in every lane.
 inline Float4 min_of_lanes(Float4 v) {
   Float4 other = __builtin_shufflevector(v, v, 1, 0, 3, 2);
@@ -550,10 +534,9 @@ inline void from_table(const Shading& sh, double sf, double sb, double length, d
 // transfer function inside it is no blur, and however long it is, thin opacity is not veiled)
 // and its colour as the extinction-weighted mean over its values; one within a step of that
 // grid reads the extinction and colour at its middle. Where the transfer function is clear
-// over the segment's values, nothing is integrated. `last`: the prefix sums last read, at sb
-// after a read.
+// over the segment's values, nothing is integrated.
 template <class Shading>
-void integrate(const Shading& sh, double sf, double sb, double length, double out[4], Prefix& last) {
+void integrate(const Shading& sh, double sf, double sb, double length, double out[4]) {
   for (int k = 0; k < 4; ++k) out[k] = 0;
   const double span = std::fabs(sb - sf);
   if (span * sh.table_bins >= 1) {
@@ -572,10 +555,8 @@ void integrate(const Shading& sh, double sf, double sb, double length, double ou
     for (int k = 0; k < 3; ++k) rgb[k] = c0[k] + (y - j) * (c1[k] - c0[k]);
   } else {
     double a[4], b[4];
-    integrals_at(sh, sf, last, a);
+    integrals_to(sh, sf, a);
     integrals_to(sh, sb, b);
-    last.s = sb;
-    for (int k = 0; k < 4; ++k) last.at[k] = b[k];
     const double optical = b[0] - a[0];  // of the sign of sb - sf
     if (optical == 0) return;            // clear
     depth = std::max(0.0, length * optical / (sb - sf));
@@ -823,15 +804,13 @@ struct Segment {
   const float* gradient = nullptr;
 };
 
-// The segment from q (its start, less the cell's corner) along d for dt; s: the value at its
-// start where the ray brings it (NaN: from the cell), then the value at its end.
+// The segment from q (its start, less the cell's corner) along d for dt.
 template <class Shading, class Cell>
-inline Segment segment(const Shading& sh, const Cell& cell, const double q[3], const double d[3], double dl, double dt, double& s) {
+inline Segment segment(const Shading& sh, const Cell& cell, const double q[3], const double d[3], double dl, double dt) {
   const float* g = cell.gradient;
   const double along = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
-  const double s_in = s == s ? s : (cell.value + g[0] * q[0] + g[1] * q[1] + g[2] * q[2] - sh.lo) * sh.scale;
-  s = s_in + along * dt * sh.scale;
-  return {s_in, s, dt * dl, g};
+  const double s_in = (cell.value + g[0] * q[0] + g[1] * q[1] + g[2] * q[2] - sh.lo) * sh.scale;
+  return {s_in, s_in + along * dt * sh.scale, dt * dl, g};
 }
 
 // Asks for the memory integrate will read for a segment (the prefix sums at its end, or the
@@ -861,7 +840,7 @@ inline void prefetch(const Shading& sh, const Segment& seg) {
 
 // A segment composed into acc front to back: the volume, with the isosurfaces it crosses.
 template <class Shading>
-void compose(const Shading& sh, const Segment& seg, const double d[3], double dl, double acc[4], Prefix& last) {
+void compose(const Shading& sh, const Segment& seg, const double d[3], double dl, double acc[4]) {
   auto over = [&](const double c[4]) {
     const double keep = 1 - acc[3];
     for (int k = 0; k < 4; ++k) acc[k] += keep * c[k];
@@ -879,7 +858,7 @@ void compose(const Shading& sh, const Segment& seg, const double d[3], double dl
       const double iv = sh.isos[at];
       if ((s0 < iv) == (s_out < iv)) continue;
       const double li = length * (iv - s_in) / (s_out - s_in);
-      integrate(sh, s0, iv, li - l0, c, last);
+      integrate(sh, s0, iv, li - l0, c);
       over(c);
       const double a = sh.iso_opacity;
       const double surface[4] = {sh.iso_rgb[at][0] * light * a, sh.iso_rgb[at][1] * light * a, sh.iso_rgb[at][2] * light * a, a};
@@ -888,7 +867,7 @@ void compose(const Shading& sh, const Segment& seg, const double d[3], double dl
       l0 = li;
     }
   }
-  integrate(sh, s0, s_out, length - l0, c, last);
+  integrate(sh, s0, s_out, length - l0, c);
   over(c);
 }
 
@@ -900,13 +879,11 @@ void compose(const Shading& sh, const Segment& seg, const double d[3], double dl
 // opaque drops the segment found after it.
 void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], uint64_t& visits) const {
   uint64_t guard = 4 * cells_.size() + 16;
-  double s = NAN;  // the value where the ray is, carried across shared faces (the field is continuous there)
-  Prefix last;
   Segment pending;
   bool has_pending = false;
   auto compose_pending = [&] {
     if (has_pending) {
-      compose(sh, pending, ray.d, ray.dl, acc, last);
+      compose(sh, pending, ray.d, ray.dl, acc);
       ++visits;
     }
     has_pending = false;
@@ -919,11 +896,10 @@ void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], u
     if (exit < 0) {  // a flat cell: look for the boundary past this point
       ++visits;
       advance(ray, -1, ray.t_in);
-      s = NAN;
       continue;
     }
     const double t_out = ray.t_in + dt, t_end = std::min(t_out, stop);
-    const Segment next = segment(sh, cell, q, ray.d, ray.dl, t_end - ray.t_in, s);
+    const Segment next = segment(sh, cell, q, ray.d, ray.dl, t_end - ray.t_in);
     prefetch(sh, next);
     if (!compose_pending()) return;
     pending = next;
@@ -936,7 +912,6 @@ void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], u
       ray.t_in = t_out;
     } else {
       advance(ray, exit, t_out);
-      s = NAN;  // elsewhere in the mesh: the value from the cell
     }
   }
   compose_pending();
