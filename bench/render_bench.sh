@@ -87,11 +87,12 @@ PY
   printf '%s\n' "${rows[@]}" > "$out.partial"
 done
 load_after=$(cut -d' ' -f1-3 /proc/loadavg)
-python3 - "$out" "$frames" "$load_before" "$load_after" "${rows[@]}" <<'PY'
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+python3 - "$out" "$frames" "$load_before" "$load_after" "$commit" "${rows[@]}" <<'PY'
 import json, sys, datetime
-out, frames, load_before, load_after = sys.argv[1:5]
-rows = [json.loads(r) for r in sys.argv[5:]]
-json.dump({"date": datetime.date.today().isoformat(), "machine": "2 cores, 24 GB, Debian 12, Mesa llvmpipe, shared with other builds",
+out, frames, load_before, load_after, commit = sys.argv[1:6]
+rows = [json.loads(r) for r in sys.argv[6:]]
+json.dump({"date": datetime.date.today().isoformat(), "commit": commit, "machine": "2 cores, 24 GB, Debian 12, Mesa llvmpipe, shared with other builds",
            "load_average_before": load_before, "load_average_after": load_after,
            "size": "1024x768", "frames": int(frames), "runs": rows}, open(out, "w"), indent=2)
 print(f"{'mesh':10} {'tets':>9} | {'raycast':>7} {'xPV':>5} {'xGL':>5} | {'exact':>7} {'cpu':>7} | {'DVR ms':>7} {'cpu':>7} {'sort':>6} {'draw':>7} {'read':>5} {'enc':>5} {'drawn':>8} | {'iso ms':>7} {'tris':>8} | {'PV ms':>7} {'PV 1st':>7} | {'x PV':>5} {'exPV':>5} | {'ceilE':>7} {'ceilP':>7} {'E/ce':>5} {'P/ce':>5}")

@@ -69,6 +69,7 @@ class RayCaster {
   struct Shading;
   struct Ray;
   void shading(const RenderSettings& settings, Shading& out) const;
+  void compact_tables() const;
   void start(Ray& ray, uint32_t eye_tet) const;
   void advance(Ray& ray, int exit, double t_out) const;
   struct EntryBins;
@@ -90,6 +91,8 @@ class RayCaster {
   mutable std::vector<std::array<float, 3>> colors_;      // over the colour range
   mutable std::vector<std::array<double, 4>> integrals_;  // of extinction and of colour times extinction, on extinction_'s grid
   mutable std::array<double, 4> below_{}, above_{};       // their rates past the range's ends
+  mutable std::vector<std::array<double, 4>> prefix_base_;  // integrals_ compact: at each block's start
+  mutable std::vector<std::array<float, 4>> prefix_fine_;   // and less that within the block
   mutable std::vector<uint32_t> lit_bins_;                // bins of the table below each with some opacity (a prefix count)
   mutable std::string table_key_;
 };
