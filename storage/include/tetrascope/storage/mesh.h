@@ -59,7 +59,8 @@ struct Bounds {
   std::array<double, 3> max{0, 0, 0};
 };
 
-// Boundary faces as the input tags them: Gmsh physical surfaces, OpenFOAM boundary patches.
+// Boundary faces as the input tags them: Gmsh physical surfaces, OpenFOAM boundary patches,
+// Exodus II side sets.
 // Polygons arrive as the triangles the tet decomposition gives their faces (a quad cut by the
 // diagonal through its vertex of smallest id, a larger face fanned about its centre point).
 // A triangle that is no boundary face of the tets (an interface inside the volume) is kept
