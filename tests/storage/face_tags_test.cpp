@@ -1,7 +1,8 @@
 // Boundary face tags: Gmsh physical surfaces (MSH 2.2 and 4.1, ASCII and binary, with
 // $PhysicalNames) read as tagged triangles that are exactly boundary faces of the tets; the
 // shared ONERA M6 file's wing, symmetry plane and far field; a store keeping them in
-// boundary_tags.bin, checked by verify; a damaged file a clear error, never a crash.
+// boundary_tags.bin (the spilled build as the build in memory), checked by verify; a damaged
+// file a clear error, never a crash.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -135,6 +136,24 @@ TEST(BoundaryTagsFile, AStoreKeepsTheTagsOverItsGlobalIdsAndVerifyPassesIt) {
   const storage::VerifyReport report = storage::verify_store(dir);
   EXPECT_TRUE(report.ok) << (report.problems.empty() ? "" : report.problems[0]);
   EXPECT_TRUE(lod::check_store(dir).empty());
+}
+
+// The streaming build (tets spilled to disk under a 1 MB budget) keeps the same tags as the
+// build in memory, byte for byte.
+TEST(BoundaryTagsFile, TheSpilledBuildKeepsTheSameTagsAsTheBuildInMemory) {
+  if (shared_data().empty()) GTEST_SKIP() << "needs ../shared/data/formats/onera_m6_coarse.msh";
+  const fs::path mesh = shared_data() / "formats" / "onera_m6_coarse.msh", dir = scratch_dir("tags_store_spilled");
+  lod::PreprocessOptions options;
+  options.threads = 1;
+  const auto whole = lod::preprocess(mesh, dir / "whole", options, nullptr);
+  options.memory_mb = 1;
+  const auto spilled = lod::preprocess(mesh, dir / "spilled", options, nullptr);
+  EXPECT_GT(spilled.spilled_bytes, 0u) << "the tets went through the spill file";
+  EXPECT_EQ(whole.spilled_bytes, 0u);
+  const std::string kept = read_file(dir / "whole" / storage::kBoundaryTagsFile);
+  EXPECT_GT(kept.size(), 32u);
+  EXPECT_EQ(read_file(dir / "spilled" / storage::kBoundaryTagsFile), kept);
+  EXPECT_TRUE(storage::verify_store(dir / "spilled").ok);
 }
 
 TEST(BoundaryTagsFile, AStoreOfAnUntaggedMeshHasNoTagsFile) {
