@@ -14,6 +14,8 @@
 #include "tetrascope/lod/mt/segmentation.h"
 #include "tetrascope/storage/segment_codec.h"
 #include "tetrascope/storage/segment_codec.h"
+#include "tetrascope/renderer/boundary_regions.h"
+#include "tetrascope/storage/boundary_tags.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
@@ -25,6 +27,37 @@ namespace {
 void print_store_attribute(const storage::StoreAttribute& a) {
   storage::AttributeInfo info{a.name, a.components, a.kind, a.positive_semidefinite, a.derived_from};
   std::printf("  %-24s %s  %g .. %g\n", a.name.c_str(), storage::attribute_kind_text(info).c_str(), a.min, a.max);
+}
+
+// The boundary regions of a multiresolution store as render --hide-regions and the viewer number
+// them: from its boundary_tags.bin or from sharp edges, found on the input mesh (so listed up to
+// kInfoRegionTets input tets).
+constexpr uint64_t kInfoRegionTets = 20'000'000;
+nlohmann::json store_regions(const storage::Store& store, const lod::Dag& dag, uint64_t input_tets) {
+  const std::optional<storage::FaceTags> tags = storage::open_boundary_tags(store);
+  nlohmann::json out = {{"source", tags ? "input tags" : "sharp edges"}, {"tags_file", tags ? storage::kBoundaryTagsFile : ""}};
+  if (input_tets > kInfoRegionTets) {
+    out["regions"] = nullptr;
+    return out;
+  }
+  const auto map = renderer::RegionMap::of_store(store, dag, 256ull << 20, tags);
+  out["source"] = renderer::region_source_name(map->source());
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& r : map->regions())
+    list.push_back({{"id", r.id}, {"name", r.name}, {"triangles", r.triangles}, {"touches_domain_box", r.touches_domain_box}});
+  out["regions"] = list;
+  return out;
+}
+
+void print_store_regions(const nlohmann::json& regions) {
+  if (regions["regions"].is_null()) {
+    std::printf("regions     from %s (not listed above %llu input tets)\n", regions["source"].get<std::string>().c_str(), static_cast<unsigned long long>(kInfoRegionTets));
+    return;
+  }
+  std::printf("regions     %zu, from %s\n", regions["regions"].size(), regions["source"].get<std::string>().c_str());
+  for (const auto& r : regions["regions"])
+    std::printf("  region %-3u %-24s %llu triangles%s\n", r["id"].get<unsigned>(), r["name"].get<std::string>().empty() ? "-" : r["name"].get<std::string>().c_str(),
+                r["triangles"].get<unsigned long long>(), r["touches_domain_box"].get<bool>() ? "  (on the domain's box)" : "");
 }
 
 int print_store_info(const std::string& path, bool json) {
@@ -47,6 +80,9 @@ int print_store_info(const std::string& path, bool json) {
     j["stored_tetrahedra"] = m.tet_count;
     const auto variants_file = std::filesystem::path(path) / "variants.bin";
     if (std::filesystem::exists(variants_file)) j["files"]["variants.bin"]["bytes"] = std::filesystem::file_size(variants_file, ec);
+    const auto tags_file = std::filesystem::path(path) / storage::kBoundaryTagsFile;
+    if (std::filesystem::exists(tags_file)) j["files"][storage::kBoundaryTagsFile]["bytes"] = std::filesystem::file_size(tags_file, ec);
+    j["regions"] = store_regions(*store, *dag, j["tetrahedra"].get<uint64_t>());
   }
   if (json) {
     std::cout << j.dump(2) << "\n";
@@ -70,6 +106,10 @@ int print_store_info(const std::string& path, bool json) {
     if (j["files"].contains("variants.bin"))
       std::printf("            variants.bin %.1f MB (%llu tets in segment variants, %.1f bytes per input tet)\n", j["files"]["variants.bin"]["bytes"].get<double>() / 1e6,
                   mr.contains("variants") ? mr["variants"]["tets"].get<unsigned long long>() : 0ull, j["files"]["variants.bin"]["bytes"].get<double>() / input_tets);
+    if (j["files"].contains(storage::kBoundaryTagsFile))
+      std::printf("            %s %.1f kB (%llu tags, %llu tagged triangles)\n", storage::kBoundaryTagsFile, j["files"][storage::kBoundaryTagsFile]["bytes"].get<double>() / 1e3,
+                  m.json["boundary_tags"].value("tags", 0ull), m.json["boundary_tags"].value("triangles", 0ull));
+    print_store_regions(j["regions"]);
     return 0;
   }
   std::printf("store       %s (format %u)\n", path.c_str(), m.version);

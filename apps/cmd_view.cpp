@@ -243,8 +243,9 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// --hide-regions: the boundary regions the surface leaves out, ids of `regions` or "box" (every
-// region on the domain's bounding box, as the viewer's Bodies only), checked against them.
+// --hide-regions: the boundary regions the surface leaves out, by id or name (comma-separated;
+// a name as `info` lists it, from the input's tags) or "box" (every region on the domain's
+// bounding box, as the viewer's Bodies only), checked against `regions`.
 void hide_regions(const std::string& text, const r::RegionMap& regions, r::ViewRequest& v) {
   const auto& list = regions.regions();
   if (text == "box") {
@@ -252,11 +253,26 @@ void hide_regions(const std::string& text, const r::RegionMap& regions, r::ViewR
       if (region.touches_domain_box) v.hidden_regions.push_back(region.id);
     return;
   }
-  for (double id : number_list("--hide-regions", text)) {
+  const std::string has = list.empty() ? "none" : std::to_string(list.size()) + ": 0 to " + std::to_string(list.size() - 1);
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    start = comma + 1;
+    const auto named = std::find_if(list.begin(), list.end(), [&](const r::BoundaryRegion& region) { return !region.name.empty() && region.name == item; });
+    if (named != list.end()) {
+      v.hidden_regions.push_back(named->id);
+      continue;
+    }
+    double id = -1;
+    try {
+      id = number_list("--hide-regions", item).at(0);
+    } catch (const std::exception&) {
+      throw std::invalid_argument("--hide-regions: no region named '" + item + "' (the boundary has " + has + "; names as `tetrascope info` lists them; or 'box')");
+    }
     if (!(id >= 0 && id == std::floor(id) && id < double(list.size()))) {
       char shown[32];
       std::snprintf(shown, sizeof shown, "%g", id);
-      const std::string has = list.empty() ? "none" : std::to_string(list.size()) + ": 0 to " + std::to_string(list.size() - 1);
       throw std::invalid_argument(std::string("--hide-regions: no region ") + shown + " (the boundary has " + has + "; or 'box')");
     }
     v.hidden_regions.push_back(static_cast<uint32_t>(id));
@@ -268,7 +284,7 @@ void hide_regions(const std::string& text, const r::RegionMap& regions, r::ViewR
 nlohmann::json regions_report(const r::RegionMap& regions, const r::ViewRequest& v) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& region : regions.regions())
-    out.push_back({{"id", region.id}, {"triangles", region.triangles}, {"area", region.area}, {"touches_domain_box", region.touches_domain_box},
+    out.push_back({{"id", region.id}, {"name", region.name}, {"source", r::region_source_name(regions.source())}, {"triangles", region.triangles}, {"area", region.area}, {"touches_domain_box", region.touches_domain_box},
                    {"hidden", std::binary_search(v.hidden_regions.begin(), v.hidden_regions.end(), region.id)}});
   return out;
 }
@@ -394,7 +410,7 @@ int run_render(const Arguments& all) {
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
              "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|NAMES|box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
@@ -418,7 +434,7 @@ int run_render(const Arguments& all) {
   } else {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
     storage::TetMesh mesh = storage::load_mesh(input);
-    if (args.has("--hide-regions")) regions = r::RegionMap::from(mesh);
+    if (args.has("--hide-regions")) regions = r::RegionMap::tagged(mesh, mesh.face_tags);
     pipeline = std::make_unique<r::ViewPipeline>(std::move(mesh));
   }
   if (regions) {

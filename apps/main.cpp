@@ -33,7 +33,7 @@ constexpr const char* kUsage =
     "                                the adapted mesh of a view and transfer function (§6.3.4)\n"
     "  render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|dvr+iso|surface+iso] [--attribute A] [--tf TF.json]\n"
     "                                [--iso v1,v2] [--iso-opacity A] [--iso-color B] [--camera C] [--size WxH] [--budget TETS] [--quality Q] [--wireframe] [--box]\n"
-    "                                [--hide-regions IDS|box] [--orbit N] [--reference] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
+    "                                [--hide-regions IDS|NAMES|box] [--orbit N] [--reference] [--json]   headless EGL rendering (volume, isosurfaces, boundary)\n"
     "  verify STORE [--progress bar|json|none] [--json]\n"
     "                                checksums and structure of a store\n"
     "  simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]]\n"

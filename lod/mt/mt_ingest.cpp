@@ -56,6 +56,7 @@ uint64_t drop_unused(IngestedMesh& out, const std::vector<uint8_t>& used) {
   for (size_t v = 0; v < count; ++v)
     if (used[v]) renumber[v] = kept++;
   if (kept == count) return 0;
+  out.face_tags.renumber(renumber, kNone);
   for (size_t v = 0; v < count; ++v) {
     if (renumber[v] == kNone || renumber[v] == v) continue;
     std::copy_n(table.xyz.begin() + static_cast<std::ptrdiff_t>(3 * v), 3, table.xyz.begin() + static_cast<std::ptrdiff_t>(3 * size_t{renumber[v]}));
@@ -161,6 +162,7 @@ IngestedMesh ingest_mesh(const std::filesystem::path& mesh_path, const Preproces
     out.tets.append(chunk.tets);
   }
   out.read_stats = stream->stats();
+  out.face_tags = stream->face_tags();
   stream.reset();
   out.input_tets = out.tets.tet_count(0);
   if (out.input_tets == 0) throw std::runtime_error(mesh_path.string() + ": the mesh has no tetrahedra");

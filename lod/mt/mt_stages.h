@@ -149,6 +149,7 @@ struct IngestedMesh {
   double diagonal = 1;
   storage::ReadStats read_stats;
   uint64_t dropped_unused_vertices = 0;  // points no tet uses (dropped, not stored)
+  storage::FaceTags face_tags;           // the input's tagged boundary faces, over the table's ids
   uint32_t input_vertices = 0;
   uint64_t input_tets = 0;
   // per input vertex: a quarter of the volume of the input tets around it (the volume it
@@ -269,7 +270,7 @@ struct StoreInput {
 };
 
 struct StoreOutput {
-  uint64_t store_bytes = 0, dag_bytes = 0, variants_bytes = 0, vertices_bytes = 0;
+  uint64_t store_bytes = 0, dag_bytes = 0, variants_bytes = 0, vertices_bytes = 0, boundary_tags_bytes = 0;
   std::vector<LevelReport> levels;
 };
 

@@ -11,6 +11,7 @@
 #include "tetrascope/lod/mt/streaming_order.h"
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/core/parallel_for.h"
+#include "tetrascope/storage/boundary_tags.h"
 #include "tetrascope/storage/store_writer.h"
 #include "tetrascope/storage/tensor.h"
 #include "tetrascope/core/tet_topology.h"
@@ -321,11 +322,13 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
     write_vertex_hierarchy(writer.temp_directory() / kVertexHierarchyFile, *in.vertices);
     out.vertices_bytes = std::filesystem::file_size(writer.temp_directory() / kVertexHierarchyFile);
   }
+  if (!in.mesh.face_tags.empty()) out.boundary_tags_bytes = storage::write_boundary_tags(writer.temp_directory() / storage::kBoundaryTagsFile, in.mesh.face_tags);
   out.levels = level_reports(h, in.arcs, vertex_total);
   nlohmann::json manifest = manifest_json(in, order, out.levels);
+  if (!in.mesh.face_tags.empty()) manifest["boundary_tags"] = storage::boundary_tags_manifest(in.mesh.face_tags, out.boundary_tags_bytes);
   stage("write", 0.95);
   writer.finish(adjacency.neighbours, manifest);
-  out.store_bytes = writer.bytes_written() + out.dag_bytes + out.variants_bytes + out.vertices_bytes;
+  out.store_bytes = writer.bytes_written() + out.dag_bytes + out.variants_bytes + out.vertices_bytes + out.boundary_tags_bytes;
   return out;
 }
 

@@ -185,21 +185,25 @@ BoundaryRegions find_boundary_regions(std::span<const float> xyz, std::span<cons
   }
   const double min_cos = std::cos(options.feature_angle_degrees * std::numbers::pi / 180);
   Disjoint fill(triangles.size());
-  for (const SharedEdge& e : edges) {
-    const uint32_t f = e.face[0], g = e.face[1];
-    // a degenerate triangle (no normal) says nothing about the angle: it joins its neighbours
-    const bool degenerate = dot(normal[f], normal[f]) == 0 || dot(normal[g], normal[g]) == 0;
-    if (tagged ? tags[f] == tags[g] : degenerate || dot(normal[f], normal[g]) >= min_cos) fill.unite(f, g);
-  }
-  // components, numbered in order of their first triangle
+  if (!tagged)
+    for (const SharedEdge& e : edges) {
+      const uint32_t f = e.face[0], g = e.face[1];
+      // a degenerate triangle (no normal) says nothing about the angle: it joins its neighbours
+      const bool degenerate = dot(normal[f], normal[f]) == 0 || dot(normal[g], normal[g]) == 0;
+      if (degenerate || dot(normal[f], normal[g]) >= min_cos) fill.unite(f, g);
+    }
+  // components (with tags: one a tag, however its pieces lie), numbered in order of their first triangle
   std::vector<uint32_t> label(triangles.size());
   std::unordered_map<uint32_t, uint32_t> component;
-  for (uint32_t f = 0; f < triangles.size(); ++f) label[f] = component.try_emplace(fill.find(f), static_cast<uint32_t>(component.size())).first->second;
+  for (uint32_t f = 0; f < triangles.size(); ++f)
+    label[f] = component.try_emplace(tagged ? tags[f] : fill.find(f), static_cast<uint32_t>(component.size())).first->second;
   const uint32_t count = static_cast<uint32_t>(component.size());
-  // tagged regions are kept however small; feature regions below the share are merged
-  const uint64_t min_triangles =
-      tagged ? 0 : std::max<uint64_t>(options.min_region_triangles, static_cast<uint64_t>(std::ceil(options.min_region_share * triangles.size())));
-  const std::vector<uint32_t> merged = merge_small(label, count, edges, min_triangles, std::max(1u, options.max_regions));
+  // tagged regions are kept however small and however many; feature regions below the share are merged
+  std::vector<uint32_t> merged(count);
+  for (uint32_t c = 0; c < count; ++c) merged[c] = c;
+  if (!tagged)
+    merged = merge_small(label, count, edges, std::max<uint64_t>(options.min_region_triangles, static_cast<uint64_t>(std::ceil(options.min_region_share * triangles.size()))),
+                         std::max(1u, options.max_regions));
   // regions numbered by decreasing area
   std::unordered_map<uint32_t, double> area;
   for (uint32_t f = 0; f < triangles.size(); ++f) {

@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <thread>
+#include <unordered_map>
 
 #include "tetrascope/core/parallel_for.h"
 #include "tetrascope/core/tet_topology.h"
@@ -15,6 +16,7 @@
 #include "tetrascope/lod/cut/cut.h"
 #include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/render.h"
+#include "tetrascope/storage/boundary_tags.h"
 
 namespace tetrascope::renderer {
 
@@ -130,8 +132,40 @@ std::vector<uint8_t> hidden_faces(const SceneMesh& scene, std::span<const uint32
   return out;
 }
 
-RegionMap::RegionMap(std::vector<float> corners, BoundaryRegions regions)
-    : corners_(std::move(corners)), regions_(std::move(regions)), tree_(std::make_unique<Tree>()) {
+const char* region_source_name(RegionSource source) { return source == RegionSource::kInputTags ? "input tags" : "sharp edges"; }
+
+std::vector<uint32_t> tags_of_triangles(std::span<const std::array<uint32_t, 3>> triangles, std::span<const uint32_t> ids,
+                                        const storage::FaceTags& face_tags, std::vector<std::string>& names) {
+  auto key = [](std::array<uint32_t, 3> t) {
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  struct Hash {
+    size_t operator()(const std::array<uint32_t, 3>& t) const { return (uint64_t{t[0]} * 0x9E3779B97F4A7C15ull) ^ (uint64_t{t[1]} * 0xC2B2AE3D27D4EB4Full) ^ t[2]; }
+  };
+  std::unordered_map<std::array<uint32_t, 3>, uint32_t, Hash> tag_of;
+  tag_of.reserve(face_tags.triangles.size());
+  for (size_t t = 0; t < face_tags.triangles.size(); ++t) tag_of.try_emplace(key(face_tags.triangles[t]), face_tags.tags[t]);
+  names = face_tags.names;
+  const uint32_t untagged = static_cast<uint32_t>(names.size());
+  std::vector<uint32_t> out(triangles.size(), untagged);
+  bool any = false;
+  for (size_t f = 0; f < triangles.size(); ++f) {
+    std::array<uint32_t, 3> t = triangles[f];
+    if (!ids.empty())
+      for (uint32_t& v : t) v = ids[v];
+    if (auto it = tag_of.find(key(t)); it != tag_of.end()) {
+      out[f] = it->second;
+      any = true;
+    }
+  }
+  if (!any) return {};
+  names.push_back(kUntaggedRegionName);
+  return out;
+}
+
+RegionMap::RegionMap(std::vector<float> corners, BoundaryRegions regions, RegionSource source)
+    : corners_(std::move(corners)), regions_(std::move(regions)), source_(source), tree_(std::make_unique<Tree>()) {
   const uint32_t count = static_cast<uint32_t>(corners_.size() / 9);
   std::vector<float> centre(3 * size_t{count});
   tree_->normal.resize(3 * size_t{count});
@@ -153,8 +187,10 @@ RegionMap::RegionMap(std::vector<float> corners, BoundaryRegions regions)
 
 RegionMap::~RegionMap() = default;
 
-std::shared_ptr<const RegionMap> RegionMap::from(const storage::TetMesh& mesh, std::span<const uint32_t> tags, std::span<const std::string> tag_names,
-                                                 const RegionOptions& options) {
+namespace {
+
+std::shared_ptr<const RegionMap> map_of(const storage::TetMesh& mesh, std::span<const uint32_t> tags, std::span<const std::string> tag_names,
+                                        const storage::FaceTags* face_tags, std::span<const uint32_t> ids, const RegionOptions& options) {
   std::vector<float> xyz(3 * mesh.vertex_count());
   for (size_t v = 0; v < mesh.vertex_count(); ++v) {
     xyz[3 * v] = mesh.x[v];
@@ -163,18 +199,45 @@ std::shared_ptr<const RegionMap> RegionMap::from(const storage::TetMesh& mesh, s
   }
   const std::vector<FaceVertices> faces = boundary_faces(mesh.tets);
   std::vector<std::array<uint32_t, 3>> triangles(faces.begin(), faces.end());
+  std::vector<uint32_t> found;
+  std::vector<std::string> names;
+  if (face_tags) {
+    found = tags_of_triangles(triangles, ids, *face_tags, names);
+    tags = found;
+    tag_names = names;
+  }
+  const RegionSource source = !tags.empty() && tags.size() == triangles.size() ? RegionSource::kInputTags : RegionSource::kSharpEdges;
   BoundaryRegions regions = find_boundary_regions(xyz, triangles, tags, tag_names, options);
   std::vector<float> corners(9 * triangles.size());
   for (size_t f = 0; f < triangles.size(); ++f)
     for (int c = 0; c < 3; ++c) std::copy_n(&xyz[3 * size_t{triangles[f][c]}], 3, &corners[9 * f + 3 * c]);
-  return std::make_shared<const RegionMap>(std::move(corners), std::move(regions));
+  return std::make_shared<const RegionMap>(std::move(corners), std::move(regions), source);
 }
 
-std::shared_ptr<const RegionMap> RegionMap::of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes) {
+}  // namespace
+
+std::shared_ptr<const RegionMap> RegionMap::from(const storage::TetMesh& mesh, std::span<const uint32_t> tags, std::span<const std::string> tag_names,
+                                                 const RegionOptions& options) {
+  return map_of(mesh, tags, tag_names, nullptr, {}, options);
+}
+
+std::shared_ptr<const RegionMap> RegionMap::tagged(const storage::TetMesh& mesh, const storage::FaceTags& face_tags, std::span<const uint32_t> ids,
+                                                   const RegionOptions& options) {
+  return map_of(mesh, {}, {}, &face_tags, ids, options);
+}
+
+std::shared_ptr<const RegionMap> RegionMap::of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes,
+                                                     const std::optional<storage::FaceTags>& tags) {
   storage::SegmentCache cache(store, cache_bytes);
   lod::Cut finest(dag);
   finest.refine_all();
-  return from(lod::assemble_cut(store, cache, finest, false).mesh);
+  const lod::CutMesh cut = lod::assemble_cut(store, cache, finest, false);
+  if (tags && !tags->empty()) return tagged(cut.mesh, *tags, cut.global_ids);
+  return from(cut.mesh);
+}
+
+std::shared_ptr<const RegionMap> RegionMap::of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes) {
+  return of_store(store, dag, cache_bytes, storage::open_boundary_tags(store));
 }
 
 std::vector<uint32_t> RegionMap::classify(const SceneMesh& scene, std::span<const std::array<double, 4>> planes) const {

@@ -13,6 +13,7 @@
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/boundary_regions.h"
+#include "tetrascope/storage/boundary_tags.h"
 
 namespace tetrascope::server {
 namespace fs = std::filesystem;
@@ -109,7 +110,7 @@ namespace {
 // it, a copy that keeps modification times (cp -a) included. -1 when none can be read.
 int64_t store_change_time(const fs::path& folder) {
   int64_t latest = -1;
-  for (const char* file : {"manifest.json", "segments.bin", "dag.bin", "variants.bin", lod::kVertexHierarchyFile}) {
+  for (const char* file : {"manifest.json", "segments.bin", "dag.bin", "variants.bin", lod::kVertexHierarchyFile, storage::kBoundaryTagsFile}) {
     struct stat st {};
     if (::stat((folder / file).c_str(), &st) == 0) latest = std::max<int64_t>(latest, int64_t{st.st_ctim.tv_sec} * 1000000000 + st.st_ctim.tv_nsec);
   }
@@ -212,11 +213,12 @@ namespace {
 // or past `memory_bytes` at kRegionBytesPerTet. A segment that fails its checks leaves the
 // dataset without regions rather than unopened: the open checks the coarsest level only, and
 // the frame that maps the segment reports it.
-std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag, const fs::path& data_dir, uint64_t memory_bytes) {
+std::shared_ptr<const renderer::RegionMap> find_regions(const storage::Store& store, const lod::Dag& dag, const std::optional<storage::FaceTags>& tags,
+                                                        const fs::path& data_dir, uint64_t memory_bytes) {
   const uint64_t tets = store.manifest().tet_count;
   if (tets > kMaxRegionTets || tets > memory_bytes / kRegionBytesPerTet) return nullptr;
   try {
-    return renderer::RegionMap::of_store(store, dag, kRegionCacheBytes);
+    return renderer::RegionMap::of_store(store, dag, kRegionCacheBytes, tags);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tetrascope serve: no boundary regions for %s: %s\n", store.path().filename().c_str(), without_server_paths(e.what(), data_dir).c_str());
     return nullptr;
@@ -229,6 +231,7 @@ nlohmann::json regions_json(const renderer::RegionMap* regions) {
   for (const renderer::BoundaryRegion& r : regions->regions())
     out.push_back({{"id", r.id},
                    {"name", r.name},
+                   {"source", renderer::region_source_name(regions->source())},
                    {"triangles", r.triangles},
                    {"area", r.area},
                    {"bounds", {{"min", r.bounds.min}, {"max", r.bounds.max}}},
@@ -250,11 +253,13 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   damaged_.erase(name);
   auto d = std::make_shared<Dataset>();
   d->name = name;
+  std::optional<storage::FaceTags> tags;
   try {
     d->store = storage::Store::open(folder);
     d->dag = lod::open_dag(*d->store);
     if (d->dag) lod::Variants::open(*d->store, *d->dag);  // its header and index checked now; a variant's block when shown
     d->vertices = lod::open_vertex_hierarchy(folder);      // every section's checksum and link checked now
+    tags = storage::open_boundary_tags(*d->store);          // boundary_tags.bin: checksums, names and ids checked now
   } catch (const std::exception& e) {
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);
@@ -277,8 +282,9 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     throw DatasetDamaged("'" + name + "' is damaged: " + why);
   }
   d->info["coarsest_tets"] = mesh.tet_count();
-  d->regions = find_regions(*d->store, *d->dag, data_dir_, pool_->budget());
+  d->regions = find_regions(*d->store, *d->dag, tags, data_dir_, pool_->budget());
   d->info["regions"] = regions_json(d->regions.get());
+  if (d->regions) d->info["regions_source"] = renderer::region_source_name(d->regions->source());
   for (size_t a = 0; a < mesh.attributes.size() && a < d->info["attributes"].size(); ++a) add_histograms(mesh.attributes[a], d->store->manifest().attributes[a], d->info["attributes"][a]);
   open_[name] = d;
   return d;

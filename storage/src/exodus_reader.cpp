@@ -188,6 +188,7 @@ class ExodusReader final : public FormatReader {
     in_block_ = 0;
     runs_.clear();
   }
+  FaceTags take_face_tags() override { return std::move(face_tags_); }
 
  private:
   [[noreturn]] void fail(const std::string& what) const { throw MeshError(name_ + ": " + what); }
@@ -198,6 +199,8 @@ class ExodusReader final : public FormatReader {
     if (c() < 0) fail("Exodus II: cannot read " + what);
   }
   std::vector<std::string> variable_names(ex_entity_type type);
+  // Side sets as boundary face tags (read whole while indexing: they are boundary-sized).
+  void read_side_sets(int64_t count, uint64_t file_bytes);
 
   // Fails when what the header declares could not come from a file of this size, compressed
   // as far as ReadLimits allows (a damaged header would otherwise drive reads of fill values).
@@ -224,6 +227,7 @@ class ExodusReader final : public FormatReader {
   std::vector<int64_t> connectivity_;
   std::vector<double> scratch_[3];
   std::vector<uint32_t> nodes_scratch_;
+  FaceTags face_tags_;
 };
 
 std::vector<std::string> ExodusReader::variable_names(ex_entity_type type) {
@@ -311,6 +315,7 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   if (!truth_.empty()) {
     call("the element variable table", [&] { return ex_get_truth_table(exoid_, EX_ELEM_BLOCK, static_cast<int>(blocks_.size()), static_cast<int>(element_variables), truth_.data()); });
   }
+  read_side_sets(init.num_side_sets, file_bytes);
   header_.format = MeshFormat::kExodus;
   header_.description = "Exodus II, " + std::to_string(blocks_.size()) + " element blocks, " + when;
   header_.vertex_count = static_cast<uint64_t>(nodes_);
@@ -318,6 +323,57 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   for (const Variable& v : nodal_) header_.attributes.push_back({v.name, static_cast<uint32_t>(v.indices.size())});
   for (const Variable& v : element_) header_.cell_attributes.push_back({v.name, static_cast<uint32_t>(v.indices.size())});
   return header_;
+}
+
+// Each side's nodes as the library gives them (in the element's face order), a triangle's
+// three corners or a quad's four cut by the diagonal through its smallest node, as hexahedra
+// are; named by the side set's name, else "side set ID". Sides of other node counts are
+// left out.
+void ExodusReader::read_side_sets(int64_t count, uint64_t file_bytes) {
+  if (count <= 0) return;
+  if (count > 100000) fail("Exodus II: " + std::to_string(count) + " side sets");
+  std::vector<int64_t> ids(static_cast<size_t>(count));
+  call("the side set ids", [&] { return ex_get_ids(exoid_, EX_SIDE_SET, ids.data()); });
+  std::vector<std::vector<char>> storage(ids.size(), std::vector<char>(257, '\0'));
+  std::vector<char*> pointers;
+  for (auto& text : storage) pointers.push_back(text.data());
+  call("the side set names", [&] { return ex_get_names(exoid_, EX_SIDE_SET, pointers.data()); });
+  std::vector<int64_t> counts, nodes;
+  for (size_t s = 0; s < ids.size(); ++s) {
+    const int64_t id = ids[s];
+    int64_t sides = 0, factors = 0, length = 0;
+    call("side set " + std::to_string(id), [&] { return ex_get_set_param(exoid_, EX_SIDE_SET, id, &sides, &factors); });
+    if (sides <= 0) continue;
+    call("the nodes of side set " + std::to_string(id), [&] { return ex_get_side_set_node_list_len(exoid_, id, &length); });
+    if (length < 0 || length > 27 * sides) fail("Exodus II: side set " + std::to_string(id) + " has " + std::to_string(length) + " nodes for " + std::to_string(sides) + " sides");
+    check_declared_size(static_cast<uint64_t>(sides + length) * 4, file_bytes);
+    counts.assign(static_cast<size_t>(sides), 0);
+    nodes.assign(static_cast<size_t>(length), 0);
+    call("the nodes of side set " + std::to_string(id), [&] { return ex_get_side_set_node_list(exoid_, id, counts.data(), nodes.data()); });
+    std::string name(storage[s].data(), strnlen(storage[s].data(), 256));
+    while (!name.empty() && name.back() == ' ') name.pop_back();
+    face_tags_.names.push_back(name.empty() ? "side set " + std::to_string(id) : name);
+    const uint32_t tag = static_cast<uint32_t>(face_tags_.names.size() - 1);
+    size_t at = 0;
+    for (int64_t n : counts) {
+      if (n < 0 || static_cast<size_t>(n) > nodes.size() - at) fail("Exodus II: side set " + std::to_string(id) + "'s node counts pass its node list");
+      const int corners = n == 3 || n == 6 || n == 7 ? 3 : n == 4 || n == 8 || n == 9 ? 4 : 0;
+      uint32_t c[4] = {0, 0, 0, 0};
+      for (int k = 0; k < corners; ++k) {
+        const int64_t node = nodes[at + static_cast<size_t>(k)];
+        if (node < 1 || node > nodes_) fail("Exodus II: side set " + std::to_string(id) + " names node " + std::to_string(node) + " of " + std::to_string(nodes_));
+        c[k] = static_cast<uint32_t>(node - 1);
+      }
+      at += static_cast<size_t>(n);
+      if (corners == 3) {
+        face_tags_.add(tag, c[0], c[1], c[2]);
+      } else if (corners == 4) {
+        const int m = static_cast<int>(std::min_element(c, c + 4) - c);
+        face_tags_.add(tag, c[m], c[(m + 1) % 4], c[(m + 2) % 4]);
+        face_tags_.add(tag, c[m], c[(m + 2) % 4], c[(m + 3) % 4]);
+      }
+    }
+  }
 }
 
 void ExodusReader::check_declared_size(uint64_t declared_bytes, uint64_t file_bytes) const {

@@ -90,6 +90,8 @@ class FormatReader {
   // Starts the cells and their values again from the first cell (after a pass that converted
   // cell data to the vertices).
   virtual void rewind_cells() {}
+  // The tagged boundary faces met, once read_cells returned false (vertex ids range-checked).
+  virtual FaceTags take_face_tags() { return {}; }
 };
 
 std::unique_ptr<FormatReader> make_vtk_legacy_reader(std::shared_ptr<InputFile> file);

@@ -85,6 +85,7 @@ class GmshReader final : public FormatReader {
   bool read_cells(CellBatch& batch, size_t max_cells) override;
   void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
   void rewind_cells() override;
+  FaceTags take_face_tags() override { return std::move(face_tags_); }
 
  private:
   template <typename T>
@@ -120,6 +121,10 @@ class GmshReader final : public FormatReader {
   void read_element_data(ReadStats& stats);
   void skip_elements();
   bool next_element(CellBatch& batch);
+  void read_physical_names();
+  void read_entities();
+  // A triangle or quad of physical surface `physical` (0: none) joins the tagged faces.
+  void tag_face(int vtk_type, int64_t physical);
 
   std::shared_ptr<InputFile> file_;
   Cursor cursor_;
@@ -144,6 +149,13 @@ class GmshReader final : public FormatReader {
   uint64_t elements_read_ = 0;
   int block_type_ = 0, block_tags_ = 0;
   std::vector<uint32_t> cell_nodes_;
+  int32_t block_dim_ = 0, block_entity_ = 0;  // MSH 4.1: the entity of the current block
+  // boundary faces by physical surface: $PhysicalNames of dimension 2, and in MSH 4.1 each
+  // surface entity's first physical tag ($Entities)
+  std::unordered_map<int64_t, std::string> surface_names_;
+  std::unordered_map<int32_t, int64_t> surface_physical_;
+  std::unordered_map<int64_t, uint32_t> tag_of_physical_;
+  FaceTags face_tags_;
   std::vector<int64_t> element_ints_;
   std::vector<uint8_t> element_bytes_;
 };
@@ -476,6 +488,8 @@ MeshHeader GmshReader::index(ReadStats& stats) {
     else if (section == "Elements") skip_elements();
     else if (section == "NodeData") read_node_data(stats);
     else if (section == "ElementData") read_element_data(stats);
+    else if (section == "PhysicalNames") read_physical_names();
+    else if (section == "Entities" && version4_) read_entities();
     else {
       if (section == "ElementNodeData") stats.warnings.push_back("$" + section + " ignored (values per element corner are not read)");
       if (binary_ && section != "PhysicalNames" && section != "ElementData" && section != "ElementNodeData" &&
@@ -508,7 +522,7 @@ void GmshReader::read_vertices(size_t count, float* xyz, std::span<float* const>
 
 bool GmshReader::next_element(CellBatch& batch) {
   int type;
-  int64_t element_tag = 0;
+  int64_t element_tag = 0, physical = 0;
   if (!version4_) {
     if (elements_left_ == 0) return false;
     if (binary_ && block_left_ == 0) {
@@ -521,27 +535,33 @@ bool GmshReader::next_element(CellBatch& batch) {
     if (binary_) {
       type = block_type_;
       element_tag = binary<int32_t>("element number");
-      for (int k = 0; k < block_tags_; ++k) binary<int32_t>("element tag");
+      for (int k = 0; k < block_tags_; ++k) {
+        const int32_t value = binary<int32_t>("element tag");
+        if (k == 0) physical = value;  // MSH 2: the first tag is the physical entity
+      }
       --block_left_;
     } else {
       element_tag = cursor_.parse_int<int64_t>("element number");
       type = cursor_.parse_int<int32_t>("element type");
       int tags = cursor_.parse_int<int32_t>("number of tags");
       if (tags < 0 || tags > 64) cursor_.fail("element has " + std::to_string(tags) + " tags");
-      for (int k = 0; k < tags; ++k) cursor_.parse_int<int64_t>("element tag");
+      for (int k = 0; k < tags; ++k) {
+        const int64_t value = cursor_.parse_int<int64_t>("element tag");
+        if (k == 0) physical = value;  // MSH 2: the first tag is the physical entity
+      }
     }
     --elements_left_;
   } else {
     while (block_left_ == 0) {
       if (blocks_left_ == 0) return false;
       if (binary_) {
-        binary<int32_t>("entity dimension");
-        binary<int32_t>("entity tag");
+        block_dim_ = binary<int32_t>("entity dimension");
+        block_entity_ = binary<int32_t>("entity tag");
         block_type_ = binary<int32_t>("element type");
         block_left_ = binary<uint64_t>("elements in block");
       } else {
-        cursor_.parse_int<int32_t>("entity dimension");
-        cursor_.parse_int<int32_t>("entity tag");
+        block_dim_ = cursor_.parse_int<int32_t>("entity dimension");
+        block_entity_ = cursor_.parse_int<int32_t>("entity tag");
         block_type_ = cursor_.parse_int<int32_t>("element type");
         block_left_ = cursor_.parse_int<uint64_t>("elements in block");
       }
@@ -549,6 +569,8 @@ bool GmshReader::next_element(CellBatch& batch) {
       if (block_left_ > elements_left_) cursor_.fail("element blocks hold more elements than declared");
     }
     type = block_type_;
+    if (block_dim_ == 2)
+      if (auto it = surface_physical_.find(block_entity_); it != surface_physical_.end()) physical = it->second;
     element_tag = binary_ ? static_cast<int64_t>(binary<uint64_t>("element tag")) : static_cast<int64_t>(cursor_.parse_int<uint64_t>("element tag"));
     --block_left_;
     --elements_left_;
@@ -569,9 +591,76 @@ bool GmshReader::next_element(CellBatch& batch) {
   }
   if (g.corners < g.nodes && volume_corner_count(g.vtk_type, g.corners) > 0) ++batch.reduced;
   batch.push(static_cast<uint8_t>(g.vtk_type), cell_nodes_);
+  if (physical != 0) tag_face(g.vtk_type, physical);
   if (!element_fields_.empty()) batch_tags_.push_back(element_tag);
   ++elements_read_;
   return true;
+}
+
+void GmshReader::tag_face(int vtk_type, int64_t physical) {
+  if (vtk_type != kVtkTriangle && vtk_type != kVtkQuad) return;
+  auto [it, added] = tag_of_physical_.try_emplace(physical, 0);
+  if (added) {
+    auto named = surface_names_.find(physical);
+    it->second = face_tags_.tag(named != surface_names_.end() ? named->second : "physical " + std::to_string(physical));
+  }
+  const std::vector<uint32_t>& c = cell_nodes_;
+  if (vtk_type == kVtkTriangle) {
+    face_tags_.add(it->second, c[0], c[1], c[2]);
+    return;
+  }
+  // a quad by the diagonal through its vertex of smallest id, as hexahedra are split
+  size_t k = 0;
+  for (size_t q = 1; q < 4; ++q)
+    if (c[q] < c[k]) k = q;
+  face_tags_.add(it->second, c[k], c[(k + 1) % 4], c[(k + 2) % 4]);
+  face_tags_.add(it->second, c[k], c[(k + 2) % 4], c[(k + 3) % 4]);
+}
+
+// $PhysicalNames (ASCII in every file): dimension, tag and a quoted name a line.
+void GmshReader::read_physical_names() {
+  const uint64_t n = cursor_.parse_int<uint64_t>("physical name count");
+  check_fits(cursor_, n, 6, "$PhysicalNames");
+  for (uint64_t i = 0; i < n; ++i) {
+    const int32_t dim = cursor_.parse_int<int32_t>("physical dimension");
+    const int64_t tag = cursor_.parse_int<int64_t>("physical tag");
+    std::string_view rest;
+    if (!cursor_.line_text(rest)) cursor_.fail("$PhysicalNames ends inside its names");
+    while (!rest.empty() && (rest.front() == ' ' || rest.front() == '\t')) rest.remove_prefix(1);
+    while (!rest.empty() && (rest.back() == ' ' || rest.back() == '\t' || rest.back() == '\r')) rest.remove_suffix(1);
+    if (rest.size() >= 2 && rest.front() == '"' && rest.back() == '"') rest = rest.substr(1, rest.size() - 2);
+    if (rest.size() > 255) cursor_.fail("a physical name of " + std::to_string(rest.size()) + " characters (at most 255)");
+    if (dim == 2) surface_names_[tag] = std::string(rest);
+  }
+  expect_end("PhysicalNames");
+}
+
+// MSH 4.1 $Entities: which physical surface each surface entity belongs to (its first
+// physical tag); points, curves and volumes are read past.
+void GmshReader::read_entities() {
+  if (binary_) cursor_.skip_to_next_line();
+  auto count = [&](const char* what) {
+    const uint64_t n = binary_ ? binary<uint64_t>(what) : cursor_.parse_int<uint64_t>(what);
+    check_fits(cursor_, n, 4, what);
+    return n;
+  };
+  auto integer = [&](const char* what) { return binary_ ? binary<int32_t>(what) : cursor_.parse_int<int32_t>(what); };
+  uint64_t n[4];
+  for (uint64_t& k : n) k = count("entity count");
+  for (int dim = 0; dim < 3; ++dim)
+    for (uint64_t e = 0; e < n[dim]; ++e) {
+      const int32_t tag = integer("entity tag");
+      for (int k = 0; k < (dim == 0 ? 3 : 6); ++k) (void)(binary_ ? binary<double>("entity bounds") : cursor_.parse_double("entity bounds"));
+      const uint64_t physicals = count("physical tag count");
+      for (uint64_t p = 0; p < physicals; ++p) {
+        const int32_t physical = integer("physical tag");
+        if (dim == 2 && p == 0 && physical != 0) surface_physical_[tag] = physical < 0 ? -int64_t{physical} : physical;
+      }
+      if (dim == 0) continue;
+      const uint64_t bounding = count("bounding entity count");
+      for (uint64_t b = 0; b < bounding; ++b) integer("bounding entity");
+    }
+  skip_section("Entities");  // the volumes
 }
 
 bool GmshReader::read_cells(CellBatch& batch, size_t max_cells) {
@@ -614,6 +703,8 @@ void GmshReader::read_cell_values(size_t count, std::span<float* const> values, 
 }
 
 void GmshReader::rewind_cells() {
+  face_tags_ = {};  // met again on the next pass
+  tag_of_physical_.clear();
   elements_started_ = false;
   elements_left_ = block_left_ = blocks_left_ = 0;
   elements_read_ = 0;

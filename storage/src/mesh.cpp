@@ -12,6 +12,30 @@ const Attribute* TetMesh::find_attribute(const std::string& name) const {
   return nullptr;
 }
 
+uint32_t FaceTags::tag(const std::string& name) {
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it != names.end()) return static_cast<uint32_t>(it - names.begin());
+  names.push_back(name);
+  return static_cast<uint32_t>(names.size() - 1);
+}
+
+void FaceTags::renumber(const std::vector<uint32_t>& renumber, uint32_t dropped) {
+  size_t kept = 0;
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    std::array<uint32_t, 3> tri = triangles[t];
+    bool keep = true;
+    for (uint32_t& v : tri) {
+      v = v < renumber.size() ? renumber[v] : dropped;
+      keep = keep && v != dropped;
+    }
+    if (!keep) continue;
+    triangles[kept] = tri;
+    tags[kept++] = tags[t];
+  }
+  triangles.resize(kept);
+  tags.resize(kept);
+}
+
 double signed_volume(const TetMesh& m, uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
   double ax = double(m.x[b]) - m.x[a], ay = double(m.y[b]) - m.y[a], az = double(m.z[b]) - m.z[a];
   double bx = double(m.x[c]) - m.x[a], by = double(m.y[c]) - m.y[a], bz = double(m.z[c]) - m.z[a];
@@ -42,6 +66,7 @@ uint64_t drop_unused_vertices(TetMesh& mesh) {
   }
   if (kept == vertex_count) return 0;
   for (uint32_t& v : mesh.tets) v = renumber[v];
+  mesh.face_tags.renumber(renumber, kUnused);
   auto compact = [&](std::vector<float>& values, size_t components) {
     for (size_t v = 0; v < vertex_count; ++v) {
       if (renumber[v] == kUnused || renumber[v] == v) continue;

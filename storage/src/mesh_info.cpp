@@ -66,6 +66,9 @@ MeshSummary summarize_stream(MeshStream& stream) {
   while (stream.next_tets(tets)) {
   }
   s.stats = stream.stats();
+  const FaceTags& tags = stream.face_tags();
+  for (const std::string& name : tags.names) s.face_tags.push_back({name, 0});
+  for (uint32_t t : tags.tags) ++s.face_tags[t].second;
   if (s.header.vertex_count > 0) {
     s.bounds.min = lo;
     s.bounds.max = hi;
@@ -118,6 +121,10 @@ nlohmann::json summary_json(const MeshSummary& s) {
   j["attributes"] = attributes;
   j["bounds"] = {{"min", {s.bounds.min[0], s.bounds.min[1], s.bounds.min[2]}}, {"max", {s.bounds.max[0], s.bounds.max[1], s.bounds.max[2]}}};
   j["quality"] = {{"degenerate", s.stats.degenerate}, {"inverted", s.stats.inverted}, {"repeated_vertex_dropped", s.stats.repeated_vertex}};
+  nlohmann::json tags = nlohmann::json::array();
+  for (size_t t = 0; t < s.face_tags.size(); ++t) tags.push_back({{"tag", t}, {"name", s.face_tags[t].first}, {"triangles", s.face_tags[t].second}});
+  j["face_tags"] = tags;
+  j["regions_source"] = s.face_tags.empty() ? "sharp edges" : "input tags";
   j["warnings"] = s.stats.warnings;
   j["read_seconds"] = s.read_seconds;
   return j;
@@ -157,6 +164,10 @@ std::string summary_text(const MeshSummary& s) {
   }
   appendf(out, "degenerate  %llu tets of zero volume\n", static_cast<unsigned long long>(s.stats.degenerate));
   appendf(out, "inverted    %llu tets re-oriented\n", static_cast<unsigned long long>(s.stats.inverted));
+  if (s.face_tags.empty()) appendf(out, "regions     from sharp edges (the input tags no boundary face)\n");
+  else appendf(out, "regions     from the input's %zu face tags:\n", s.face_tags.size());
+  for (size_t t = 0; t < s.face_tags.size(); ++t)
+    appendf(out, "  tag %-4zu %-24s %llu triangles\n", t, s.face_tags[t].first.c_str(), static_cast<unsigned long long>(s.face_tags[t].second));
   for (const std::string& w : s.stats.warnings) appendf(out, "warning     %s\n", w.c_str());
   appendf(out, "read time   %.3f s\n", s.read_seconds);
   return out;

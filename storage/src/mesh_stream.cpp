@@ -295,6 +295,18 @@ void MeshStream::accumulate_cell_data(std::vector<double>& sums, std::vector<dou
   }
 }
 
+void MeshStream::take_face_tags() {
+  face_tags_ = reader_->take_face_tags();
+  // the readers check every vertex id; a tag past the names would be a reader's slip
+  for (uint32_t t : face_tags_.tags)
+    if (t >= face_tags_.names.size()) throw MeshError("a boundary face tag has no name");
+  if (face_tags_.names.size() > kMaxFaceTags) {
+    stats_.warnings.push_back(std::to_string(face_tags_.names.size()) + " boundary face tags are more than tetrascope keeps (" + std::to_string(kMaxFaceTags) +
+                              "): none kept, boundary regions come from sharp edges");
+    face_tags_ = {};
+  }
+}
+
 bool MeshStream::next_tets(TetChunk& chunk, size_t max_tets) {
   VertexChunk drain;
   while (next_vertices(drain)) {
@@ -352,6 +364,7 @@ void MeshStream::fill_tet_chunk(size_t max_tets) {
     size_t want = std::max<size_t>(1, (max_tets - tet_scratch_.size() / 4) / 6);
     if (!reader_->read_cells(batch, want)) {
       cells_done_ = true;
+      take_face_tags();
       break;
     }
     stats_.quadratic_cells += batch.reduced;
@@ -432,6 +445,7 @@ TetMesh load_stream(MeshStream& stream) {
   }
   TetChunk tets;
   while (stream.next_tets(tets)) mesh.tets.insert(mesh.tets.end(), tets.tets.begin(), tets.tets.end());
+  mesh.face_tags = stream.face_tags();
   return mesh;
 }
 

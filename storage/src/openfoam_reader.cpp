@@ -61,6 +61,9 @@ class FoamText {
   int64_t raw_label(const char* p) const;
   // Moves past the next entry named `key` at this dictionary level; false at the end.
   bool find_entry(const std::string& key);
+  // The text of the entry just named, up to its ';' (consumed); a sub-dictionary's value is
+  // read past whole and gives "{}".
+  std::string entry_value();
 
  private:
   std::string name_;
@@ -217,6 +220,31 @@ bool FoamText::find_entry(const std::string& key) {
   }
 }
 
+std::string FoamText::entry_value() {
+  skip();
+  if (next_is('{')) {
+    int depth = 0;
+    while (at_ < bytes_.size()) {
+      const char c = bytes_[at_++];
+      if (c == '{') ++depth;
+      else if (c == '}' && --depth == 0) return "{}";
+    }
+    fail("a sub-dictionary has no closing '}'");
+  }
+  std::string value;
+  int depth = 0;
+  while (at_ < bytes_.size() && (depth > 0 || (bytes_[at_] != ';' && bytes_[at_] != '}'))) {
+    const char c = bytes_[at_++];
+    if (c == '(' || c == '[') ++depth;
+    else if (c == ')' || c == ']') --depth;
+    value += c;
+  }
+  if (!next_is(';')) fail("an entry has no ';'");
+  ++at_;
+  while (!value.empty() && std::strchr(" \t\r\n", value.back())) value.pop_back();
+  return value;
+}
+
 std::vector<int64_t> read_labels(FoamText& f, const char* what) {
   const uint64_t n = f.open_list(what, f.binary ? static_cast<size_t>(f.label_bytes) : 2);
   std::vector<int64_t> out(n);
@@ -358,6 +386,9 @@ class OpenFoamReader final : public FormatReader {
   // not make the shape.
   bool vtk_order(uint64_t cell, Shape shape, std::vector<uint32_t>& out) const;
   void decompose(uint64_t cell, CellBatch& batch);
+  // polyMesh/boundary's patches: each patch's faces as tagged triangles, cut as the tets are.
+  void read_patches(const fs::path& mesh);
+  FaceTags take_face_tags() override { return std::move(face_tags_); }
 
   fs::path path_;
   ReadLimits limits_;
@@ -371,6 +402,8 @@ class OpenFoamReader final : public FormatReader {
   std::vector<uint32_t> centre_;               // per cell: its centre point (polyhedra)
   std::vector<uint32_t> face_centre_;          // per face: its centre point (faces of > 4 points of polyhedra)
   std::vector<float> extra_xyz_;               // the centre points
+  uint64_t internal_faces_ = 0;                // faces with a neighbour (the first ones)
+  FaceTags face_tags_;
   std::vector<Field> fields_;
   uint64_t cells_ = 0, next_cell_ = 0, vertices_given_ = 0;
   std::vector<uint64_t> batch_cells_;          // per entry of the last batch: its cell
@@ -400,6 +433,7 @@ void OpenFoamReader::read_mesh(const fs::path& mesh) {
   const std::vector<int64_t> neighbour = read_labels(neighbour_file, "neighbour count");
   if (owner.size() != face_count) owner_file.fail("owner has " + std::to_string(owner.size()) + " entries for " + std::to_string(face_count) + " faces");
   if (neighbour.size() > face_count) neighbour_file.fail("neighbour has more entries than there are faces");
+  internal_faces_ = neighbour.size();
   int64_t largest = -1;
   for (int64_t c : owner) largest = std::max(largest, c);
   for (int64_t c : neighbour) largest = std::max(largest, c);
@@ -556,6 +590,53 @@ void OpenFoamReader::decompose(uint64_t cell, CellBatch& batch) {
   }
 }
 
+void OpenFoamReader::read_patches(const fs::path& mesh) {
+  std::error_code ec;
+  if (!fs::exists(mesh / "boundary", ec) && !fs::exists(mesh / "boundary.gz", ec)) return;  // regions from sharp edges
+  FoamText f(mesh / "boundary", limits_);
+  const uint64_t patches = f.open_list("patch count", 8);
+  const uint64_t face_count = face_offsets_.size() - 1;
+  for (uint64_t p = 0; p < patches; ++p) {
+    const std::string name = f.word();
+    if (name.empty() || name.size() > 255) f.fail("patch " + std::to_string(p) + " has no name, or one over 255 characters");
+    f.expect('{', "after a patch name");
+    int64_t faces = -1, start = -1;
+    while (!f.next_is('}')) {
+      const std::string key = f.word();
+      if (key.empty()) f.fail("patch '" + name + "' is not closed");
+      const std::string value = f.entry_value();
+      if (key != "nFaces" && key != "startFace") continue;
+      char* end = nullptr;
+      const long long v = std::strtoll(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || v < 0) f.fail("patch '" + name + "': " + key + " '" + value.substr(0, 40) + "' is not a count");
+      (key == "nFaces" ? faces : start) = v;
+    }
+    f.expect('}', "after a patch");
+    if (faces < 0 || start < 0) f.fail("patch '" + name + "' has no nFaces or startFace");
+    const uint64_t first = static_cast<uint64_t>(start), n = static_cast<uint64_t>(faces);
+    if (first < internal_faces_ || first > face_count || n > face_count - first)
+      f.fail("patch '" + name + "' names faces " + std::to_string(first) + ".." + std::to_string(first + n) + ", outside the boundary faces " + std::to_string(internal_faces_) + ".." + std::to_string(face_count));
+    if (n == 0) continue;
+    const uint32_t tag = face_tags_.tag(name);
+    for (uint64_t face = first; face < first + n; ++face) {
+      const uint64_t a = face_offsets_[face], k = face_offsets_[face + 1] - a;
+      auto at = [&](uint64_t q) { return static_cast<uint32_t>(face_points_[a + q % k]); };
+      if (k == 3) {
+        face_tags_.add(tag, at(0), at(1), at(2));
+      } else if (k == 4) {  // the diagonal through the point of smallest id, as the cells are cut
+        uint64_t s = 0;
+        for (uint64_t q = 1; q < 4; ++q)
+          if (at(q) < at(s)) s = q;
+        face_tags_.add(tag, at(s), at(s + 1), at(s + 2));
+        face_tags_.add(tag, at(s), at(s + 2), at(s + 3));
+      } else if (face_centre_[face] != 0) {  // a polyhedron's face, fanned about its centre
+        for (uint64_t q = 0; q < k; ++q) face_tags_.add(tag, face_centre_[face], at(q), at(q + 1));
+      }
+    }
+  }
+  f.close_list("patches");
+}
+
 void OpenFoamReader::read_fields(const fs::path& folder, ReadStats& stats) {
   std::vector<fs::path> files;
   std::error_code ec;
@@ -593,6 +674,7 @@ MeshHeader OpenFoamReader::index(ReadStats& stats) {
   if (!fs::is_directory(mesh, ec)) throw MeshError(path_.string() + ": not an OpenFOAM case (no constant/polyMesh beside it)");
   read_mesh(mesh);
   classify(stats);
+  read_patches(mesh);
   // the latest time folder that holds a field
   std::vector<std::pair<double, fs::path>> times;
   for (const auto& entry : fs::directory_iterator(folder, ec)) {

@@ -1,14 +1,16 @@
 // Whole-store checks beyond the per-block ones of Store::open / map_segment: every vertex is
-// owned by exactly one segment, shared copies equal their owner's, opposites inside a segment
 // are symmetric and join faces with the same vertices, links across segments point back,
 // and border tets come first.
 #include "tetrascope/storage/store_verify.h"
+
+#include "tetrascope/storage/boundary_tags.h"
 
 #include <algorithm>
 #include <array>
 #include <cstring>
 #include <fstream>
 
+#include "tetrascope/storage/boundary_tags.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/core/tet_topology.h"
 
@@ -179,6 +181,7 @@ VerifyReport verify_store(const std::filesystem::path& directory, Progress* prog
       check_segment(*store, cache, s, multiresolution, owner, data, copy, r);
       if (progress) progress->update(0.5 + 0.5 * (s + 1) / h.segment_count);
     }
+    open_boundary_tags(*store);  // boundary_tags.bin, when the manifest lists it: checksums, names, ids
   } catch (const std::exception& e) {
     add_problem(r, e.what());
   }

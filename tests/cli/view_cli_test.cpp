@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <iterator>
 
 #include <nlohmann/json.hpp>
@@ -174,6 +175,46 @@ TEST(RenderCli, HiddenBoundaryRegionsLeaveTheSurfaceAndBadIdsAreClearErrors) {
   Result volume = run("render " + mesh + " -o " + box + " --hide-regions 0");
   EXPECT_NE(volume.status, 0);
   EXPECT_NE(volume.out.find("needs a mode with surface"), std::string::npos) << volume.out;
+}
+
+// A Gmsh mesh whose boundary carries physical surfaces: --hide-regions takes the input's names
+// (and ids) for the mesh file and for its store alike, the report lists each region's name and
+// "input tags" as its source, hiding a named region changes the image, and an unknown name is a
+// clear error; `info` on the store lists the same regions.
+TEST(RenderCli, HiddenRegionsByTheInputsNamesOnAMeshFileAndItsStore) {
+  const auto dir = scratch_dir("render-cli-tagged");
+  TaggedCube cube = tagged_cube();
+  const std::string mesh = (dir / "cube.msh").string(), store = (dir / "cube").string();
+  write_gmsh(mesh, cube.mesh, cube.gmsh);
+  ASSERT_EQ(run("preprocess " + mesh + " -o " + store + " --progress none").status, 0);
+  const std::string camera = " --size 96x96 --mode surface";
+  for (const std::string& input : {mesh, store}) {
+    const std::string all = (dir / "all.png").string(), hidden = (dir / "hidden.png").string();
+    Result shown = run("render " + input + " -o " + all + camera);
+    ASSERT_EQ(shown.status, 0) << shown.out;
+    Result named = run("render " + input + " -o " + hidden + camera + " --hide-regions outlet,walls --json");
+    ASSERT_EQ(named.status, 0) << named.out;
+    const auto j = last_json_line(named.out);
+    std::map<std::string, bool> hidden_by_name;
+    for (const auto& region : j["regions"]) {
+      EXPECT_EQ(region["source"], "input tags") << region.dump();
+      hidden_by_name[region["name"].get<std::string>()] = region["hidden"].get<bool>();
+    }
+    EXPECT_EQ(hidden_by_name, (std::map<std::string, bool>{{"inlet", false}, {"outlet", true}, {"walls", true}, {"physical 7", false}, {"untagged", false}}))
+        << input << ": " << j["regions"].dump();
+    EXPECT_NE(read_file(all), read_file(hidden)) << input << ": the outlet and the walls are gone";
+    Result unknown = run("render " + input + " -o " + hidden + " --mode surface --hide-regions wing");
+    EXPECT_NE(unknown.status, 0);
+    EXPECT_NE(unknown.out.find("no region named 'wing'"), std::string::npos) << unknown.out;
+  }
+  Result info = run("info " + store + " --json");
+  ASSERT_EQ(info.status, 0) << info.out;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["regions"]["source"], "input tags");
+  ASSERT_EQ(j["regions"]["regions"].size(), 5u) << j["regions"].dump();
+  EXPECT_GT(j["files"]["boundary_tags.bin"]["bytes"].get<uint64_t>(), 32u);
+  Result text = run("info " + store);
+  EXPECT_NE(text.out.find("regions     5, from input tags"), std::string::npos) << text.out;
 }
 
 TEST(RenderCli, ImageSidesAreLimited) {

@@ -1,7 +1,8 @@
 // Boundary regions (renderer/boundary_regions.h): a box inside a box splits into its twelve
 // faces by the sharp-edge rule, tags win over the rule, a coarsely tessellated cylinder keeps
-// its side whole, small regions merge into a neighbour, and the map carries regions to another
-// scene of the same domain (a clip's cut faces in none).
+// its side whole, small regions merge into a neighbour, the map carries regions to another
+// scene of the same domain (a clip's cut faces in none), and a mesh's face tags from its file
+// make one named region a tag.
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -10,9 +11,12 @@
 
 #include <gtest/gtest.h>
 
+#include "fixture_writers.h"
+#include "test_paths.h"
 #include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/render.h"
+#include "tetrascope/storage/mesh_stream.h"
 
 namespace tetrascope::renderer {
 namespace {
@@ -250,6 +254,39 @@ TEST(BoundaryRegions, TheMapCarriesRegionsToAnotherSceneAndLeavesClipFacesOut) {
   ASSERT_EQ(hidden.size(), scene.boundary.size());
   EXPECT_EQ(std::count(hidden.begin(), hidden.end(), 1), 2);
   EXPECT_TRUE(hidden_faces(marked, {}).empty());
+}
+
+}  // namespace
+}  // namespace tetrascope::renderer
+
+namespace tetrascope::renderer {
+namespace {
+
+// A Gmsh mesh's physical surfaces (testing::tagged_cube): one region a tag that reaches the
+// boundary, named as the file names it, and one "untagged" for the side without a physical
+// surface; the inner plane's tag reaches no boundary triangle and makes no region. Tags that
+// name no boundary triangle leave the regions to sharp edges.
+TEST(BoundaryRegions, TheInputsFaceTagsMakeOneNamedRegionATag) {
+  testing::TaggedCube cube = testing::tagged_cube();
+  const auto path = testing::scratch_dir("regions-tagged") / "cube.msh";
+  testing::write_gmsh(path, cube.mesh, cube.gmsh);
+  const storage::TetMesh mesh = storage::load_mesh(path);
+  const auto map = RegionMap::tagged(mesh, mesh.face_tags);
+  EXPECT_EQ(map->source(), RegionSource::kInputTags);
+  EXPECT_STREQ(region_source_name(map->source()), "input tags");
+  std::map<std::string, uint64_t> triangles;
+  for (const auto& r : map->regions()) triangles[r.name] = r.triangles;
+  EXPECT_EQ(triangles, (std::map<std::string, uint64_t>{{"inlet", 8}, {"outlet", 8}, {"walls", 16}, {"physical 7", 8}, {kUntaggedRegionName, 8}}));
+  EXPECT_EQ(map->regions()[0].name, "walls") << "numbered by decreasing area";
+
+  storage::FaceTags inner;  // only the inner plane
+  for (size_t t = 0; t < mesh.face_tags.triangles.size(); ++t)
+    if (mesh.face_tags.names[mesh.face_tags.tags[t]] == "mid plane") inner.add(0, mesh.face_tags.triangles[t][0], mesh.face_tags.triangles[t][1], mesh.face_tags.triangles[t][2]);
+  inner.names = {"mid plane"};
+  ASSERT_EQ(inner.triangles.size(), 8u);
+  const auto edges = RegionMap::tagged(mesh, inner);
+  EXPECT_EQ(edges->source(), RegionSource::kSharpEdges);
+  EXPECT_EQ(edges->regions().size(), 6u) << "the cube's six sides by sharp edges";
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_run.h"
+#include "fixture_writers.h"
 #include "rest_helpers.h"
 #include "tetrascope/server/client.h"
 #include "tetrascope/server/server.h"
@@ -147,6 +148,37 @@ TEST_F(DamagedDatasetTest, ADamagedVerticesFileNeverCrashesTheServer) {
     const auto refused = next_text(*c, "error");
     EXPECT_EQ(refused["code"], "dataset_damaged") << name << ": " << refused.dump();
     EXPECT_NE(refused["message"].get<std::string>().find("vertices.bin"), std::string::npos) << refused.dump();
+  }
+  expect_still_serving("good");
+}
+
+// A store whose boundary_tags.bin (the input's boundary face tags) has a flipped byte, and one
+// whose file was cut short: dataset.open and the REST description answer dataset_damaged
+// naming the file, and the server goes on serving the sample.
+TEST_F(DamagedDatasetTest, ADamagedBoundaryTagsFileNeverCrashesTheServer) {
+  testing::TaggedCube cube = testing::tagged_cube();
+  const fs::path mesh = scratch_dir("damaged-tags-mesh") / "cube.msh";
+  testing::write_gmsh(mesh, cube.mesh, cube.gmsh);
+  for (const std::string name : {"flipped", "cut-short"}) {
+    ASSERT_EQ(tetrascope("preprocess " + mesh.string() + " -o " + (data_dir() / name).string() + " --progress none"), 0);
+    ASSERT_TRUE(fs::exists(data_dir() / name / "boundary_tags.bin"));
+  }
+  add_sample("good");
+  std::vector<char> bytes = read_bytes(data_dir() / "flipped" / "boundary_tags.bin");
+  bytes[bytes.size() - 5] = static_cast<char>(bytes[bytes.size() - 5] ^ 0x10);
+  write_bytes(data_dir() / "flipped" / "boundary_tags.bin", bytes);
+  bytes.resize(bytes.size() / 2);
+  write_bytes(data_dir() / "cut-short" / "boundary_tags.bin", bytes);
+  start();
+  for (const std::string name : {"flipped", "cut-short"}) {
+    auto c = session();
+    c->send("dataset.open", {{"name", name}});
+    const auto refused = next_text(*c, "error");
+    EXPECT_EQ(refused["code"], "dataset_damaged") << name << ": " << refused.dump();
+    EXPECT_NE(refused["message"].get<std::string>().find("boundary_tags.bin"), std::string::npos) << refused.dump();
+    const HttpResult described = http_request(base_ + "/api/v1/datasets/" + name, "GET");
+    EXPECT_NE(described.status, 200) << described.body;
+    EXPECT_NE(described.body.find("boundary_tags.bin"), std::string::npos) << described.body;
   }
   expect_still_serving("good");
 }

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -15,6 +16,8 @@
 #include "tetrascope/server/loadtest.h"
 #include "tetrascope/server/server.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "cli_run.h"
+#include "fixture_writers.h"
 #include "test_paths.h"
 
 namespace tetrascope::server {
@@ -369,6 +372,49 @@ TEST_F(ServerTest, HiddenBoundaryRegionsChangeTheSurfaceImage) {
   const Frame volume = still_for(c.send("mode.set", {{"mode", "dvr"}}));
   const Frame volume_hidden = still_for(c.send("regions.set", {{"hidden", every}}));
   EXPECT_TRUE(volume.jpeg == volume_hidden.jpeg);
+  EXPECT_FALSE(c.closed());
+}
+
+// A store of a mesh whose boundary faces carry Gmsh physical surfaces: the REST description and
+// dataset.info list one region a tag, named as the input names it (the untagged side as
+// "untagged"), with its triangles and "input tags" as their source; hiding one by its id
+// changes the surface.
+TEST_F(ServerTest, RegionsOfATaggedStoreComeFromTheInputsTags) {
+  testing::TaggedCube cube = testing::tagged_cube();
+  const fs::path mesh = scratch_dir("server-tagged-mesh") / "cube.msh";
+  testing::write_gmsh(mesh, cube.mesh, cube.gmsh);
+  ASSERT_EQ(testing::run_cli("preprocess " + mesh.string() + " -o " + (data_dir() / "cube").string() + " --progress none").status, 0);
+  start();
+  const HttpResult described = http_request(base_ + "/api/v1/datasets/cube", "GET");
+  ASSERT_EQ(described.status, 200) << described.body;
+  const auto info = nlohmann::json::parse(described.body);
+  EXPECT_EQ(info["regions_source"], "input tags");
+  std::map<std::string, uint64_t> triangles;
+  for (const auto& r : info["regions"]) {
+    EXPECT_EQ(r["source"], "input tags") << r.dump();
+    triangles[r["name"].get<std::string>()] = r["triangles"].get<uint64_t>();
+  }
+  EXPECT_EQ(triangles, (std::map<std::string, uint64_t>{{"inlet", 8}, {"outlet", 8}, {"walls", 16}, {"physical 7", 8}, {"untagged", 8}}))
+      << info["regions"].dump();
+  SessionClient c(ws_);
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  c.send("view.resize", {{"width", 160}, {"height", 120}});
+  c.send("dataset.open", {{"name", "cube"}});
+  const auto opened = c.expect("dataset.info", 60s);
+  ASSERT_EQ(opened["regions"], info["regions"]) << "the session hears what REST says";
+  uint32_t walls = 0;
+  for (const auto& r : opened["regions"])
+    if (r["name"] == "walls") walls = r["id"];
+  auto still_for = [&](uint32_t id) {
+    for (;;) {
+      Frame f = next_still(c);
+      if (f.header.width == 0 || f.header.message_id >= id) return f;
+    }
+  };
+  const Frame all = still_for(c.send("mode.set", {{"mode", "surface"}}));
+  const Frame walls_hidden = still_for(c.send("regions.set", {{"hidden", {walls}}}));
+  EXPECT_TRUE(walls_hidden.jpeg != all.jpeg) << "the walls are gone";
   EXPECT_FALSE(c.closed());
 }
 

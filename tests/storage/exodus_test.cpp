@@ -1,15 +1,19 @@
 // Exodus II files written by the Exodus II library itself: element blocks of every volume
 // type and a shell block, nodal and element variables (x/y/z components joined into vectors)
-// over two time steps, read at the last; and damaged files refused with a message, never a
-// crash.
+// over two time steps, read at the last; side sets as named boundary face tags; and damaged
+// files refused with a message, never a crash.
 #include <exodusII.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <random>
 
 #include "fixture_writers.h"
 #include "test_paths.h"
+#include "tetrascope/core/tet_topology.h"
 #include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/store.h"
@@ -194,6 +198,61 @@ TEST(Exodus, AStoreBuiltFromItHoldsTheElementVariablesAtTheVertices) {
   EXPECT_GE(attributes[2].min, 1.0 - 1e-6);
   EXPECT_LE(attributes[2].max, 10 + 1e-6);
   EXPECT_EQ(store->manifest().tet_count, 27u);
+}
+
+// The tagged cube's hexahedra (testing::tagged_cube) in one block with three side sets by
+// element and side (Exodus's hexahedron sides: 2 is x = 1, 4 is x = 0, 6 is z = 1): "inlet",
+// "outlet" and an unnamed one. Returns nothing; the file is written at `path`.
+void write_exodus_side_sets(const std::filesystem::path& path) {
+  const CellMesh m = tagged_cube().mesh;
+  std::vector<int> conn;
+  for (size_t c = 0; c < m.cell_count(); ++c)
+    if (m.types[c] == 12)
+      for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) conn.push_back(static_cast<int>(m.connectivity[k]) + 1);
+  int word = 8, io_word = 8;
+  const int exoid = ex_create(path.c_str(), EX_CLOBBER, &word, &io_word);
+  ASSERT_GE(exoid, 0);
+  ex_put_init(exoid, "side sets", 3, static_cast<int64_t>(m.x.size()), 8, 1, 0, 3);
+  std::vector<double> x(m.x.begin(), m.x.end()), y(m.y.begin(), m.y.end()), z(m.z.begin(), m.z.end());
+  ex_put_coord(exoid, x.data(), y.data(), z.data());
+  ex_put_block(exoid, EX_ELEM_BLOCK, 1, "HEX8", 8, 8, 0, 0, 0);
+  ex_put_conn(exoid, EX_ELEM_BLOCK, 1, conn.data(), nullptr, nullptr);
+  // hexahedron e (1-based) is at i = (e-1) % 2, j = (e-1) / 2 % 2, k = (e-1) / 4
+  auto put = [&](int64_t id, int side, auto&& wanted) {
+    std::vector<int> elements, sides;
+    for (int e = 1; e <= 8; ++e)
+      if (wanted((e - 1) % 2, (e - 1) / 2 % 2, (e - 1) / 4)) elements.push_back(e), sides.push_back(side);
+    ex_put_set_param(exoid, EX_SIDE_SET, id, static_cast<int64_t>(elements.size()), 0);
+    ex_put_set(exoid, EX_SIDE_SET, id, elements.data(), sides.data());
+  };
+  put(1, 4, [](int i, int, int) { return i == 0; });
+  put(2, 2, [](int i, int, int) { return i == 1; });
+  put(7, 6, [](int, int, int k) { return k == 1; });
+  const char* names[] = {"inlet", "outlet", ""};
+  ex_put_names(exoid, EX_SIDE_SET, const_cast<char**>(names));
+  ex_close(exoid);
+}
+
+TEST(Exodus, SideSetsArriveAsNamedBoundaryFaceTagsCutAsTheHexahedraAre) {
+  const auto path = scratch_dir("exodus_side_sets") / "m.exo";
+  write_exodus_side_sets(path);
+  const TetMesh mesh = storage::load_mesh(path);
+  ASSERT_EQ(mesh.face_tags.names, (std::vector<std::string>{"inlet", "outlet", "side set 7"}));
+  std::map<std::array<uint32_t, 3>, uint32_t> tag_of;
+  for (size_t t = 0; t < mesh.face_tags.triangles.size(); ++t) {
+    auto key = mesh.face_tags.triangles[t];
+    std::sort(key.begin(), key.end());
+    tag_of[key] = mesh.face_tags.tags[t];
+  }
+  EXPECT_EQ(mesh.face_tags.triangles.size(), 24u);
+  std::map<uint32_t, size_t> on_boundary;
+  for (auto face : boundary_faces(mesh.tets)) {
+    std::sort(face.begin(), face.end());
+    if (auto it = tag_of.find(face); it != tag_of.end()) ++on_boundary[it->second];
+  }
+  EXPECT_EQ(on_boundary, (std::map<uint32_t, size_t>{{0, 8}, {1, 8}, {2, 8}})) << "each side set's 4 quads are 8 boundary faces of the tets";
+  const nlohmann::json j = storage::summary_json(storage::summarize_mesh(path));
+  EXPECT_EQ(j["regions_source"], "input tags");
 }
 
 TEST(HostileExodus, AFileThatIsNotExodusIsRefusedNamingIt) {

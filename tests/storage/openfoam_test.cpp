@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -12,6 +13,7 @@
 
 #include "fixture_writers.h"
 #include "test_paths.h"
+#include "tetrascope/core/tet_topology.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/mesh_stream.h"
 
@@ -199,6 +201,69 @@ TEST(OpenFoamCase, TheCaseFolderItselfOpensAndInfoSaysWhatItRead) {
   EXPECT_EQ(j["format"], "openfoam");
   EXPECT_EQ(j["cells"]["polyhedra"], 1);
   EXPECT_NE(s.header.description.find("time 0.5"), std::string::npos) << s.header.description;
+}
+
+// polyMesh/boundary with the three cells' boundary faces in three patches (the order OpenFOAM
+// writes them: name, then a dictionary with type, inGroups, nFaces and startFace).
+std::string three_patches(int prism_faces = 6) {
+  auto patch = [](const std::string& name, int n, int start) {
+    return "    " + name + "\n    {\n        type            wall;\n        inGroups        List<word> 1(wall);\n        nFaces          " + std::to_string(n) +
+           ";\n        startFace       " + std::to_string(start) + ";\n    }\n";
+  };
+  return header("polyBoundaryMesh", "boundary", false) + "3\n(\n" + patch("prism", prism_faces, 2) + patch("hexahedron", 4, 8) + patch("apex", 4, 12) + ")\n";
+}
+
+// Each patch's faces arrive as triangles cut as the tets are (the pentagons fanned about their
+// centres, the quads by the diagonal through their smallest point), so that every boundary face
+// of the tets carries its patch's name.
+TEST(OpenFoamCase, BoundaryPatchesTagEveryBoundaryFaceOfTheTetsByName) {
+  const auto dir = scratch_dir("openfoam_patches");
+  write_case(dir, three_cells(), false);
+  write_file(dir / "constant" / "polyMesh" / "boundary", three_patches());
+  const TetMesh mesh = storage::load_mesh(dir);
+  const storage::FaceTags& tags = mesh.face_tags;
+  ASSERT_EQ(tags.names, (std::vector<std::string>{"prism", "hexahedron", "apex"}));
+  std::map<uint32_t, size_t> per_tag;
+  std::map<std::array<uint32_t, 3>, uint32_t> tag_of;
+  for (size_t t = 0; t < tags.triangles.size(); ++t) {
+    ++per_tag[tags.tags[t]];
+    auto key = tags.triangles[t];
+    std::sort(key.begin(), key.end());
+    tag_of[key] = tags.tags[t];
+  }
+  EXPECT_EQ(per_tag[0], 18u) << "two pentagons of five triangles and four quads of two";
+  EXPECT_EQ(per_tag[1], 8u);
+  EXPECT_EQ(per_tag[2], 4u);
+  std::map<uint32_t, size_t> boundary_per_tag;
+  for (auto face : boundary_faces(mesh.tets)) {
+    std::sort(face.begin(), face.end());
+    const auto it = tag_of.find(face);
+    ASSERT_NE(it, tag_of.end()) << "a boundary face of the tets has no patch";
+    ++boundary_per_tag[it->second];
+  }
+  EXPECT_EQ(boundary_per_tag, per_tag) << "every tagged triangle is a boundary face of the tets";
+  const auto s = storage::summarize_mesh(dir);
+  const nlohmann::json j = storage::summary_json(s);
+  EXPECT_EQ(j["regions_source"], "input tags");
+  ASSERT_EQ(j["face_tags"].size(), 3u);
+  EXPECT_EQ(j["face_tags"][0]["name"], "prism");
+  EXPECT_EQ(j["face_tags"][0]["triangles"], 18);
+}
+
+TEST(HostileOpenFoam, APatchPastTheFacesOrWithoutItsCountsIsRefusedNamingIt) {
+  const auto dir = scratch_dir("openfoam_bad_patch");
+  write_case(dir, three_cells(), false);
+  const auto boundary = dir / "constant" / "polyMesh" / "boundary";
+  write_file(boundary, three_patches(99));
+  EXPECT_NE(mesh_read_error(dir).find("patch 'prism' names faces 2..101"), std::string::npos) << mesh_read_error(dir);
+  std::string text = three_patches();
+  text.replace(text.find("nFaces          6;"), 18, "");
+  write_file(boundary, text);
+  EXPECT_NE(mesh_read_error(dir).find("patch 'prism' has no nFaces or startFace"), std::string::npos) << mesh_read_error(dir);
+  text = three_patches();
+  text.replace(text.find("nFaces          6;"), 18, "nFaces          x6;");
+  write_file(boundary, text);
+  EXPECT_NE(mesh_read_error(dir).find("is not a count"), std::string::npos) << mesh_read_error(dir);
 }
 
 TEST(HostileOpenFoam, AFaceNamingAPointPastThePointsIsRefused) {

@@ -275,20 +275,100 @@ int gmsh_type(uint8_t vtk) {
     case 13: return 6;
     case 14: return 7;
     case 5: return 2;
+    case 9: return 3;
     default: throw std::runtime_error("write_gmsh: unsupported cell type " + std::to_string(vtk));
   }
 }
 }  // namespace
 
-void write_gmsh(const std::filesystem::path& path, const CellMesh& m, const GmshOptions& o) {
-  const bool bin = o.binary;
-  std::string out = "$MeshFormat\n" + std::string(o.version4 ? "4.1" : "2.2") + (bin ? " 1 8\n" : " 0 8\n");
+// MSH 4.1 $Entities: per run of surface cells a surface entity (tag: the run's index + 1) with
+// the run's physical tag (none for 0), and one volume; `physical_of` gives -1 for a volume cell.
+template <typename Physical>
+void write_gmsh_entities(std::string& out, const std::vector<std::pair<size_t, size_t>>& runs, Physical physical_of, bool bin) {
+  std::vector<std::pair<int32_t, int32_t>> surfaces;  // entity, physical
+  for (size_t r = 0; r < runs.size(); ++r)
+    if (physical_of(runs[r].first) >= 0) surfaces.push_back({int32_t(r + 1), physical_of(runs[r].first)});
+  auto entity = [&](int32_t tag, int32_t physical, bool bounded) {
+    if (bin) {
+      append(out, tag, false);
+      for (int k = 0; k < 6; ++k) append(out, double(k < 3 ? 0 : 1), false);
+      append(out, uint64_t(physical > 0 ? 1 : 0), false);
+      if (physical > 0) append(out, physical, false);
+      if (bounded) append(out, uint64_t{0}, false);
+    } else {
+      out += std::to_string(tag) + " 0 0 0 1 1 1 " + (physical > 0 ? "1 " + std::to_string(physical) : std::string("0")) + " 0\n";
+    }
+  };
+  out += "$Entities\n";
   if (bin) {
-    append(out, int32_t{1}, false);
-    out += "\n";
+    for (uint64_t v : {uint64_t{0}, uint64_t{0}, uint64_t(surfaces.size()), uint64_t{1}}) append(out, v, false);
+  } else {
+    out += "0 0 " + std::to_string(surfaces.size()) + " 1\n";
   }
-  out += "$EndMeshFormat\n";
-  const size_t n = m.x.size(), cells = m.cell_count();
+  for (const auto& [tag, physical] : surfaces) entity(tag, physical, true);
+  entity(1, 0, true);
+  out += (bin ? "\n" : "") + std::string("$EndEntities\n");
+}
+
+TaggedCube tagged_cube() {
+  TaggedCube cube;
+  CellMesh& m = cube.mesh;
+  auto node = [](int i, int j, int k) { return static_cast<uint32_t>(i + 3 * j + 9 * k); };
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) {
+        m.x.push_back(0.5f * float(i));
+        m.y.push_back(0.5f * float(j));
+        m.z.push_back(0.5f * float(k));
+      }
+  std::vector<int32_t>& physical = cube.gmsh.physical;
+  // the quads of the plane axis = level (in half steps), corners in cyclic order
+  auto plane = [&](int axis, int level, int32_t tag, bool triangles) {
+    for (int u = 0; u < 2; ++u)
+      for (int w = 0; w < 2; ++w) {
+        uint32_t q[4];
+        for (int c = 0; c < 4; ++c) {
+          int at[3];
+          at[axis] = level;
+          at[(axis + 1) % 3] = u + (c == 1 || c == 2);
+          at[(axis + 2) % 3] = w + (c >= 2);
+          q[c] = node(at[0], at[1], at[2]);
+        }
+        if (!triangles) {
+          m.add_cell(9, {q[0], q[1], q[2], q[3]});
+          physical.push_back(tag);
+          continue;
+        }
+        int s = 0;  // the diagonal through the smallest id
+        for (int c = 1; c < 4; ++c)
+          if (q[c] < q[s]) s = c;
+        m.add_cell(5, {q[s], q[(s + 1) % 4], q[(s + 2) % 4]});
+        m.add_cell(5, {q[s], q[(s + 2) % 4], q[(s + 3) % 4]});
+        physical.insert(physical.end(), {tag, tag});
+      }
+  };
+  plane(0, 0, 1, false);
+  plane(0, 2, 2, false);
+  plane(1, 2, 3, false);
+  plane(2, 0, 3, false);
+  plane(2, 2, 7, true);
+  plane(1, 0, 0, false);
+  plane(0, 1, 4, false);
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) {
+        m.add_cell(12, {node(i, j, k), node(i + 1, j, k), node(i + 1, j + 1, k), node(i, j + 1, k), node(i, j, k + 1), node(i + 1, j, k + 1),
+                        node(i + 1, j + 1, k + 1), node(i, j + 1, k + 1)});
+        physical.push_back(10);
+      }
+  cube.gmsh.surface_names = {{1, "inlet"}, {2, "outlet"}, {3, "walls"}, {4, "mid plane"}};
+  return cube;
+}
+
+// $Nodes of write_gmsh: 2.2 one list; 4.1 two entity blocks (to exercise block handling).
+void write_gmsh_nodes(std::string& out, const CellMesh& m, const GmshOptions& o) {
+  const bool bin = o.binary;
+  const size_t n = m.x.size();
   auto tag = [&](size_t i) { return static_cast<uint64_t>(o.first_tag) + i * o.tag_step; };
   out += "$Nodes\n";
   if (!o.version4) {
@@ -326,6 +406,33 @@ void write_gmsh(const std::filesystem::path& path, const CellMesh& m, const Gmsh
       }
     }
   }
+}
+
+void write_gmsh(const std::filesystem::path& path, const CellMesh& m, const GmshOptions& o) {
+  const bool bin = o.binary;
+  std::string out = "$MeshFormat\n" + std::string(o.version4 ? "4.1" : "2.2") + (bin ? " 1 8\n" : " 0 8\n");
+  if (bin) {
+    append(out, int32_t{1}, false);
+    out += "\n";
+  }
+  out += "$EndMeshFormat\n";
+  if (!o.surface_names.empty()) {
+    out += "$PhysicalNames\n" + std::to_string(o.surface_names.size()) + "\n";
+    for (const auto& [physical, name] : o.surface_names) out += "2 " + std::to_string(physical) + " \"" + name + "\"\n";
+    out += "$EndPhysicalNames\n";
+  }
+  const size_t n = m.x.size(), cells = m.cell_count();
+  auto physical_of = [&](size_t c) { return o.physical.empty() ? int32_t{o.version4 ? 0 : 1} : o.physical[c]; };
+  auto surface = [&](size_t c) { return m.types[c] == 5 || m.types[c] == 9; };
+  // 4.1: one block per run of equal types and physical tags, a surface entity of its own each
+  std::vector<std::pair<size_t, size_t>> runs;
+  for (size_t c = 0; c < cells; ++c) {
+    if (runs.empty() || m.types[runs.back().first] != m.types[c] || physical_of(runs.back().first) != physical_of(c)) runs.push_back({c, c});
+    runs.back().second = c + 1;
+  }
+  if (o.version4 && !o.physical.empty()) write_gmsh_entities(out, runs, [&](size_t c) { return surface(c) ? physical_of(c) : -1; }, bin);
+  auto tag = [&](size_t i) { return static_cast<uint64_t>(o.first_tag) + i * o.tag_step; };
+  write_gmsh_nodes(out, m, o);
   out += (bin ? "\n" : "") + std::string("$EndNodes\n$Elements\n");
   if (!o.version4) {
     out += std::to_string(cells) + "\n";
@@ -333,34 +440,30 @@ void write_gmsh(const std::filesystem::path& path, const CellMesh& m, const Gmsh
       int type = gmsh_type(m.types[c]);
       if (bin) {  // one block per element keeps the writer simple and exercises block headers
         for (int32_t v : {int32_t(type), int32_t{1}, int32_t{2}}) append(out, v, false);
-        for (int32_t v : {int32_t(c + 1), int32_t{1}, int32_t{1}}) append(out, v, false);
+        for (int32_t v : {int32_t(c + 1), physical_of(c), int32_t{1}}) append(out, v, false);
         for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) append(out, static_cast<int32_t>(tag(m.connectivity[k])), false);
       } else {
-        out += std::to_string(c + 1) + " " + std::to_string(type) + " 2 1 1";
+        out += std::to_string(c + 1) + " " + std::to_string(type) + " 2 " + std::to_string(physical_of(c)) + " 1";
         for (uint32_t k = m.offsets[c]; k < m.offsets[c + 1]; ++k) out += " " + std::to_string(tag(m.connectivity[k]));
         out += "\n";
       }
     }
   } else {
-    // one block per run of equal types
-    std::vector<std::pair<size_t, size_t>> runs;
-    for (size_t c = 0; c < cells; ++c) {
-      if (runs.empty() || m.types[runs.back().first] != m.types[c]) runs.push_back({c, c});
-      runs.back().second = c + 1;
-    }
     if (bin) {
       for (uint64_t v : {uint64_t(runs.size()), uint64_t(cells), uint64_t{1}, uint64_t(cells)}) append(out, v, false);
     } else {
       out += std::to_string(runs.size()) + " " + std::to_string(cells) + " 1 " + std::to_string(cells) + "\n";
     }
-    for (auto [begin, end] : runs) {
+    for (size_t r = 0; r < runs.size(); ++r) {
+      const auto [begin, end] = runs[r];
       int type = gmsh_type(m.types[begin]);
-      int dim = m.types[begin] == 5 ? 2 : 3;
+      int dim = surface(begin) ? 2 : 3;
+      const int32_t entity = dim == 2 && !o.physical.empty() ? int32_t(r + 1) : 1;
       if (bin) {
-        for (int32_t v : {int32_t(dim), int32_t{1}, int32_t(type)}) append(out, v, false);
+        for (int32_t v : {int32_t(dim), entity, int32_t(type)}) append(out, v, false);
         append(out, uint64_t(end - begin), false);
       } else {
-        out += std::to_string(dim) + " 1 " + std::to_string(type) + " " + std::to_string(end - begin) + "\n";
+        out += std::to_string(dim) + " " + std::to_string(entity) + " " + std::to_string(type) + " " + std::to_string(end - begin) + "\n";
       }
       for (size_t c = begin; c < end; ++c) {
         if (bin) {

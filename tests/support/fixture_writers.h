@@ -52,8 +52,23 @@ struct GmshOptions {
   bool binary = false;
   uint32_t first_tag = 1;  // node tags start here (and step by tag_step)
   uint32_t tag_step = 1;
+  // Per cell its physical tag (0: none), written as the first element tag (2.2) or as the
+  // physical tag of a surface entity of its own per run of cells ($Entities, 4.1); empty: 1
+  // for every cell in 2.2, none in 4.1.
+  std::vector<int32_t> physical{};
+  std::vector<std::pair<int32_t, std::string>> surface_names{};  // $PhysicalNames of dimension 2
 };
 void write_gmsh(const std::filesystem::path& path, const CellMesh& mesh, const GmshOptions& options = {});
+
+// The cube [0,1]^3 as 2x2x2 hexahedra (27 nodes) with tagged boundary faces, for Gmsh files:
+// x = 0 "inlet" (physical 1, 4 quads), x = 1 "outlet" (2, 4 quads), y = 1 and z = 0 "walls"
+// (3, 8 quads), z = 1 physical 7 without a name (8 triangles, cut as the hexahedra are), y = 0
+// untagged (4 quads), and the inner plane x = 0.5 "mid plane" (4, 4 quads, no boundary).
+struct TaggedCube {
+  CellMesh mesh;
+  GmshOptions gmsh;
+};
+TaggedCube tagged_cube();
 
 // Writes BASE.node and BASE.ele (tets only), 1-based, with scalar attributes named in a comment.
 void write_tetgen(const std::filesystem::path& base, const CellMesh& mesh);

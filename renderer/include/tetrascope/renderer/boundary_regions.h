@@ -1,9 +1,9 @@
 // Boundary regions: the boundary of a mesh split into the pieces a user shows and hides one by
 // one, as ParaView lists a CFD case's patches (a far field, a symmetry plane, a wing).
 //
-// Regions come from tags where the input has them (one tag per boundary triangle: a Gmsh
-// physical group, an OpenFOAM patch, a CGNS boundary condition) and otherwise from sharp
-// feature edges: a flood fill over the boundary triangles across the edges whose dihedral
+// Regions come from the input's face tags where it has them (a store's boundary_tags.bin: a
+// Gmsh physical surface, an OpenFOAM patch, an Exodus II side set; one region a tag) and
+// otherwise from sharp feature edges: a flood fill over the boundary triangles across the edges whose dihedral
 // angle is below the feature angle. Regions are found once per dataset, on its full
 // resolution boundary, and carried to other meshes of the same domain (a cut's simplified
 // boundary, a clipped scene) by the nearest boundary triangle (RegionMap::classify).
@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -69,13 +70,28 @@ struct BoundaryRegions {
 };
 
 // Splits `triangles` (outward boundary faces over the interleaved positions `xyz`) into regions.
-// With `tags` (one per triangle), two triangles share a region exactly when they share a tag
-// and are connected through triangles of that tag; `tag_names` (indexed by tag, may be shorter)
+// With `tags` (one per triangle), two triangles share a region exactly when they share a tag,
+// however its triangles lie; `tag_names` (indexed by tag, may be shorter)
 // names them. Without, by feature edges (see the top of this file). Input is trusted (the
 // boundary of a checked mesh).
 BoundaryRegions find_boundary_regions(std::span<const float> xyz, std::span<const std::array<uint32_t, 3>> triangles,
                                       std::span<const uint32_t> tags = {}, std::span<const std::string> tag_names = {},
                                       const RegionOptions& options = {});
+
+// Where a boundary's regions came from: the input's face tags (boundary_tags.bin in a store,
+// the reader's tags for a mesh file), or sharp edges where it has none.
+enum class RegionSource { kSharpEdges, kInputTags };
+const char* region_source_name(RegionSource source);  // "sharp edges", "input tags"
+
+// The name of the region of boundary triangles the input's tags leave out.
+inline constexpr const char* kUntaggedRegionName = "untagged";
+
+// Per triangle of `triangles`, its tag in `face_tags`, found by its vertex triple: a vertex v
+// is `ids[v]` there (`ids` empty: v). A triangle no tag names gets tag `names.size()` - 1 after
+// kUntaggedRegionName was appended to `names` (a copy of face_tags.names). Empty when no
+// triangle has a tag (regions then come from sharp edges).
+std::vector<uint32_t> tags_of_triangles(std::span<const std::array<uint32_t, 3>> triangles, std::span<const uint32_t> ids,
+                                        const storage::FaceTags& face_tags, std::vector<std::string>& names);
 
 // The regions of a dataset as a map of its boundary, to carry them to other meshes of the same
 // domain. Immutable once built: shared between the views of a dataset.
@@ -88,12 +104,22 @@ class RegionMap {
   // The boundary of `mesh` (its full resolution), split by find_boundary_regions.
   static std::shared_ptr<const RegionMap> from(const storage::TetMesh& mesh, std::span<const uint32_t> tags = {},
                                                std::span<const std::string> tag_names = {}, const RegionOptions& options = {});
+  // The regions of `mesh` by the input's tags (mesh.face_tags, or `face_tags` over the ids
+  // `ids` gives each vertex), one region a tag named as the input names it; by sharp edges
+  // when no boundary triangle is tagged.
+  static std::shared_ptr<const RegionMap> tagged(const storage::TetMesh& mesh, const storage::FaceTags& face_tags, std::span<const uint32_t> ids = {},
+                                                 const RegionOptions& options = {});
   // The regions of a multiresolution store, on its finest cut (the input mesh) read through a
-  // segment cache of its own of `cache_bytes`. Throws what reading a segment throws.
+  // segment cache of its own of `cache_bytes`: by its boundary_tags.bin when it has one
+  // (`tags`; without the argument read from the store, storage::BoundaryTagsError when
+  // damaged), else by sharp edges. Throws what reading a segment throws.
+  static std::shared_ptr<const RegionMap> of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes,
+                                                   const std::optional<storage::FaceTags>& tags);
   static std::shared_ptr<const RegionMap> of_store(const storage::Store& store, const lod::Dag& dag, uint64_t cache_bytes);
-  RegionMap(std::vector<float> corners, BoundaryRegions regions);
+  RegionMap(std::vector<float> corners, BoundaryRegions regions, RegionSource source = RegionSource::kSharpEdges);
   ~RegionMap();
   const std::vector<BoundaryRegion>& regions() const { return regions_.regions; }
+  RegionSource source() const { return source_; }
   // The region of each of `scene`'s boundary faces: the region of the nearest boundary
   // triangle of the map facing the same way, within the face's longest edge; kNoRegion for a
   // face with none that near, and for a face in one of `planes` (a clip's cut faces, given as
@@ -104,6 +130,7 @@ class RegionMap {
   struct Tree;
   std::vector<float> corners_;  // 9 floats a triangle
   BoundaryRegions regions_;
+  RegionSource source_;
   std::unique_ptr<Tree> tree_;
 };
 

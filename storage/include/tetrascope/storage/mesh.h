@@ -59,11 +59,34 @@ struct Bounds {
   std::array<double, 3> max{0, 0, 0};
 };
 
+// Boundary faces as the input tags them: Gmsh physical surfaces, OpenFOAM boundary patches,
+// Exodus II side sets.
+// Polygons arrive as the triangles the tet decomposition gives their faces (a quad cut by the
+// diagonal through its vertex of smallest id, a larger face fanned about its centre point).
+// A triangle that is no boundary face of the tets (an interface inside the volume) is kept
+// here and ignored by the region finder.
+struct FaceTags {
+  std::vector<std::string> names;                  // per tag: the input's name for it
+  std::vector<std::array<uint32_t, 3>> triangles;  // vertex ids of the mesh
+  std::vector<uint32_t> tags;                      // per triangle, < names.size()
+  bool empty() const { return triangles.empty(); }
+  // The index of the tag called `name`, added when new.
+  uint32_t tag(const std::string& name);
+  void add(uint32_t tag, uint32_t a, uint32_t b, uint32_t c) {
+    triangles.push_back({a, b, c});
+    tags.push_back(tag);
+  }
+  // Replaces every vertex id v by renumber[v]; triangles with a vertex renumbered to `dropped`
+  // (one no tet uses) go. Tags no triangle is left with stay (they cost a name).
+  void renumber(const std::vector<uint32_t>& renumber, uint32_t dropped);
+};
+
 // A whole mesh in memory; for small meshes, tests and tools. Large meshes go through MeshStream.
 struct TetMesh {
   std::vector<float> x, y, z;
   std::vector<Attribute> attributes;
   std::vector<uint32_t> tets;  // 4 * tet_count vertex indices, positively oriented
+  FaceTags face_tags;          // the input's tagged boundary faces; empty when it has none
 
   size_t vertex_count() const { return x.size(); }
   size_t tet_count() const { return tets.size() / 4; }

@@ -27,6 +27,9 @@ struct MeshSummary {
   std::vector<AttributeSummary> attributes;
   Bounds bounds;
   double read_seconds = 0;
+  // The input's boundary face tags (Gmsh physical surfaces, OpenFOAM patches): per tag its
+  // name and tagged triangles (quads count as two). Empty: the input tags no face.
+  std::vector<std::pair<std::string, uint64_t>> face_tags;
 };
 
 // Streams the whole mesh once (memory in proportion to the vertices). Throws MeshError.

@@ -108,7 +108,14 @@ class MeshStream {
 
   const ReadStats& stats() const { return stats_; }
 
+  // The input's tagged boundary faces (Gmsh physical surfaces, OpenFOAM patches; vertex ids as
+  // delivered), complete once next_tets returned false; empty for a format or file without.
+  const FaceTags& face_tags() const { return face_tags_; }
+  // The most tags a mesh may carry: one region each in a list a user reads.
+  static constexpr size_t kMaxFaceTags = 4096;
+
  private:
+  void take_face_tags();
   explicit MeshStream(std::unique_ptr<detail::FormatReader> reader);
   void fill_tet_chunk(size_t max_tets);
   void drop_repeated_vertex_tets();
@@ -138,6 +145,7 @@ class MeshStream {
   std::unique_ptr<CellScratch> cells_;
   bool cells_done_ = false;
   bool repeated_vertex_warned_ = false;
+  FaceTags face_tags_;
 };
 
 // Reads a whole (small) mesh into memory. `stats` may be null.
