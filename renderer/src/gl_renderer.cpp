@@ -149,8 +149,6 @@ class GlRenderer final : public Renderer {
     surface_vertices_ = 0;
     if (table_texture_) glDeleteTextures(1, &table_texture_);
     table_texture_ = 0;
-    if (fine_texture_) glDeleteTextures(1, &fine_texture_);
-    fine_texture_ = 0;
     table_ = {};
     table_key_.clear();
     mesh_ = nullptr;  // render() needs a set_mesh first
@@ -167,7 +165,7 @@ class GlRenderer final : public Renderer {
   // one point is drawn with rasteriser discard, and the queued work is finished.
   void forget_bindings() {
     for (GLuint i = 0; i < 4; ++i) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
-    for (GLuint unit = 1; unit < 4; ++unit) glBindTextureUnit(unit, 0);
+    for (GLuint unit = 1; unit < 3; ++unit) glBindTextureUnit(unit, 0);
     const float point[4] = {};
     glNamedBufferData(line_buffer_, sizeof(point), point, GL_STATIC_DRAW);
     glUseProgram(line_program_);
@@ -361,36 +359,28 @@ class GlRenderer final : public Renderer {
     colormap_key_ = key;
   }
 
+  // The pre-integrated table and, in kFineSlices slices after its lengths, the transfer
+  // function on a fine grid (FineTransfer, its extinction times the unit distance so that it
+  // keeps within half floats), in one 3D texture: a segment's colour is one read of it.
   void update_table(const view::TransferFunction& tf, double lo, double hi, double unit, double max_length) {
     const std::string key = tf.key() + "|" + std::to_string(lo) + "|" + std::to_string(hi) + "|" + std::to_string(unit) + "|" + std::to_string(max_length);
     if (key == table_key_) return;
     table_ = preintegrate(tf, lo, hi, unit, std::max(max_length, 1e-30));
+    const GLsizei n = static_cast<GLsizei>(table_.n), lengths = static_cast<GLsizei>(table_.lengths);
     if (!table_texture_) {
       glCreateTextures(GL_TEXTURE_3D, 1, &table_texture_);
-      glTextureStorage3D(table_texture_, 1, GL_RGBA16F, static_cast<GLsizei>(table_.n), static_cast<GLsizei>(table_.n), static_cast<GLsizei>(table_.lengths));
+      glTextureStorage3D(table_texture_, 1, GL_RGBA16F, n, n, lengths + kFineSlices);
       glTextureParameteri(table_texture_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
       glTextureParameteri(table_texture_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
       for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) glTextureParameteri(table_texture_, w, GL_CLAMP_TO_EDGE);
     }
-    glTextureSubImage3D(table_texture_, 0, 0, 0, 0, static_cast<GLsizei>(table_.n), static_cast<GLsizei>(table_.n), static_cast<GLsizei>(table_.lengths),
-                        GL_RGBA, GL_FLOAT, table_.rgba.data());
-    update_fine_transfer(fine_transfer(tf, lo, hi, unit, table_.n - 1, kFineCells));
+    glTextureSubImage3D(table_texture_, 0, 0, 0, 0, n, n, lengths, GL_RGBA, GL_FLOAT, table_.rgba.data());
+    FineTransfer fine = fine_transfer(tf, lo, hi, unit, table_.n * kFineSlices, table_.n - 1);
+    for (size_t i = 0; i < fine.at.size(); i += 4) fine.at[i] = static_cast<float>(fine.at[i] * unit);
+    glTextureSubImage3D(table_texture_, 0, 0, 0, lengths, n, n, kFineSlices, GL_RGBA, GL_FLOAT, fine.at.data());
     visibility_.set_transfer_function(tf, lo, hi);
     table_key_ = key;
-  }
-
-  // The fine transfer function (FineTransfer) in a 2D float texture, filtered along its rows.
-  void update_fine_transfer(const FineTransfer& f) {
-    const GLsizei w = static_cast<GLsizei>(f.cells + 1), h = static_cast<GLsizei>(f.blocks);
-    if (!fine_texture_) {
-      glCreateTextures(GL_TEXTURE_2D, 1, &fine_texture_);
-      glTextureStorage2D(fine_texture_, 1, GL_RGBA32F, w, h);
-      glTextureParameteri(fine_texture_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-      glTextureParameteri(fine_texture_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-      for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T}) glTextureParameteri(fine_texture_, wrap, GL_CLAMP_TO_EDGE);
-    }
-    glTextureSubImage2D(fine_texture_, 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, f.at.data());
-    fine_blocks_ = f.blocks;
+    table_unit_ = unit;
   }
 
   // Clears colour, distance and depth; opaque drawing state.
@@ -582,7 +572,6 @@ class GlRenderer final : public Renderer {
     glBindTextureUnit(0, colormap_texture_);
     glBindTextureUnit(1, table_texture_);
     glBindTextureUnit(2, distance_copy_);
-    glBindTextureUnit(3, fine_texture_);
     glFrontFace(GL_CCW);
     glProvokingVertex(GL_FIRST_VERTEX_CONVENTION);  // the fans' thick vertex
     glEnable(GL_BLEND);
@@ -635,9 +624,8 @@ class GlRenderer final : public Renderer {
     glUniform1i(glGetUniformLocation(p, "colormap"), 0);
     glUniform1i(glGetUniformLocation(p, "table"), 1);
     glUniform1i(glGetUniformLocation(p, "depth_limit"), 2);
-    glUniform1i(glGetUniformLocation(p, "fine_at"), 3);
-    glUniform1i(glGetUniformLocation(p, "fine_blocks"), static_cast<GLint>(fine_blocks_));
-    glUniform1i(glGetUniformLocation(p, "fine_cells"), static_cast<GLint>(kFineCells));
+    glUniform1f(glGetUniformLocation(p, "fine_slices"), float(kFineSlices));
+    glUniform1f(glGetUniformLocation(p, "inv_unit"), float(1 / table_unit_));
     glUniform1i(glGetUniformLocation(p, "clip_depth"), opaque);
     glUniform2f(glGetUniformLocation(p, "viewport"), float(s.width), float(s.height));
     glUniform1f(glGetUniformLocation(p, "length_scale"), float(table_.length_scale));
@@ -756,9 +744,8 @@ class GlRenderer final : public Renderer {
   std::array<RingBuffer, kRingBuffers> projected_ring_;
   int ring_next_ = 0;
   PreintegrationTable table_;
-  static constexpr uint32_t kFineCells = 512;  // fine intervals a bin of the table: 127 x 512 = 65,024 (the ray caster's 65,536)
-  GLuint fine_texture_ = 0;
-  uint32_t fine_blocks_ = 0;
+  static constexpr GLsizei kFineSlices = 4;  // of n x n texels: 4 x 128 rows of 127 intervals, 65,024 (the ray caster's 65,536)
+  double table_unit_ = 1;
   std::string table_key_, colormap_key_;
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
   LinePass line_pass_;       // after context_: made with a current context, gone before it

@@ -34,8 +34,7 @@ void main() {
 )";
 
 // The colour of one ray segment through a tet (values over the transfer function's range,
-// length in world units): one table lookup (the fine transfer function where the value
-// changes by less than a bin of the table), or with isosurfaces in the volume, the parts
+// length in world units): one read of the table texture, or with isosurfaces in the volume, the parts
 // between the isovalues it crosses composed front to back with the lit surfaces between.
 // `isos` ascending, distinct. A crossing counts where (value < iso) changes, so a ray through
 // a vertex on the isosurface meets it once.
@@ -47,24 +46,31 @@ uniform int iso_count;
 uniform float isos[8];
 uniform float iso_opacity;
 uniform sampler1D colormap;
-uniform sampler2D fine_at;  // FineTransfer, [block][cells + 1], filtered linearly
-uniform int fine_blocks, fine_cells;
-// A segment whose value changes by less than a bin of the table: the extinction and colour at
-// its middle value (the transfer function's own, to 1/65,024 of the range) give its optical
-// depth and colour, however long it is.
-vec4 near_constant(float sf, float sb, float t) {
-  float x = clamp(0.5 * (sf + sb), 0.0, 1.0) * float(fine_blocks * fine_cells);
-  float block = min(floor(x / float(fine_cells)), float(fine_blocks - 1));
-  vec4 m = texture(fine_at, vec2((x - block * float(fine_cells) + 0.5) / float(fine_cells + 1), (block + 0.5) / float(fine_blocks)));
-  float depth = m.x * t;
-  float alpha = depth < 1e-3 ? depth * (1.0 - 0.5 * depth) : 1.0 - exp(-depth);
-  return vec4(m.yzw * alpha, alpha);
-}
+uniform float fine_slices, inv_unit;  // the fine transfer function's slices after the table's lengths; 1 / unit distance
+// One read of the table texture. A segment whose value spans a bin or more reads the table at
+// (front, back, length). One whose value changes by less reads the transfer function on its
+// fine grid (FineTransfer: 65,024 intervals in rows of n texels, a row's last the next row's
+// first, n rows a slice, in `fine_slices` slices after the lengths) at its middle value: the
+// extinction there (times the unit distance) and the colour give its optical depth and colour,
+// however long it is, where the table interpolated between bins would veil thin opacity.
 vec4 lookup(float sf, float sb, float t) {
-  if (abs(sb - sf) * (table_n - 1.0) < 1.0) return near_constant(sf, sb, t);
-  vec3 uvw = vec3((clamp(sf, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n, (clamp(sb, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n,
-                  (clamp(log(1.0 + t / length_scale) * inv_log_length_range, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / table_lengths);
-  return texture(table, uvw);
+  float depth_texels = table_lengths + fine_slices;
+  bool near_constant = abs(sb - sf) * (table_n - 1.0) < 1.0;
+  vec3 uvw;
+  if (near_constant) {
+    float rows = table_n * fine_slices;
+    float x = clamp(0.5 * (sf + sb), 0.0, 1.0) * (table_n - 1.0) * rows;
+    float row = min(floor(x / (table_n - 1.0)), rows - 1.0);
+    uvw = vec3((x - row * (table_n - 1.0) + 0.5) / table_n, (mod(row, table_n) + 0.5) / table_n, (table_lengths + floor(row / table_n) + 0.5) / depth_texels);
+  } else {
+    uvw = vec3((clamp(sf, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n, (clamp(sb, 0.0, 1.0) * (table_n - 1.0) + 0.5) / table_n,
+               (clamp(log(1.0 + t / length_scale) * inv_log_length_range, 0.0, 1.0) * (table_lengths - 1.0) + 0.5) / depth_texels);
+  }
+  vec4 c = texture(table, uvw);
+  if (!near_constant) return c;
+  float depth = c.x * inv_unit * t;
+  float alpha = depth < 1e-3 ? depth * (1.0 - 0.5 * depth) : 1.0 - exp(-depth);
+  return vec4(c.yzw * alpha, alpha);
 }
 float iso_light(vec3 gradient, vec3 d) {
   float g = length(gradient);

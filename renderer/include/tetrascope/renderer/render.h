@@ -203,7 +203,7 @@ PreintegrationTable preintegrate(const view::TransferFunction& tf, double lo, do
 // over long paths, while the extinction and colour at the segment's middle value give its
 // optical depth (length times extinction) and colour. `at` is [block][cells + 1][4]
 // (extinction per unit length, colour), a block's last node being the next block's first,
-// so that a 2D texture of it interpolates within its rows only.
+// so that a texture of its rows interpolates within each row only.
 struct FineTransfer {
   uint32_t blocks = 0, cells = 0;
   std::vector<float> at;
