@@ -301,6 +301,8 @@ test('a reconnect sends the whole view again (the mode stays)', async () => {
 
 test('a link restores the same image in another page; copying it says so', async () => {
   await page.click('#copy-view');
+  // the clipboard answers asynchronously: the feedback comes when it has
+  await page.waitForFunction(() => document.getElementById('copy-feedback').textContent !== '', null, { timeout: 10000 });
   assert.match(await page.textContent('#copy-feedback'), /copied|copy/i, 'feedback after copying');
   const link = page.url();
   assert.match(link, /mode=dvr\+iso/);
