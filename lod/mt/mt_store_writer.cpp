@@ -4,6 +4,7 @@
 // dag.bin the DAG and the error histograms; manifest.json the counts and build parameters.
 #include <algorithm>
 #include <array>
+#include <cstring>
 #include <limits>
 
 #include "mt_stages.h"
@@ -287,6 +288,40 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
   return manifest;
 }
 
+// An order-free fingerprint of a set of tets (each by its sorted vertex ids): two sums of
+// 64-bit mixes, so two sets agree on it only when they hold the same tets.
+struct TetFingerprint {
+  uint64_t count = 0, a = 0, b = 0;
+  static uint64_t mix(uint64_t x) {
+    x += 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+  }
+  void add(std::array<uint32_t, 4> t) {
+    std::sort(t.begin(), t.end());
+    const uint64_t lo = (uint64_t{t[0]} << 32) | t[1], hi = (uint64_t{t[2]} << 32) | t[3];
+    ++count;
+    a += mix(lo ^ mix(hi));
+    b += mix(hi + 0x632BE59BD9B4E019ull * mix(lo + 1));
+  }
+  bool operator==(const TetFingerprint&) const = default;
+};
+
+TetFingerprint fingerprint_of(const std::vector<uint32_t>& tets) {
+  TetFingerprint f;
+  for (size_t t = 0; t + 3 < tets.size(); t += 4) f.add({tets[t], tets[t + 1], tets[t + 2], tets[t + 3]});
+  return f;
+}
+
+// Whether the hierarchy's leaves are the store's input vertices bit for bit (the same
+// numbering, positions and values), so that vertices.bin can leave them to segments.bin.
+bool leaves_match(const VertexHierarchy& h, const VertexTable& table) {
+  const size_t V = h.input_vertices, F = h.value_floats;
+  if (table.size() < V || table.floats != F) return false;
+  return std::memcmp(h.positions.data(), table.xyz.data(), 3 * V * sizeof(float)) == 0 && std::memcmp(h.values.data(), table.values.data(), F * V * sizeof(float)) == 0;
+}
+
 }  // namespace
 
 StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
@@ -311,15 +346,23 @@ StoreOutput write_mt_store(const StoreInput& in, const StageProgress& stage) {
   std::vector<uint32_t> local(vertex_total, kNone), buffer;
   FacePairingScratch pairing;
   uint64_t written = 0;
+  TetFingerprint finest;  // the input's tets as the finest level's segments hold them
   for (uint32_t n : write_order) {
-    writer.add_segment(segment_data(n, in, owners, adjacency, node_bounds[n], local, pairing, buffer));
+    storage::SegmentData data = segment_data(n, in, owners, adjacency, node_bounds[n], local, pairing, buffer);
+    if (n < level0 && in.vertices)
+      for (size_t t = 0; t + 3 < data.tets.size(); t += 4)
+        finest.add({data.global_ids[data.tets[t]], data.global_ids[data.tets[t + 1]], data.global_ids[data.tets[t + 2]], data.global_ids[data.tets[t + 3]]});
+    writer.add_segment(std::move(data));
     stage("write", 0.9 * double(++written) / node_count);
   }
   StoreOutput out;
   out.dag_bytes = write_dag_file(in, node_bounds, writer.temp_directory());
   if (h.variants) out.variants_bytes = h.variants->write(writer.temp_directory() / "variants.bin", node_count);
   if (in.vertices) {
-    write_vertex_hierarchy(writer.temp_directory() / kVertexHierarchyFile, *in.vertices);
+    // what the store holds already is left out of vertices.bin, where it is the same
+    const bool leaves = leaves_match(*in.vertices, table);
+    write_vertex_hierarchy(writer.temp_directory() / kVertexHierarchyFile, *in.vertices,
+                           {.leaves_in_store = leaves, .tets_in_store = leaves && fingerprint_of(in.vertices->tets) == finest});
     out.vertices_bytes = std::filesystem::file_size(writer.temp_directory() / kVertexHierarchyFile);
   }
   if (!in.mesh.face_tags.empty()) out.boundary_tags_bytes = storage::write_boundary_tags(writer.temp_directory() / storage::kBoundaryTagsFile, in.mesh.face_tags);

@@ -1,15 +1,27 @@
 // vertices.bin, the binary vertex hierarchy in a store. Little-endian:
-//   header  "TSVERTH1", u32 version (1), u32 input vertices, u32 collapses, u32 attributes,
-//           u32 value floats, u32 sections (11), u64 input tets, then per section u64 offset,
-//           u64 bytes, u32 CRC-32, and last the header's own CRC-32 (of every byte before it)
-//   sections  0 attributes (per attribute: u32 components, u32 name length, the name),
+//   header  "TSVERTH1", u32 version, u32 input vertices, u32 collapses, u32 attributes,
+//           u32 value floats, u32 sections, u64 input tets, (version 2) u32 flags (1: the
+//           input's vertices, 2: the input's tets are left to the store's finest segments and
+//           their sections hold the collapses' vertices alone, or nothing), then per section (version 2) u64
+//           offset, u64 stored bytes, u64 bytes before deflating, u32 codec, u32 CRC-32 of the
+//           stored bytes (version 1: u64 offset, u64 bytes, u32 CRC-32), and last the header's
+//           own CRC-32 (of every byte before it)
+//   version 2 (written), sections coded as hierarchy_codec.cpp says:
+//             0 attributes (per attribute: u32 components, u32 name length, the name; raw),
 //             1 positions (f32 × 3 per vertex), 2 values (f32 × value floats per vertex),
-//             3 tets (u32 × 4 per input tet), 4 killer (u32 per input tet),
-//             5 nodes (u32 child × 2, f32 error, f32 radius, u32 fan per collapse),
-//             6 ranges (f32 lo, hi per collapse and attribute), 7 after offsets, 8 after,
+//             3 tets (u32 × 4 per input tet), all three in byte planes;
+//             4 children (per collapse i two numbers, V + i - 1 - child),
+//             5 error and radius (f32 × 2 per collapse, byte planes),
+//             6 ranges (f32 lo, hi per collapse and attribute, byte planes),
+//             7 after counts (one number per collapse), 8 after (per link j of collapse i,
+//             j - i - 1); the killer of each tet, the fans and the before links are derived
+//   version 1 (read), sections as they are in memory: 0 attributes, 1 positions, 2 values,
+//             3 tets, 4 killer (u32 per input tet), 5 nodes (u32 child × 2, f32 error,
+//             f32 radius, u32 fan per collapse), 6 ranges, 7 after offsets, 8 after,
 //             9 before offsets, 10 before (u32 each)
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <map>
@@ -17,6 +29,7 @@
 #include <fstream>
 #include <system_error>
 
+#include "hierarchy_codec.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/storage/store.h"
 
@@ -24,10 +37,13 @@ namespace tetrascope::lod {
 namespace {
 
 constexpr char kMagic[8] = {'T', 'S', 'V', 'E', 'R', 'T', 'H', '1'};
-constexpr uint32_t kVersion = 1, kSections = 11;
-constexpr size_t kHeaderFixed = 8 + 6 * 4 + 8;
-constexpr size_t kSectionEntry = 8 + 8 + 4;
-constexpr size_t kHeaderBytes = kHeaderFixed + kSections * kSectionEntry + 4;
+constexpr size_t kHeaderFixed = 8 + 6 * 4 + 8;  // version 2 adds a u32 of flags after it
+// the flags: the input's vertices, or its tets, are read from the segments.bin beside the file
+constexpr uint32_t kLeavesInStore = 1, kTetsInStore = 2;
+// per version: its sections and the bytes of a section's entry in the header
+constexpr uint32_t sections_of(uint32_t version) { return version == 1 ? 11 : 9; }
+constexpr size_t entry_bytes(uint32_t version) { return version == 1 ? 8 + 8 + 4 : 8 + 8 + 8 + 4 + 4; }
+constexpr size_t header_bytes(uint32_t version) { return kHeaderFixed + (version == 1 ? 0 : 4) + sections_of(version) * entry_bytes(version) + 4; }
 static_assert(sizeof(VertexNode) == 20);
 
 template <class T>
@@ -94,24 +110,222 @@ void check_links(const VertexHierarchy& h) {
 
 }  // namespace
 
-void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHierarchy& h) {
+namespace {
+
+namespace vc = vertex_codec;
+
+std::string attribute_names(const VertexHierarchy& h) {
   std::string names;
   for (const auto& a : h.attributes) {
     put<uint32_t>(names, a.components);
     put<uint32_t>(names, static_cast<uint32_t>(a.name.size()));
     names += a.name;
   }
-  const std::string sections[kSections] = {names, bytes_of(h.positions), bytes_of(h.values), bytes_of(h.tets), bytes_of(h.killer), bytes_of(h.nodes),
-                                           bytes_of(h.ranges), bytes_of(h.after_offsets), bytes_of(h.after), bytes_of(h.before_offsets), bytes_of(h.before)};
+  return names;
+}
+
+std::vector<vc::Coded> coded_sections(const VertexHierarchy& h, uint32_t version, uint32_t flags) {
+  if (version == 1) {
+    std::vector<vc::Coded> out;
+    for (std::string bytes : {attribute_names(h), bytes_of(h.positions), bytes_of(h.values), bytes_of(h.tets), bytes_of(h.killer), bytes_of(h.nodes), bytes_of(h.ranges),
+                              bytes_of(h.after_offsets), bytes_of(h.after), bytes_of(h.before_offsets), bytes_of(h.before)})
+      out.push_back(vc::raw(std::move(bytes)));
+    return out;
+  }
+  const uint32_t V = h.input_vertices, C = h.collapse_count();
+  std::vector<uint64_t> children, counts, after;
+  std::vector<float> error_radius;
+  for (uint32_t i = 0; i < C; ++i) {
+    for (uint32_t child : h.nodes[i].child) children.push_back(uint64_t{V} + i - 1 - child);
+    error_radius.insert(error_radius.end(), {h.nodes[i].error, h.nodes[i].radius});
+    counts.push_back(h.after_offsets[i + 1] - h.after_offsets[i]);
+    for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) after.push_back(uint64_t{h.after[k]} - i - 1);
+  }
+  std::vector<vc::Coded> out;
+  out.push_back(vc::raw(attribute_names(h)));
+  const size_t skip = flags & kLeavesInStore ? V : 0;  // the vertices written: the collapses' alone when the store has the input's
+  out.push_back(vc::shuffled(h.positions.data() + 3 * skip, h.positions.size() - 3 * skip));
+  out.push_back(vc::shuffled(h.values.data() + h.value_floats * skip, h.values.size() - h.value_floats * skip));
+  out.push_back(vc::shuffled(h.tets.data(), flags & kTetsInStore ? 0 : h.tets.size()));
+  out.push_back(vc::varints(children));
+  out.push_back(vc::shuffled(error_radius.data(), error_radius.size()));
+  out.push_back(vc::shuffled(h.ranges.data(), h.ranges.size()));
+  out.push_back(vc::varints(counts));
+  out.push_back(vc::varints(after));
+  return out;
+}
+
+struct Section {
+  std::string stored;
+  uint64_t raw_bytes = 0;
+  vc::Codec codec = vc::Codec::kRaw;
+};
+
+template <class T>
+std::vector<T> words_of(const Section& s, uint64_t count, const char* what) {
+  std::vector<T> out;
+  if (s.codec != vc::Codec::kShuffle) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section has an unexpected codec");
+  const std::vector<uint32_t> words = vc::unshuffle(vc::inflate(s.stored, s.raw_bytes, 4 * count, what), count, what);
+  out.resize(count);
+  if (count) std::memcpy(out.data(), words.data(), 4 * count);
+  return out;
+}
+
+std::vector<uint64_t> numbers_of(const Section& s, uint64_t count, const char* what) {
+  if (s.codec != vc::Codec::kVarint) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section has an unexpected codec");
+  return vc::read_varints(vc::inflate(s.stored, s.raw_bytes, 10 * count, what), count, what);
+}
+
+void read_attributes(const std::string& section, uint32_t attributes, VertexHierarchy& h) {
+  Reader names{section};
+  uint32_t floats = 0;
+  for (uint32_t a = 0; a < attributes; ++a) {
+    storage::AttributeInfo info;
+    info.components = names.get<uint32_t>();
+    const uint32_t length = names.get<uint32_t>();
+    if (info.components == 0 || info.components > 16 || length > section.size() - names.at) throw VertexHierarchyError("vertices.bin: a bad attribute entry");
+    info.name = section.substr(names.at, length);
+    names.at += length;
+    floats += info.components;
+    h.attributes.push_back(std::move(info));
+  }
+  if (floats != h.value_floats) throw VertexHierarchyError("vertices.bin: the attributes' components do not add up");
+}
+
+void read_version1(const std::vector<Section>& s, uint32_t collapses, uint64_t input_tets, VertexHierarchy& h) {
+  const uint64_t vertices = uint64_t{h.input_vertices} + collapses, attributes = h.attributes.size();
+  take(s[1].stored, h.positions, 3 * vertices, "positions");
+  take(s[2].stored, h.values, uint64_t{h.value_floats} * vertices, "values");
+  take(s[3].stored, h.tets, 4 * input_tets, "tets");
+  take(s[4].stored, h.killer, input_tets, "killer");
+  take(s[5].stored, h.nodes, collapses, "nodes");
+  take(s[6].stored, h.ranges, 2ull * collapses * attributes, "ranges");
+  take(s[7].stored, h.after_offsets, uint64_t{collapses} + 1, "after offsets");
+  take(s[8].stored, h.after, s[8].stored.size() / 4, "after");
+  take(s[9].stored, h.before_offsets, uint64_t{collapses} + 1, "before offsets");
+  take(s[10].stored, h.before, s[10].stored.size() / 4, "before");
+}
+
+// What a version 2 file leaves to the store beside it, read from the segments of its finest
+// level (the input, `multiresolution.levels[0]` of the manifest): the input's vertices
+// (positions and values), and the input's tets in the segments' order and orientation.
+void read_from_store(const std::filesystem::path& directory, uint32_t flags, uint64_t input_tets, VertexHierarchy& h) {
+  const uint32_t V = h.input_vertices, F = h.value_floats;
+  auto refuse = [](const std::string& why) { return VertexHierarchyError("vertices.bin: its input mesh is in the store's segments, which " + why); };
+  std::unique_ptr<storage::Store> store;
+  uint32_t first = 0, count = 0;
+  try {
+    store = storage::Store::open(directory);
+    const auto& level = store->manifest().json.at("multiresolution").at("levels").at(0);
+    first = level.at("first_segment").get<uint32_t>();
+    count = level.at("segments").get<uint32_t>();
+  } catch (const std::exception& e) {
+    throw refuse(std::string("cannot be read: ") + e.what());
+  }
+  uint32_t floats = 0;
+  for (const auto& a : store->manifest().attributes) floats += a.components;
+  if (floats != F || store->manifest().vertex_count < V || first > store->segment_count() || count > store->segment_count() - first) throw refuse("hold another mesh (a file of another store?)");
+  if (flags & kLeavesInStore) {
+    h.positions.insert(h.positions.begin(), 3 * size_t{V}, 0.0f);
+    h.values.insert(h.values.begin(), size_t{F} * V, 0.0f);
+  }
+  std::vector<uint8_t> seen(V, 0);
+  for (uint32_t segment = first; segment < first + count; ++segment) {
+    std::shared_ptr<const storage::MappedSegment> mapped;
+    try {
+      mapped = store->map_segment(segment);
+    } catch (const std::exception& e) {
+      throw refuse(std::string("cannot be read: ") + e.what());
+    }
+    const storage::SegmentView& v = mapped->view();
+    if (flags & kTetsInStore) {
+      if (h.tets.size() / 4 + v.tet_count > input_tets) throw refuse("hold more tets than the hierarchy's input");
+      for (uint32_t local : v.tets) {
+        if (v.global_ids[local] >= V) throw refuse("hold a tet of another mesh");
+        h.tets.push_back(v.global_ids[local]);
+      }
+    }
+    for (uint32_t l = 0; l < v.vertex_count && (flags & kLeavesInStore); ++l) {
+      const uint32_t g = v.global_ids[l];
+      if (g >= V || seen[g]) continue;
+      seen[g] = 1;
+      float* p = &h.positions[3 * size_t{g}];
+      p[0] = v.x[l], p[1] = v.y[l], p[2] = v.z[l];
+      uint32_t offset = 0;
+      for (const auto& a : h.attributes) {
+        for (uint32_t k = 0; k < a.components; ++k) h.values[size_t{g} * F + offset + k] = v.attributes[size_t{v.vertex_count} * offset + size_t{l} * a.components + k];
+        offset += a.components;
+      }
+    }
+  }
+  if ((flags & kLeavesInStore) && std::count(seen.begin(), seen.end(), 0)) throw refuse("lack some of its vertices (a file of another store?)");
+  if ((flags & kTetsInStore) && h.tets.size() != 4 * input_tets) throw refuse("hold fewer tets than the hierarchy's input");
+}
+
+// Version 2: the sections decoded, their links checked as far as deriving the rest needs, the
+// rest derived.
+void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t input_tets, uint32_t flags, const std::filesystem::path& store, VertexHierarchy& h) {
+  const uint32_t V = h.input_vertices, C = collapses;
+  const uint64_t written = flags & kLeavesInStore ? C : uint64_t{V} + C;
+  h.positions = words_of<float>(s[1], 3 * written, "positions");
+  h.values = words_of<float>(s[2], uint64_t{h.value_floats} * written, "values");
+  h.tets = words_of<uint32_t>(s[3], flags & kTetsInStore ? 0 : 4 * input_tets, "tets");
+  if (flags) read_from_store(store, flags, input_tets, h);
+  for (uint32_t v : h.tets)
+    if (v >= V) throw VertexHierarchyError("vertices.bin: a tet names a vertex out of range");
+  const std::vector<uint64_t> children = numbers_of(s[4], 2ull * C, "children");
+  const std::vector<float> error_radius = words_of<float>(s[5], 2ull * C, "error and radius");
+  h.nodes.resize(C);
+  for (uint32_t i = 0; i < C; ++i) {
+    for (int k = 0; k < 2; ++k) {
+      const uint64_t below = children[2 * size_t{i} + k];
+      if (below >= uint64_t{V} + i) throw VertexHierarchyError("vertices.bin: a collapse's child is out of order or merged twice");
+      h.nodes[i].child[k] = static_cast<uint32_t>(uint64_t{V} + i - 1 - below);
+    }
+    h.nodes[i].error = error_radius[2 * size_t{i}];
+    h.nodes[i].radius = error_radius[2 * size_t{i} + 1];
+  }
+  vc::check_children(h);
+  h.ranges = words_of<float>(s[6], 2ull * C * h.attributes.size(), "ranges");
+  const std::vector<uint64_t> counts = numbers_of(s[7], C, "after counts");
+  h.after_offsets.assign(size_t{C} + 1, 0);
+  for (uint32_t i = 0; i < C; ++i) {
+    if (counts[i] > C) throw VertexHierarchyError("vertices.bin: the after offsets do not cover their links");
+    h.after_offsets[i + 1] = static_cast<uint32_t>(h.after_offsets[i] + counts[i]);
+    if (h.after_offsets[i + 1] < h.after_offsets[i]) throw VertexHierarchyError("vertices.bin: the after offsets do not cover their links");
+  }
+  const std::vector<uint64_t> after = numbers_of(s[8], h.after_offsets[C], "after");
+  h.after.resize(after.size());
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) {
+      if (after[k] >= uint64_t{C} - i - 1) throw VertexHierarchyError("vertices.bin: an after link is out of order");
+      h.after[k] = static_cast<uint32_t>(after[k] + i + 1);
+    }
+  vc::derive_links(h);
+}
+
+}  // namespace
+
+void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHierarchy& h, const VertexHierarchyWriteOptions& options) {
+  const uint32_t version = options.version;
+  if (version != 1 && version != kVertexHierarchyVersion) throw std::invalid_argument("vertices.bin: no version " + std::to_string(version));
+  const uint32_t flags = (options.leaves_in_store ? kLeavesInStore : 0) | (options.tets_in_store ? kTetsInStore : 0);
+  if (version == 1 && flags) throw std::invalid_argument("vertices.bin: version 1 holds the input mesh itself");
+  const std::vector<vc::Coded> sections = coded_sections(h, version, flags);
   std::string header(kMagic, 8);
-  for (uint32_t v : {kVersion, h.input_vertices, h.collapse_count(), static_cast<uint32_t>(h.attributes.size()), h.value_floats, kSections}) put(header, v);
+  for (uint32_t v : {version, h.input_vertices, h.collapse_count(), static_cast<uint32_t>(h.attributes.size()), h.value_floats, sections_of(version)}) put(header, v);
   put<uint64_t>(header, h.input_tets());
-  uint64_t offset = kHeaderBytes;
-  for (const std::string& s : sections) {
+  if (version != 1) put<uint32_t>(header, flags);
+  uint64_t offset = header_bytes(version);
+  for (const vc::Coded& s : sections) {
     put<uint64_t>(header, offset);
-    put<uint64_t>(header, s.size());
-    put<uint32_t>(header, storage::crc32_of(s.data(), s.size()));
-    offset += s.size();
+    put<uint64_t>(header, s.stored.size());
+    if (version != 1) {
+      put<uint64_t>(header, s.raw_bytes);
+      put<uint32_t>(header, static_cast<uint32_t>(s.codec));
+    }
+    put<uint32_t>(header, storage::crc32_of(s.stored.data(), s.stored.size()));
+    offset += s.stored.size();
   }
   put<uint32_t>(header, storage::crc32_of(header.data(), header.size()));
   const std::filesystem::path temporary = path.string() + ".tmp";
@@ -119,7 +333,7 @@ void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHiera
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error("cannot write " + temporary.string());
     out.write(header.data(), static_cast<std::streamsize>(header.size()));
-    for (const std::string& s : sections) out.write(s.data(), static_cast<std::streamsize>(s.size()));
+    for (const vc::Coded& s : sections) out.write(s.stored.data(), static_cast<std::streamsize>(s.stored.size()));
     out.flush();
     if (!out) throw std::runtime_error("cannot write " + temporary.string() + " (disk full?)");
   }
@@ -130,52 +344,44 @@ VertexHierarchy read_vertex_hierarchy(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot open " + path.string());
   std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (data.size() < kHeaderBytes || std::memcmp(data.data(), kMagic, 8) != 0) throw VertexHierarchyError("vertices.bin: not a vertex hierarchy, or its header is truncated");
-  uint32_t stored_crc;
-  std::memcpy(&stored_crc, data.data() + kHeaderBytes - 4, 4);
-  if (storage::crc32_of(data.data(), kHeaderBytes - 4) != stored_crc) throw VertexHierarchyError("vertices.bin: the header fails its checksum");
+  if (data.size() < kHeaderFixed || std::memcmp(data.data(), kMagic, 8) != 0) throw VertexHierarchyError("vertices.bin: not a vertex hierarchy, or its header is truncated");
   Reader r{data, 8};
   const uint32_t version = r.get<uint32_t>();
-  if (version != kVersion) throw VertexHierarchyError("vertices.bin: version " + std::to_string(version) + " (this build reads " + std::to_string(kVersion) + ")");
+  if (version != 1 && version != kVertexHierarchyVersion)
+    throw VertexHierarchyError("vertices.bin: version " + std::to_string(version) + " (this build reads 1 and " + std::to_string(kVertexHierarchyVersion) + ")");
+  const size_t header = header_bytes(version);
+  if (data.size() < header) throw VertexHierarchyError("vertices.bin: the header is truncated");
+  uint32_t stored_crc;
+  std::memcpy(&stored_crc, data.data() + header - 4, 4);
+  if (storage::crc32_of(data.data(), header - 4) != stored_crc) throw VertexHierarchyError("vertices.bin: the header fails its checksum");
   VertexHierarchy h;
   h.input_vertices = r.get<uint32_t>();
   const uint32_t collapses = r.get<uint32_t>(), attributes = r.get<uint32_t>();
   h.value_floats = r.get<uint32_t>();
-  if (r.get<uint32_t>() != kSections) throw VertexHierarchyError("vertices.bin: unexpected section count");
+  if (r.get<uint32_t>() != sections_of(version)) throw VertexHierarchyError("vertices.bin: unexpected section count");
   const uint64_t input_tets = r.get<uint64_t>();
-  std::string sections[kSections];
-  for (uint32_t s = 0; s < kSections; ++s) {
+  const uint32_t flags = version == 1 ? 0 : r.get<uint32_t>();
+  if (flags & ~(kLeavesInStore | kTetsInStore)) throw VertexHierarchyError("vertices.bin: unknown flags " + std::to_string(flags));
+  std::vector<Section> sections(sections_of(version));
+  for (uint32_t s = 0; s < sections.size(); ++s) {
     const uint64_t offset = r.get<uint64_t>(), bytes = r.get<uint64_t>();
+    if (version != 1) {
+      sections[s].raw_bytes = r.get<uint64_t>();
+      sections[s].codec = static_cast<vc::Codec>(r.get<uint32_t>());
+    }
     const uint32_t crc = r.get<uint32_t>();
     if (offset > data.size() || bytes > data.size() - offset) throw VertexHierarchyError("vertices.bin: truncated (section " + std::to_string(s) + " runs past the end)");
-    sections[s] = data.substr(offset, bytes);
-    if (storage::crc32_of(sections[s].data(), sections[s].size()) != crc) throw VertexHierarchyError("vertices.bin: section " + std::to_string(s) + " fails its checksum");
+    sections[s].stored = data.substr(offset, bytes);
+    if (storage::crc32_of(sections[s].stored.data(), sections[s].stored.size()) != crc) throw VertexHierarchyError("vertices.bin: section " + std::to_string(s) + " fails its checksum");
   }
   const uint64_t vertices = uint64_t{h.input_vertices} + collapses;
-  if (vertices > 0xFFFFFFF0ull || input_tets > (uint64_t{1} << 40) || attributes > 4096) throw VertexHierarchyError("vertices.bin: counts out of range");
-  Reader names{sections[0]};
-  uint32_t floats = 0;
-  for (uint32_t a = 0; a < attributes; ++a) {
-    storage::AttributeInfo info;
-    info.components = names.get<uint32_t>();
-    const uint32_t length = names.get<uint32_t>();
-    if (info.components == 0 || info.components > 16 || length > sections[0].size() - names.at) throw VertexHierarchyError("vertices.bin: a bad attribute entry");
-    info.name = sections[0].substr(names.at, length);
-    names.at += length;
-    floats += info.components;
-    h.attributes.push_back(std::move(info));
-  }
-  if (floats != h.value_floats) throw VertexHierarchyError("vertices.bin: the attributes' components do not add up");
-  take(sections[1], h.positions, 3 * vertices, "positions");
-  take(sections[2], h.values, uint64_t{h.value_floats} * vertices, "values");
-  take(sections[3], h.tets, 4 * input_tets, "tets");
-  take(sections[4], h.killer, input_tets, "killer");
-  take(sections[5], h.nodes, collapses, "nodes");
-  take(sections[6], h.ranges, 2ull * collapses * attributes, "ranges");
-  take(sections[7], h.after_offsets, uint64_t{collapses} + 1, "after offsets");
-  take(sections[8], h.after, sections[8].size() / 4, "after");
-  take(sections[9], h.before_offsets, uint64_t{collapses} + 1, "before offsets");
-  take(sections[10], h.before, sections[10].size() / 4, "before");
+  if (vertices > 0xFFFFFFF0ull || input_tets > (uint64_t{1} << 40) || attributes > 4096 || h.value_floats > 16 * attributes) throw VertexHierarchyError("vertices.bin: counts out of range");
+  if (sections[0].codec != vc::Codec::kRaw || (version != 1 && sections[0].raw_bytes != sections[0].stored.size())) throw VertexHierarchyError("vertices.bin: the attributes section has an unexpected codec");
+  read_attributes(sections[0].stored, attributes, h);
+  if (version == 1)
+    read_version1(sections, collapses, input_tets, h);
+  else
+    read_version2(sections, collapses, input_tets, flags, path.parent_path(), h);
   check_links(h);
   return h;
 }

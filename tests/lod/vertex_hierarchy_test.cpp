@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <set>
 
@@ -13,6 +15,7 @@
 #include "tetrascope/lod/simplify/simplify.h"
 #include "tetrascope/lod/vertex/vertex_front.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
+#include "tetrascope/storage/store.h"
 #include "mesh_checks.h"
 #include "test_paths.h"
 
@@ -300,6 +303,144 @@ TEST(VertexHierarchyFile, RoundTripsExactly) {
   a.split_all();
   b.split_all();
   EXPECT_EQ(front_tets(a), front_tets(b));
+}
+
+TEST(VertexHierarchyFile, VersionTwoDerivesTheKillersFansAndBeforeLinksTheBuildRecorded) {
+  const auto& h = hierarchy();
+  const auto path = scratch_dir("vertex_hierarchy_v2") / "vertices.bin";
+  lod::write_vertex_hierarchy(path, h);
+  const lod::VertexHierarchy back = lod::read_vertex_hierarchy(path);
+  ASSERT_EQ(back.nodes.size(), h.nodes.size());
+  for (size_t i = 0; i < h.nodes.size(); ++i) {
+    EXPECT_EQ(back.nodes[i].child, h.nodes[i].child) << "collapse " << i;
+    EXPECT_EQ(back.nodes[i].fan, h.nodes[i].fan) << "collapse " << i;
+    EXPECT_EQ(back.nodes[i].error, h.nodes[i].error) << "collapse " << i;
+    EXPECT_EQ(back.nodes[i].radius, h.nodes[i].radius) << "collapse " << i;
+  }
+  EXPECT_EQ(back.killer, h.killer);
+  EXPECT_EQ(back.before_offsets, h.before_offsets);
+  EXPECT_EQ(back.before, h.before);
+  EXPECT_EQ(back.after_offsets, h.after_offsets);
+  EXPECT_EQ(back.ranges, h.ranges);
+  // and smaller than the arrays it holds
+  const auto v1 = scratch_dir("vertex_hierarchy_v1") / "vertices.bin";
+  lod::write_vertex_hierarchy(v1, h, {.version = 1});
+  EXPECT_LT(std::filesystem::file_size(path), std::filesystem::file_size(v1) * 3 / 4);
+}
+
+// preprocess leaves the input's vertices to segments.bin when they are the hierarchy's leaves:
+// the file read back is the one written whole, and a file moved away from its store is refused.
+TEST(VertexHierarchyFile, AStoresFileReadsItsInputVerticesFromTheSegments) {
+  const auto& store = built("sample").store;
+  const auto file = store / lod::kVertexHierarchyFile;
+  ASSERT_TRUE(std::filesystem::exists(file));
+  std::ifstream in(file, std::ios::binary);
+  std::string header(44, '\0');
+  in.read(header.data(), 44);
+  uint32_t version = 0, flags = 0;
+  std::memcpy(&version, header.data() + 8, 4);
+  std::memcpy(&flags, header.data() + 40, 4);
+  EXPECT_EQ(version, 2u);
+  EXPECT_EQ(flags, 3u) << "the sample's vertices and tets are the store's: the file should leave them to it";
+  const lod::VertexHierarchy h = lod::read_vertex_hierarchy(file);
+  const auto whole = scratch_dir("vertex_hierarchy_whole") / "vertices.bin";
+  lod::write_vertex_hierarchy(whole, h);
+  EXPECT_LT(std::filesystem::file_size(file), std::filesystem::file_size(whole));
+  const lod::VertexHierarchy back = lod::read_vertex_hierarchy(whole);
+  EXPECT_EQ(back.positions, h.positions);
+  EXPECT_EQ(back.values, h.values);
+  EXPECT_EQ(back.killer, h.killer);
+  // the leaves read from the segments are the sample mesh's vertices
+  const storage::TetMesh mesh = storage::load_mesh(sample_mesh());
+  ASSERT_EQ(h.input_vertices, mesh.vertex_count());
+  for (uint32_t v = 0; v < h.input_vertices; v += 37) {
+    EXPECT_EQ(h.positions[3 * size_t{v}], mesh.x[v]) << "vertex " << v;
+    EXPECT_EQ(h.positions[3 * size_t{v} + 2], mesh.z[v]) << "vertex " << v;
+  }
+  // and the tets read from the segments are the mesh's, each once, in another order
+  auto sorted_tets = [](const std::vector<uint32_t>& tets) {
+    std::multiset<std::array<uint32_t, 4>> out;
+    for (size_t t = 0; t < tets.size(); t += 4) {
+      std::array<uint32_t, 4> q = {tets[t], tets[t + 1], tets[t + 2], tets[t + 3]};
+      std::sort(q.begin(), q.end());
+      out.insert(q);
+    }
+    return out;
+  };
+  EXPECT_EQ(sorted_tets(h.tets), sorted_tets(mesh.tets));
+  lod::VertexFront front(h);
+  front.split_all();
+  EXPECT_EQ(front.tet_count(), mesh.tet_count());
+  // moved away from its store: a clear error naming what is missing
+  const auto alone = scratch_dir("vertex_hierarchy_alone") / "vertices.bin";
+  std::filesystem::copy_file(file, alone, std::filesystem::copy_options::overwrite_existing);
+  try {
+    lod::read_vertex_hierarchy(alone);
+    FAIL() << "read without its store";
+  } catch (const lod::VertexHierarchyError& e) {
+    EXPECT_NE(std::string(e.what()).find("segments"), std::string::npos) << e.what();
+  }
+}
+
+TEST(VertexHierarchyFile, AVersionOneFileIsStillRead) {
+  const auto& h = hierarchy();
+  const auto path = scratch_dir("vertex_hierarchy_v1_read") / "vertices.bin";
+  lod::write_vertex_hierarchy(path, h, {.version = 1});
+  const lod::VertexHierarchy back = lod::read_vertex_hierarchy(path);
+  EXPECT_EQ(back.tets, h.tets);
+  EXPECT_EQ(back.killer, h.killer);
+  EXPECT_EQ(back.before, h.before);
+  EXPECT_EQ(back.values, h.values);
+  EXPECT_THROW(lod::write_vertex_hierarchy(path, h, {.version = 3}), std::invalid_argument);
+}
+
+// A file whose checksums are right but whose coded sections lie (a writer's bug, or a file made
+// to pass the checksums): each lie refused by name, nothing allocated beyond the counts.
+TEST(VertexHierarchyFile, AVersionTwoFileWithLyingSectionsIsRefused) {
+  const auto path = scratch_dir("vertex_hierarchy_lies") / "vertices.bin";
+  lod::write_vertex_hierarchy(path, hierarchy());
+  std::string good;
+  {
+    std::ifstream in(path, std::ios::binary);
+    good.assign((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+  constexpr size_t kFixed = 44, kEntry = 32, kSections = 9, kHeader = kFixed + kSections * kEntry + 4;
+  auto rewrite = [&](const std::function<void(std::string&)>& change) {
+    std::string bytes = good;
+    change(bytes);
+    const uint32_t crc = storage::crc32_of(bytes.data(), kHeader - 4);
+    std::memcpy(bytes.data() + kHeader - 4, &crc, 4);
+    std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  };
+  auto raw_bytes_at = [&](size_t section) { return kFixed + section * kEntry + 16; };
+  // the positions claim a hundred times their size: refused before inflating
+  rewrite([&](std::string& b) {
+    uint64_t raw;
+    std::memcpy(&raw, b.data() + raw_bytes_at(1), 8);
+    raw *= 100;
+    std::memcpy(b.data() + raw_bytes_at(1), &raw, 8);
+  });
+  EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
+  // the tets claim the codec of numbers
+  rewrite([&](std::string& b) {
+    const uint32_t varint = 2;
+    std::memcpy(b.data() + raw_bytes_at(3) + 8, &varint, 4);
+  });
+  EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
+  // the after links claim one byte fewer than they inflate to
+  rewrite([&](std::string& b) {
+    uint64_t raw;
+    std::memcpy(&raw, b.data() + raw_bytes_at(8), 8);
+    --raw;
+    std::memcpy(b.data() + raw_bytes_at(8), &raw, 8);
+  });
+  EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
+  // a version this build does not know
+  rewrite([&](std::string& b) {
+    const uint32_t version = 7;
+    std::memcpy(b.data() + 8, &version, 4);
+  });
+  EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
 }
 
 TEST(VertexHierarchyFile, ATruncatedVerticesFileIsRefusedWithAClearError) {

@@ -84,7 +84,7 @@ struct VertexHierarchyReport {
 // simplify`, its defaults) and records them as the hierarchy.
 VertexHierarchy build_vertex_hierarchy(const storage::TetMesh& mesh, const VertexHierarchyOptions& options = {}, VertexHierarchyReport* report = nullptr);
 
-// vertices.bin: the hierarchy in a store (format in vertex_hierarchy_file.cpp), each section
+// vertices.bin: the hierarchy in a store (format in hierarchy_file.cpp), each section
 // checksummed. write_ writes beside and renames, so a reader never sees half a file.
 // read_ throws VertexHierarchyError for a file that is truncated, fails a checksum or whose
 // links are out of range; std::runtime_error when it cannot be read at all.
@@ -92,7 +92,20 @@ struct VertexHierarchyError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 constexpr const char* kVertexHierarchyFile = "vertices.bin";
-void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHierarchy& hierarchy);
+// The version written: 2, its sections deflated and the links a reader can derive left out;
+// version 1 (every array as it is in memory) is still read, and written when asked.
+constexpr uint32_t kVertexHierarchyVersion = 2;
+struct VertexHierarchyWriteOptions {
+  uint32_t version = kVertexHierarchyVersion;
+  // The input's vertices (positions and values) left out, to be read from the segments.bin
+  // beside the file: for a store whose input vertices are exactly the hierarchy's leaves
+  // (preprocess checks that, bit for bit, before it asks for this).
+  bool leaves_in_store = false;
+  // The input's tets left out, to be read from the finest level's segments (in their order and
+  // orientation): for a store whose input tets are the hierarchy's (the same vertices each).
+  bool tets_in_store = false;
+};
+void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHierarchy& hierarchy, const VertexHierarchyWriteOptions& options = {});
 VertexHierarchy read_vertex_hierarchy(const std::filesystem::path& path);
 // The hierarchy of the store in `store_directory`, read once and shared while anyone holds
 // it (read again when the file changed); null when the store has none. Throws as read_.

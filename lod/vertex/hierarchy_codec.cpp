@@ -1,0 +1,145 @@
+// The sections of vertices.bin version 2. Floats and the input's tets are split into the planes
+// of their bytes (the high bytes of neighbouring values repeat, so deflate finds them); links are
+// written as what remains after their prediction (a child of collapse i is below vertex V + i,
+// an `after` link above i), as LEB128, and deflated. The killer of each tet, the fans and the
+// `before` links are not written: derive_links finds them again from the tets and the children.
+#include "hierarchy_codec.h"
+
+#include <libdeflate.h>
+
+#include <algorithm>
+#include <cstring>
+#include <memory>
+
+namespace tetrascope::lod::vertex_codec {
+namespace {
+
+constexpr int kDeflateLevel = 6;
+
+std::string deflate(const std::string& bytes) {
+  std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> c(libdeflate_alloc_compressor(kDeflateLevel), &libdeflate_free_compressor);
+  if (!c) throw std::runtime_error("vertices.bin: cannot allocate a compressor");
+  std::string out(libdeflate_zlib_compress_bound(c.get(), bytes.size()), '\0');
+  const size_t n = libdeflate_zlib_compress(c.get(), bytes.data(), bytes.size(), out.data(), out.size());
+  if (n == 0) throw std::runtime_error("vertices.bin: compression failed");
+  out.resize(n);
+  return out;
+}
+
+}  // namespace
+
+Coded raw(std::string bytes) {
+  Coded c;
+  c.raw_bytes = bytes.size();
+  c.stored = std::move(bytes);
+  return c;
+}
+
+Coded shuffled(const void* words, size_t count) {
+  const auto* in = static_cast<const uint8_t*>(words);
+  std::string planes(4 * count, '\0');
+  for (size_t i = 0; i < count; ++i)
+    for (size_t b = 0; b < 4; ++b) planes[b * count + i] = static_cast<char>(in[4 * i + b]);
+  return {Codec::kShuffle, planes.size(), deflate(planes)};
+}
+
+Coded varints(const std::vector<uint64_t>& numbers) {
+  std::string bytes;
+  bytes.reserve(numbers.size() * 2);
+  for (uint64_t x : numbers) {
+    while (x >= 0x80) {
+      bytes.push_back(static_cast<char>((x & 0x7F) | 0x80));
+      x >>= 7;
+    }
+    bytes.push_back(static_cast<char>(x));
+  }
+  return {Codec::kVarint, bytes.size(), deflate(bytes)};
+}
+
+std::string inflate(const std::string& stored, uint64_t raw_bytes, uint64_t bound, const char* what) {
+  if (raw_bytes > bound) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section claims " + std::to_string(raw_bytes) + " bytes, more than its counts allow");
+  std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> d(libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
+  if (!d) throw std::runtime_error("vertices.bin: cannot allocate a decompressor");
+  std::string out(raw_bytes, '\0');
+  size_t got = 0;
+  const libdeflate_result rc = libdeflate_zlib_decompress(d.get(), stored.data(), stored.size(), out.data(), out.size(), &got);
+  if (rc != LIBDEFLATE_SUCCESS || got != raw_bytes) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section does not inflate to its recorded size");
+  return out;
+}
+
+std::vector<uint32_t> unshuffle(const std::string& planes, size_t count, const char* what) {
+  if (planes.size() != 4 * count) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section has the wrong size");
+  std::vector<uint32_t> words(count);
+  auto* out = reinterpret_cast<uint8_t*>(words.data());
+  for (size_t i = 0; i < count; ++i)
+    for (size_t b = 0; b < 4; ++b) out[4 * i + b] = static_cast<uint8_t>(planes[b * count + i]);
+  return words;
+}
+
+std::vector<uint64_t> read_varints(const std::string& bytes, size_t count, const char* what) {
+  std::vector<uint64_t> numbers;
+  numbers.reserve(count);
+  size_t at = 0;
+  while (numbers.size() < count) {
+    uint64_t x = 0;
+    for (int shift = 0;; shift += 7) {
+      if (at == bytes.size() || shift > 56) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section ends inside a number, or holds an overlong one");
+      const auto byte = static_cast<uint8_t>(bytes[at++]);
+      x |= uint64_t{byte & 0x7Fu} << shift;
+      if (!(byte & 0x80)) break;
+    }
+    numbers.push_back(x);
+  }
+  if (at != bytes.size()) throw VertexHierarchyError(std::string("vertices.bin: the ") + what + " section holds more numbers than its counts");
+  return numbers;
+}
+
+void check_children(const VertexHierarchy& h) {
+  std::vector<uint8_t> consumed(h.vertex_count(), 0);
+  for (uint32_t i = 0; i < h.collapse_count(); ++i)
+    for (uint32_t child : h.nodes[i].child) {
+      if (child >= h.input_vertices + i || consumed[child]) throw VertexHierarchyError("vertices.bin: a collapse's child is out of order or merged twice");
+      consumed[child] = 1;
+    }
+}
+
+void derive_links(VertexHierarchy& h) {
+  const uint32_t V = h.input_vertices, C = h.collapse_count();
+  std::vector<uint32_t> parent(h.vertex_count(), kNoCollapse);  // the vertex a vertex was merged into
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t child : h.nodes[i].child) parent[child] = V + i;
+  // A vertex's parent has a higher id than it, so climbing from the lower of two vertices meets
+  // their lowest common ancestor, the collapse at which they became one.
+  auto meet = [&](uint32_t u, uint32_t v) {
+    while (u != v) {
+      uint32_t& low = u < v ? u : v;
+      if (parent[low] == kNoCollapse) return kNoCollapse;
+      low = parent[low];
+    }
+    return u - V;
+  };
+  const size_t T = h.tets.size() / 4;
+  h.killer.assign(T, kNoCollapse);
+  for (VertexNode& n : h.nodes) n.fan = 0;
+  for (size_t t = 0; t < T; ++t) {
+    const uint32_t* s = &h.tets[4 * t];
+    uint32_t first = kNoCollapse;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        if (s[a] == s[b]) throw VertexHierarchyError("vertices.bin: tet " + std::to_string(t) + " names a vertex twice");
+        first = std::min(first, meet(s[a], s[b]));
+      }
+    h.killer[t] = first;
+    if (first != kNoCollapse) ++h.nodes[first].fan;
+  }
+  // before: the inverse of after, each list ascending as the build writes it
+  h.before_offsets.assign(size_t{C} + 1, 0);
+  for (uint32_t k : h.after) ++h.before_offsets[k + 1];
+  for (uint32_t i = 0; i < C; ++i) h.before_offsets[i + 1] += h.before_offsets[i];
+  h.before.assign(h.after.size(), 0);
+  std::vector<uint32_t> fill(h.before_offsets.begin(), h.before_offsets.end() - 1);
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) h.before[fill[h.after[k]]++] = i;
+}
+
+}  // namespace tetrascope::lod::vertex_codec

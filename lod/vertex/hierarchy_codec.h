@@ -1,0 +1,49 @@
+// The coding of vertices.bin's sections (version 2) and the links a reader derives instead of
+// reading them: see hierarchy_codec.cpp.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tetrascope/lod/vertex/vertex_hierarchy.h"
+
+namespace tetrascope::lod::vertex_codec {
+
+// How a section's bytes are kept: as they are, or deflated after a transform.
+enum class Codec : uint32_t {
+  kRaw = 0,
+  kShuffle = 1,  // 32-bit words split into four planes of their bytes, deflated
+  kVarint = 2,   // unsigned LEB128 numbers (what remains of a value after its prediction), deflated
+};
+
+// A section as written: its codec, its bytes before deflating (the header records them), the
+// stored bytes.
+struct Coded {
+  Codec codec = Codec::kRaw;
+  uint64_t raw_bytes = 0;
+  std::string stored;
+};
+
+Coded raw(std::string bytes);
+Coded shuffled(const void* words, size_t count);  // count 32-bit words
+Coded varints(const std::vector<uint64_t>& numbers);
+
+// The stored bytes back to the transform's bytes: exactly `raw_bytes` of them, or
+// VertexHierarchyError naming `what`. `raw_bytes` is checked against the caller's bound
+// before anything is allocated.
+std::string inflate(const std::string& stored, uint64_t raw_bytes, uint64_t bound, const char* what);
+// The transforms undone: `count` words from four byte planes; `count` numbers from LEB128
+// (VertexHierarchyError when the bytes hold more, fewer or an overlong number).
+std::vector<uint32_t> unshuffle(const std::string& planes, size_t count, const char* what);
+std::vector<uint64_t> read_varints(const std::string& bytes, size_t count, const char* what);
+
+// What version 2 leaves out and a reader derives from the rest: per input tet the collapse that
+// removes it (the first at which two of its corners meet: their lowest common ancestor), each
+// collapse's fan (the tets it removes) and the `before` links (the inverse of `after`). Needs
+// the children checked (check_children); throws VertexHierarchyError for a tet that names a
+// vertex twice.
+void check_children(const VertexHierarchy& h);
+void derive_links(VertexHierarchy& h);
+
+}  // namespace tetrascope::lod::vertex_codec
