@@ -6,7 +6,7 @@
 # splits and collapses a second on one core, front updates on an orbit).
 #   bench/vertex_bench.sh [MESH ...]   (REPEAT=3 by default; default meshes: the shared
 #   datasets onera_m6_potential, nasa_oxygen_post, fea_bracket, nasa_bluntfin)
-# Writes bench/results/vertex_bench.json.
+# Adds a record to bench/results/vertex_bench.json.
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 data="$root/../shared/data"
@@ -44,9 +44,13 @@ print(json.dumps({"mesh": name, "input_tets": report["input_tets"], "runs": repe
                   "peak_rss_kb": statistics.median(r["rss_kb"] for r in runs), "hierarchy": bench}))
 EOF
 done
-python3 - "$rows" "$root/bench/results/vertex_bench.json" <<'EOF'
-import datetime, json, sys
+python3 - "$rows" "$root/bench/results/vertex_bench.json" "$(git -C "$root" rev-parse --short HEAD)" <<'EOF'
+import datetime, json, os, sys
 rows = [json.loads(l) for l in open(sys.argv[1])]
-json.dump({"date": datetime.date.today().isoformat(), "method": "preprocess defaults, medians of the runs; vertex_bench one core, medians of 5 passes", "rows": rows}, open(sys.argv[2], "w"), indent=1)
+record = {"date": datetime.date.today().isoformat(), "commit": sys.argv[3], "method": "preprocess defaults, medians of the runs; vertex_bench one core, medians of 5 passes", "rows": rows}
+# each run a record: {"records": [...]}, the oldest first (a file of one bare record is kept as the first)
+old = json.load(open(sys.argv[2])) if os.path.exists(sys.argv[2]) else {"records": []}
+records = old["records"] if "records" in old else [old]
+json.dump({"records": records + [record]}, open(sys.argv[2], "w"), indent=1)
 EOF
 cat "$root/bench/results/vertex_bench.json"

@@ -94,6 +94,42 @@ std::vector<uint64_t> read_varints(const std::string& bytes, size_t count, const
   return numbers;
 }
 
+namespace {
+
+uint32_t bits_of(float f) {
+  uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+float mean_of_children(const VertexHierarchy& h, const std::vector<float>& data, uint32_t width, uint32_t i, uint32_t k) {
+  const auto [a, b] = h.nodes[i].child;
+  return (data[size_t{a} * width + k] + data[size_t{b} * width + k]) * 0.5f;
+}
+
+}  // namespace
+
+std::vector<uint32_t> predict_collapses(const VertexHierarchy& h, const std::vector<float>& vertex_data, uint32_t width) {
+  const uint32_t V = h.input_vertices, C = h.collapse_count();
+  std::vector<uint32_t> out(size_t{C} * width);
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t k = 0; k < width; ++k) {
+      const uint32_t rest = bits_of(vertex_data[(size_t{V} + i) * width + k]) - bits_of(mean_of_children(h, vertex_data, width, i, k));
+      out[size_t{i} * width + k] = (rest << 1) ^ (0u - (rest >> 31));  // zigzag of the signed difference
+    }
+  return out;
+}
+
+void restore_collapses(const VertexHierarchy& h, const std::vector<uint32_t>& remainders, uint32_t width, std::vector<float>& vertex_data) {
+  const uint32_t V = h.input_vertices, C = h.collapse_count();
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t k = 0; k < width; ++k) {
+      const uint32_t z = remainders[size_t{i} * width + k];
+      const uint32_t value = bits_of(mean_of_children(h, vertex_data, width, i, k)) + ((z >> 1) ^ (0u - (z & 1)));
+      std::memcpy(&vertex_data[(size_t{V} + i) * width + k], &value, 4);
+    }
+}
+
 void check_children(const VertexHierarchy& h) {
   std::vector<uint8_t> consumed(h.vertex_count(), 0);
   for (uint32_t i = 0; i < h.collapse_count(); ++i)

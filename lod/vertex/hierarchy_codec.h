@@ -38,6 +38,15 @@ std::string inflate(const std::string& stored, uint64_t raw_bytes, uint64_t boun
 std::vector<uint32_t> unshuffle(const std::string& planes, size_t count, const char* what);
 std::vector<uint64_t> read_varints(const std::string& bytes, size_t count, const char* what);
 
+// The collapses' vertices (`width` floats each: 3 positions, or the values) as what remains of
+// each float's bits after the mean of its two children (zigzag of the 32-bit difference):
+// QEM puts a new vertex near its children's mean, so the high bytes of the rest are mostly
+// zero. `vertex_data` holds every vertex (V + C); predict writes the C remainders, restore
+// fills the collapses' part of `vertex_data` from them in collapse order (a child is made
+// before its parent).
+std::vector<uint32_t> predict_collapses(const VertexHierarchy& h, const std::vector<float>& vertex_data, uint32_t width);
+void restore_collapses(const VertexHierarchy& h, const std::vector<uint32_t>& remainders, uint32_t width, std::vector<float>& vertex_data);
+
 // What version 2 leaves out and a reader derives from the rest: per input tet the collapse that
 // removes it (the first at which two of its corners meet: their lowest common ancestor), each
 // collapse's fan (the tets it removes) and the `before` links (the inverse of `after`). Needs

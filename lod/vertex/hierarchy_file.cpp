@@ -8,8 +8,10 @@
 //           own CRC-32 (of every byte before it)
 //   version 2 (written), sections coded as hierarchy_codec.cpp says:
 //             0 attributes (per attribute: u32 components, u32 name length, the name; raw),
-//             1 positions (f32 × 3 per vertex), 2 values (f32 × value floats per vertex),
-//             3 tets (u32 × 4 per input tet), all three in byte planes;
+//             1 positions (f32 × 3 per vertex), 2 values (f32 × value floats per vertex):
+//             the input's vertices, then the collapses' as the zigzag of their bits less
+//             those of their children's mean; 3 tets (u32 × 4 per input tet), all three in
+//             byte planes;
 //             4 children (per collapse i two numbers, V + i - 1 - child),
 //             5 error and radius (f32 × 2 per collapse, byte planes),
 //             6 ranges (f32 lo, hi per collapse and attribute, byte planes),
@@ -143,9 +145,15 @@ std::vector<vc::Coded> coded_sections(const VertexHierarchy& h, uint32_t version
   }
   std::vector<vc::Coded> out;
   out.push_back(vc::raw(attribute_names(h)));
-  const size_t skip = flags & kLeavesInStore ? V : 0;  // the vertices written: the collapses' alone when the store has the input's
-  out.push_back(vc::shuffled(h.positions.data() + 3 * skip, h.positions.size() - 3 * skip));
-  out.push_back(vc::shuffled(h.values.data() + h.value_floats * skip, h.values.size() - h.value_floats * skip));
+  // the vertices written: the input's (unless the store has them), then the collapses' as
+  // what remains after their children's mean
+  for (const auto& [data, width] : {std::pair{&h.positions, 3u}, std::pair{&h.values, h.value_floats}}) {
+    std::vector<uint32_t> words;
+    if (!(flags & kLeavesInStore)) words.assign(reinterpret_cast<const uint32_t*>(data->data()), reinterpret_cast<const uint32_t*>(data->data()) + size_t{V} * width);
+    const std::vector<uint32_t> rest = vc::predict_collapses(h, *data, width);
+    words.insert(words.end(), rest.begin(), rest.end());
+    out.push_back(vc::shuffled(words.data(), words.size()));
+  }
   out.push_back(vc::shuffled(h.tets.data(), flags & kTetsInStore ? 0 : h.tets.size()));
   out.push_back(vc::varints(children));
   out.push_back(vc::shuffled(error_radius.data(), error_radius.size()));
@@ -267,8 +275,13 @@ void read_from_store(const std::filesystem::path& directory, uint32_t flags, uin
 void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t input_tets, uint32_t flags, const std::filesystem::path& store, VertexHierarchy& h) {
   const uint32_t V = h.input_vertices, C = collapses;
   const uint64_t written = flags & kLeavesInStore ? C : uint64_t{V} + C;
-  h.positions = words_of<float>(s[1], 3 * written, "positions");
-  h.values = words_of<float>(s[2], uint64_t{h.value_floats} * written, "values");
+  std::vector<uint32_t> positions = words_of<uint32_t>(s[1], 3 * written, "positions"), values = words_of<uint32_t>(s[2], uint64_t{h.value_floats} * written, "values");
+  // the input's vertices as written (or from the store below), the collapses' once the children are known
+  const size_t input_words = flags & kLeavesInStore ? 0 : size_t{V};
+  h.positions.resize(3 * input_words);
+  std::memcpy(h.positions.data(), positions.data(), h.positions.size() * 4);
+  h.values.resize(h.value_floats * input_words);
+  std::memcpy(h.values.data(), values.data(), h.values.size() * 4);
   h.tets = words_of<uint32_t>(s[3], flags & kTetsInStore ? 0 : 4 * input_tets, "tets");
   if (flags) read_from_store(store, flags, input_tets, h);
   for (uint32_t v : h.tets)
@@ -286,6 +299,12 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
     h.nodes[i].radius = error_radius[2 * size_t{i} + 1];
   }
   vc::check_children(h);
+  positions.erase(positions.begin(), positions.begin() + static_cast<std::ptrdiff_t>(3 * input_words));
+  values.erase(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(h.value_floats * input_words));
+  h.positions.resize(3 * (size_t{V} + C));
+  h.values.resize(h.value_floats * (size_t{V} + C));
+  vc::restore_collapses(h, positions, 3, h.positions);
+  vc::restore_collapses(h, values, h.value_floats, h.values);
   h.ranges = words_of<float>(s[6], 2ull * C * h.attributes.size(), "ranges");
   const std::vector<uint64_t> counts = numbers_of(s[7], C, "after counts");
   h.after_offsets.assign(size_t{C} + 1, 0);
