@@ -107,15 +107,72 @@ float mean_of_children(const VertexHierarchy& h, const std::vector<float>& data,
   return (data[size_t{a} * width + k] + data[size_t{b} * width + k]) * 0.5f;
 }
 
+uint32_t zigzag(uint32_t actual, uint32_t predicted) {
+  const uint32_t rest = actual - predicted;
+  return (rest << 1) ^ (0u - (rest >> 31));
+}
+
+uint32_t unzigzag(uint32_t z, uint32_t predicted) { return predicted + ((z >> 1) ^ (0u - (z & 1))); }
+
+// The ranges' prediction, collapse by collapse: `visit(i, a, lo, hi)` gets the predicted lo
+// and hi of collapse i's attribute a and returns the actual ones, which the later collapses'
+// predictions use.
+template <class Visit>
+void walk_ranges(const VertexHierarchy& h, Visit visit) {
+  const uint32_t V = h.input_vertices, C = h.collapse_count(), A = static_cast<uint32_t>(h.attributes.size());
+  std::vector<float> own(size_t{A} * (size_t{V} + C));  // each vertex's value per attribute (a vector's length)
+  for (uint32_t v = 0; v < V + C; ++v) {
+    uint32_t offset = 0;
+    for (uint32_t a = 0; a < A; ++a) {
+      own[size_t{v} * A + a] = attribute_scalar(&h.values[size_t{v} * h.value_floats + offset], h.attributes[a].components);
+      offset += h.attributes[a].components;
+    }
+  }
+  std::vector<float> lo(own), hi(own);  // subtree ranges: a leaf's is its value
+  for (uint32_t i = 0; i < C; ++i) {
+    const auto [c0, c1] = h.nodes[i].child;
+    for (uint32_t a = 0; a < A; ++a) {
+      const size_t n = (size_t{V} + i) * A + a;
+      const float plo = std::min({lo[size_t{c0} * A + a], lo[size_t{c1} * A + a], own[n]});
+      const float phi = std::max({hi[size_t{c0} * A + a], hi[size_t{c1} * A + a], own[n]});
+      const auto [l, u] = visit(i, a, plo, phi);
+      lo[n] = l;
+      hi[n] = u;
+    }
+  }
+}
+
 }  // namespace
+
+std::vector<uint32_t> predict_ranges(const VertexHierarchy& h) {
+  std::vector<uint32_t> out(h.ranges.size());
+  walk_ranges(h, [&](uint32_t i, uint32_t a, float plo, float phi) {
+    const float l = h.range_lo(i, a), u = h.range_hi(i, a);
+    const size_t k = 2 * (size_t{i} * h.attributes.size() + a);
+    out[k] = zigzag(bits_of(l), bits_of(plo));
+    out[k + 1] = zigzag(bits_of(u), bits_of(phi));
+    return std::pair{l, u};
+  });
+  return out;
+}
+
+void restore_ranges(const std::vector<uint32_t>& remainders, VertexHierarchy& h) {
+  h.ranges.assign(remainders.size(), 0.0f);
+  walk_ranges(h, [&](uint32_t i, uint32_t a, float plo, float phi) {
+    const size_t k = 2 * (size_t{i} * h.attributes.size() + a);
+    const uint32_t l = unzigzag(remainders[k], bits_of(plo)), u = unzigzag(remainders[k + 1], bits_of(phi));
+    std::memcpy(&h.ranges[k], &l, 4);
+    std::memcpy(&h.ranges[k + 1], &u, 4);
+    return std::pair{h.ranges[k], h.ranges[k + 1]};
+  });
+}
 
 std::vector<uint32_t> predict_collapses(const VertexHierarchy& h, const std::vector<float>& vertex_data, uint32_t width) {
   const uint32_t V = h.input_vertices, C = h.collapse_count();
   std::vector<uint32_t> out(size_t{C} * width);
   for (uint32_t i = 0; i < C; ++i)
     for (uint32_t k = 0; k < width; ++k) {
-      const uint32_t rest = bits_of(vertex_data[(size_t{V} + i) * width + k]) - bits_of(mean_of_children(h, vertex_data, width, i, k));
-      out[size_t{i} * width + k] = (rest << 1) ^ (0u - (rest >> 31));  // zigzag of the signed difference
+      out[size_t{i} * width + k] = zigzag(bits_of(vertex_data[(size_t{V} + i) * width + k]), bits_of(mean_of_children(h, vertex_data, width, i, k)));
     }
   return out;
 }
@@ -124,8 +181,7 @@ void restore_collapses(const VertexHierarchy& h, const std::vector<uint32_t>& re
   const uint32_t V = h.input_vertices, C = h.collapse_count();
   for (uint32_t i = 0; i < C; ++i)
     for (uint32_t k = 0; k < width; ++k) {
-      const uint32_t z = remainders[size_t{i} * width + k];
-      const uint32_t value = bits_of(mean_of_children(h, vertex_data, width, i, k)) + ((z >> 1) ^ (0u - (z & 1)));
+      const uint32_t value = unzigzag(remainders[size_t{i} * width + k], bits_of(mean_of_children(h, vertex_data, width, i, k)));
       std::memcpy(&vertex_data[(size_t{V} + i) * width + k], &value, 4);
     }
 }

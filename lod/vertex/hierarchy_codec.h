@@ -47,6 +47,12 @@ std::vector<uint64_t> read_varints(const std::string& bytes, size_t count, const
 std::vector<uint32_t> predict_collapses(const VertexHierarchy& h, const std::vector<float>& vertex_data, uint32_t width);
 void restore_collapses(const VertexHierarchy& h, const std::vector<uint32_t>& remainders, uint32_t width, std::vector<float>& vertex_data);
 
+// The value ranges (per collapse and attribute, lo and hi) as what remains after their
+// prediction: the least and greatest of the children's subtree ranges (a leaf's: its own
+// value) and the new vertex's value, which the range holds. Needs the values restored.
+std::vector<uint32_t> predict_ranges(const VertexHierarchy& h);
+void restore_ranges(const std::vector<uint32_t>& remainders, VertexHierarchy& h);
+
 // What version 2 leaves out and a reader derives from the rest: per input tet the collapse that
 // removes it (the first at which two of its corners meet: their lowest common ancestor), each
 // collapse's fan (the tets it removes) and the `before` links (the inverse of `after`). Needs

@@ -14,9 +14,10 @@
 //             byte planes;
 //             4 children (per collapse i two numbers, V + i - 1 - child),
 //             5 error and radius (f32 × 2 per collapse, byte planes),
-//             6 ranges (f32 lo, hi per collapse and attribute, byte planes),
-//             7 after counts (one number per collapse), 8 after (per link j of collapse i,
-//             j - i - 1); the killer of each tet, the fans and the before links are derived
+//             6 ranges (f32 lo, hi per collapse and attribute, as the rest after their
+//             prediction from the children's, byte planes), 7 after counts (one number per
+//             collapse), 8 after (per collapse i its ascending links j as j - previous - 1,
+//             previous starting at i); the killer of each tet, the fans and the before links are derived
 //   version 1 (read), sections as they are in memory: 0 attributes, 1 positions, 2 values,
 //             3 tets, 4 killer (u32 per input tet), 5 nodes (u32 child × 2, f32 error,
 //             f32 radius, u32 fan per collapse), 6 ranges, 7 after offsets, 8 after,
@@ -141,7 +142,10 @@ std::vector<vc::Coded> coded_sections(const VertexHierarchy& h, uint32_t version
     for (uint32_t child : h.nodes[i].child) children.push_back(uint64_t{V} + i - 1 - child);
     error_radius.insert(error_radius.end(), {h.nodes[i].error, h.nodes[i].radius});
     counts.push_back(h.after_offsets[i + 1] - h.after_offsets[i]);
-    for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) after.push_back(uint64_t{h.after[k]} - i - 1);
+    for (uint32_t k = h.after_offsets[i], previous = i; k < h.after_offsets[i + 1]; previous = h.after[k++]) {
+      if (h.after[k] <= previous) throw std::invalid_argument("vertices.bin: the after links of a collapse are not ascending");
+      after.push_back(uint64_t{h.after[k]} - previous - 1);
+    }
   }
   std::vector<vc::Coded> out;
   out.push_back(vc::raw(attribute_names(h)));
@@ -157,7 +161,8 @@ std::vector<vc::Coded> coded_sections(const VertexHierarchy& h, uint32_t version
   out.push_back(vc::shuffled(h.tets.data(), flags & kTetsInStore ? 0 : h.tets.size()));
   out.push_back(vc::varints(children));
   out.push_back(vc::shuffled(error_radius.data(), error_radius.size()));
-  out.push_back(vc::shuffled(h.ranges.data(), h.ranges.size()));
+  const std::vector<uint32_t> ranges = vc::predict_ranges(h);
+  out.push_back(vc::shuffled(ranges.data(), ranges.size()));
   out.push_back(vc::varints(counts));
   out.push_back(vc::varints(after));
   return out;
@@ -305,7 +310,7 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   h.values.resize(h.value_floats * (size_t{V} + C));
   vc::restore_collapses(h, positions, 3, h.positions);
   vc::restore_collapses(h, values, h.value_floats, h.values);
-  h.ranges = words_of<float>(s[6], 2ull * C * h.attributes.size(), "ranges");
+  vc::restore_ranges(words_of<uint32_t>(s[6], 2ull * C * h.attributes.size(), "ranges"), h);
   const std::vector<uint64_t> counts = numbers_of(s[7], C, "after counts");
   h.after_offsets.assign(size_t{C} + 1, 0);
   for (uint32_t i = 0; i < C; ++i) {
@@ -315,11 +320,14 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   }
   const std::vector<uint64_t> after = numbers_of(s[8], h.after_offsets[C], "after");
   h.after.resize(after.size());
-  for (uint32_t i = 0; i < C; ++i)
+  for (uint32_t i = 0; i < C; ++i) {
+    uint64_t previous = i;
     for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) {
-      if (after[k] >= uint64_t{C} - i - 1) throw VertexHierarchyError("vertices.bin: an after link is out of order");
-      h.after[k] = static_cast<uint32_t>(after[k] + i + 1);
+      if (after[k] >= uint64_t{C} - previous - 1) throw VertexHierarchyError("vertices.bin: an after link is out of order");
+      previous += after[k] + 1;
+      h.after[k] = static_cast<uint32_t>(previous);
     }
+  }
   vc::derive_links(h);
 }
 
