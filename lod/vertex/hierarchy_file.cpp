@@ -284,9 +284,9 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   // the input's vertices as written (or from the store below), the collapses' once the children are known
   const size_t input_words = flags & kLeavesInStore ? 0 : size_t{V};
   h.positions.resize(3 * input_words);
-  std::memcpy(h.positions.data(), positions.data(), h.positions.size() * 4);
+  if (!h.positions.empty()) std::memcpy(h.positions.data(), positions.data(), h.positions.size() * 4);
   h.values.resize(h.value_floats * input_words);
-  std::memcpy(h.values.data(), values.data(), h.values.size() * 4);
+  if (!h.values.empty()) std::memcpy(h.values.data(), values.data(), h.values.size() * 4);
   h.tets = words_of<uint32_t>(s[3], flags & kTetsInStore ? 0 : 4 * input_tets, "tets");
   if (flags) read_from_store(store, flags, input_tets, h);
   for (uint32_t v : h.tets)
