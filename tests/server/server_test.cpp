@@ -331,6 +331,19 @@ TEST_F(ServerTest, TensorsShowAsTubesAndSurfacesAndBadTensorRequestsAreRefused) 
   const Frame again = still_for(c.send("tensors.set", {{"field", "D"}, {"color", "class"}, {"size", 3}}));
   EXPECT_GT(again.header.width, 0u);
   EXPECT_FALSE(c.closed());
+  // the load test's sessions draw the tensor's points (loadtest --mode) without an error
+  LoadtestOptions o;
+  o.url = ws_;
+  o.dataset = "layers";
+  o.duration_s = 2;
+  o.width = 240;
+  o.height = 200;
+  o.mode = "slice+tensors";
+  const nlohmann::json r = run_loadtest(o);
+  EXPECT_EQ(r["errors"], 0) << r.dump();
+  EXPECT_GT(r["frames"].get<uint64_t>(), 0u) << r.dump();
+  o.mode = "dvr+glyphs";
+  EXPECT_THROW(run_loadtest(o), std::invalid_argument);
 }
 
 TEST_F(ServerTest, AVectorComponentHasItsOwnRangeAndImage) {
