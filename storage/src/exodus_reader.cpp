@@ -96,9 +96,9 @@ std::vector<int> symmetric_tensor_at(const std::vector<std::string>& names, size
 std::vector<Variable> join_components(const std::vector<std::string>& names, bool tensors) {
   std::vector<Variable> out;
   for (size_t i = 0; i < names.size();) {
-    std::string base;
-    if (std::vector<int> six = tensors ? symmetric_tensor_at(names, i, base) : std::vector<int>{}; !six.empty()) {
-      out.push_back({base, std::move(six), true});
+    std::string tensor_name;
+    if (std::vector<int> six = tensors ? symmetric_tensor_at(names, i, tensor_name) : std::vector<int>{}; !six.empty()) {
+      out.push_back({tensor_name, std::move(six), true});
       i += 6;
       continue;
     }
