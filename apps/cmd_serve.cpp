@@ -94,9 +94,9 @@ int run_serve(const Arguments& raw) {
 }
 
 int run_loadtest(const Arguments& raw) {
-  Args args(raw, {"--json", "--allow-remote", "--no-reconnect"}, {"--url", "--dataset", "--clients", "--duration", "--path", "--rate", "--size", "--token", "--orbit", "--pause", "--save-refinement"});
+  Args args(raw, {"--json", "--allow-remote", "--no-reconnect"}, {"--url", "--dataset", "--clients", "--duration", "--path", "--rate", "--size", "--token", "--orbit", "--pause", "--save-refinement", "--mode"});
   if (!args.has("--url") || !args.has("--dataset")) {
-    std::fprintf(stderr, "usage: tetrascope loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random|orbit-pause] [--orbit S] [--pause S] [--save-refinement DIR] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope loadtest --url ws://HOST:PORT/api/v1/session --dataset NAME [--clients N] [--duration S] [--path orbit|random|orbit-pause] [--orbit S] [--pause S] [--save-refinement DIR] [--mode MODE] [--json]\n");
     return 2;
   }
   server::LoadtestOptions o;
@@ -112,6 +112,7 @@ int run_loadtest(const Arguments& raw) {
   o.save_refinement = args.get("--save-refinement", "");
   o.allow_remote = args.has("--allow-remote");
   o.reconnect = !args.has("--no-reconnect");
+  o.mode = args.get("--mode", "");
   if (args.has("--size")) {
     const ImageSize size = parse_size("--size", args.get("--size"), protocol::kMinImageSide, protocol::Limits{}.max_image_side);
     o.width = size.width;

@@ -163,6 +163,31 @@ void line_options(const Args& args, RenderOptions& o) {
   }
 }
 
+// The tensor options of `render` (modes with tensors): the field, seeding, thresholds, colour
+// and splat size, checked here; the field by the dataset when traced.
+void tensor_options(const Args& args, RenderOptions& o) {
+  view::TensorRequest& t = o.view.tensor;
+  const char* kTensorOptions[] = {"--tensor", "--tube-cells", "--surface-cells", "--tensor-min-cl", "--tensor-min-cp", "--tensor-color", "--tensor-point-size"};
+  if (!o.view.tensors) {
+    for (const char* name : kTensorOptions)
+      if (args.has(name)) throw std::invalid_argument(std::string(name) + " needs a mode with tensors (e.g. --mode dvr+tensors)");
+    return;
+  }
+  t.field = args.get("--tensor");
+  t.tube_cells = static_cast<uint32_t>(args.number("--tube-cells", t.tube_cells));
+  t.surface_cells = static_cast<uint32_t>(args.number("--surface-cells", t.surface_cells));
+  if (t.tube_cells > lod::kMaxDenseResolution || t.surface_cells > lod::kMaxDenseResolution) throw std::invalid_argument("--tube-cells and --surface-cells must be 0 to 256");
+  if (args.has("--tensor-min-cl")) t.min_linear = args.real("--tensor-min-cl");
+  if (args.has("--tensor-min-cp")) t.min_planar = args.real("--tensor-min-cp");
+  if (!(t.min_linear >= 0 && t.min_linear <= 1 && t.min_planar >= 0 && t.min_planar <= 1))
+    throw std::invalid_argument("--tensor-min-cl and --tensor-min-cp are anisotropy measures between 0 and 1");
+  t.color = args.get("--tensor-color", "class");
+  if (args.has("--tensor-point-size")) {
+    t.point_size = args.real("--tensor-point-size");
+    if (!(t.point_size >= 0 && t.point_size <= r::kMaxPointSize)) throw std::invalid_argument("--tensor-point-size must be 0 (covering) to 64 pixels");
+  }
+}
+
 RenderOptions render_options(const Args& args) {
   RenderOptions o;
   r::ViewRequest& v = o.view;
@@ -174,10 +199,12 @@ RenderOptions render_options(const Args& args) {
     v.surface = modes.surface;
     v.lines = modes.lines;
     v.points = modes.points;
+    v.tensors = modes.tensors;
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("--mode: ") + e.what());
   }
   line_options(args, o);
+  tensor_options(args, o);
   if (args.has("--lod")) {
     const std::string lod = args.get("--lod");
     if (lod != "vertices" && lod != "segments") throw std::invalid_argument("--lod must be 'vertices' (single vertex splits, when the store has them) or 'segments' (the segments' DAG)");
@@ -408,12 +435,14 @@ int run_render(const Arguments& all) {
   Args args(raw, {"--json", "--wireframe", "--box", "--reference", "--no-halos"},
             {"--output", "--mode", "--attribute", "--component", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
-             "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions"});
+             "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions", "--tensor", "--tube-cells", "--surface-cells", "--tensor-min-cl",
+             "--tensor-min-cp", "--tensor-color", "--tensor-point-size"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
     std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|NAMES|box] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
-                 "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n");
+                 "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n"
+                 "       tensors: [--tensor T] [--tube-cells N] [--surface-cells N] [--tensor-min-cl C] [--tensor-min-cp C] [--tensor-color class|lambda1|...|von_mises|fa|cl|cp|cs] [--tensor-point-size PX]\n");
     return 2;
   }
   RenderOptions o = render_options(args);
@@ -504,6 +533,12 @@ int run_render(const Arguments& all) {
     if (auto error = pipeline->lines_cut_error()) j["lines"]["cut_estimated_error"] = *error;
   }
   if (settings.points) j["points"] = frames.back().points;
+  if (const auto t = settings.tensor_points) {
+    nlohmann::json legend = {{"by_class", t->by_class}, {"color", t->color}};
+    if (!t->by_class) legend["range"] = {t->value_min, t->value_max};
+    j["tensors"] = {{"field", t->field}, {"tubes", t->tubes}, {"surfaces", t->surfaces}, {"tube_points", t->tube_points}, {"surface_points", t->surface_points},
+                    {"surface_triangles", t->surface_triangles}, {"spacing", t->spacing}, {"trace_ms", t->trace_ms}, {"legend", legend}};
+  }
   if (regions) j["regions"] = regions_report(*regions, o.view);
   if (!o.compare.empty()) j["compare_psnr_db"] = r::psnr(image, r::read_png(o.compare));
   j["update"] = {{"cut_ms", update_timings.cut_ms}, {"assemble_ms", update_timings.assemble_ms}, {"clip_ms", update_timings.clip_ms}};

@@ -7,6 +7,7 @@ import { OrbitCamera } from './camera.js';
 import { PRESETS, colorAt, fromHex, toHex } from './colormaps.js';
 import { Jobs } from './jobs.js';
 import { LinesPanel } from './lines.js';
+import { TensorsPanel } from './tensors.js';
 import { backgroundOf, composeStill, drawAxes, drawBox, inkOn, showLegends } from './overlays.js';
 import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
@@ -81,6 +82,13 @@ const linesPanel = new LinesPanel($('vector-panel'), frameCanvas, {
   view: () => state.view,
   saved: () => saveViewInHash(),
   camera: () => camera?.get() ?? null,
+});
+const tensorsPanel = new TensorsPanel($('tensor-panel'), {
+  send: (type, body) => send(type, body),
+  onModes: () => onModes(),
+  onLegend: () => drawLegend(),
+  view: () => state.view,
+  saved: () => saveViewInHash(),
 });
 const tfEditor = new TfEditor($('tf-editor'), onTfEdited, { onSelectColor });
 const planes = new PlanesPanel($('planes'), {
@@ -440,6 +448,7 @@ function onDataset(info) {
   if (datasetNotice) $('dataset-summary').textContent += `\n${datasetNotice}`;
   datasetNotice = '';
   linesPanel.setDataset(info);
+  tensorsPanel.setDataset(info);
   regionsPanel.setDataset(info);
   showView();
   planes.show();
@@ -551,6 +560,8 @@ function legends() {
   if (isoBy && v.range) out.push({ key: 'iso', title: v.legendTitles?.iso || (isoBy.components > 1 ? `|${isoBy.name}|` : isoBy.name), caption: 'isosurface', colors: table(), range: rangeOf(isoBy), log: false });
   const field = v.lines?.on && state.dataset?.attributes.find((a) => (v.lines.field ? a.name === v.lines.field : a.components === 3));
   if (field && v.range) out.push({ key: 'lines', title: v.legendTitles?.lines || `|${field.name}|`, caption: 'stream lines', colors: table(), range: rangeOf(field), log: false });
+  const tensors = v.range ? tensorsPanel.legend(state.dataset, table()) : null;
+  if (tensors) out.push({ ...tensors, title: v.legendTitles?.tensors || tensors.title });
   return out;
 }
 
@@ -575,6 +586,7 @@ function sendAll() {
   sendMode();
   sendIso();
   linesPanel.sendAll();
+  tensorsPanel.sendAll();
   sendLod();
   sendQuality();
   planes.sendAll();
@@ -652,7 +664,7 @@ function queueTf() {  // at most one tf.set per animation frame
 function sendMode(extra = {}) {
   const v = state.view;
   // none of them: 'slice', the slice planes alone (an image of the box, or nothing, without any)
-  const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes()].join('+') || 'slice';
+  const mode = [...['dvr', 'iso', 'surface'].filter((m) => v[m]), ...linesPanel.modes(), ...tensorsPanel.modes()].join('+') || 'slice';
   send('mode.set', { mode, wireframe: v.wireframe, box: false, ...(v.background ? { background: v.background } : {}), ...extra });  // the box: drawBoxOverlay
   drawBoxOverlay(state.lastFrame?.header);
 }

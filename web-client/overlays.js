@@ -176,6 +176,18 @@ export function showLegends(container, legends, onTitle) {
     });
     title.addEventListener('blur', () => onTitle(legend.key, title.textContent.trim()));
     const caption = Object.assign(document.createElement('span'), { className: 'legend-caption', textContent: legend.caption });
+    if (legend.classes) {  // categories: a swatch and a name each
+      const list = Object.assign(document.createElement('div'), { className: 'legend-classes' });
+      for (const c of legend.classes) {
+        const item = Object.assign(document.createElement('span'), { className: 'legend-class' });
+        const swatch = Object.assign(document.createElement('span'), { className: 'legend-swatch' });
+        swatch.style.background = `rgb(${c.color.map((x) => Math.round(255 * x)).join(',')})`;
+        item.append(swatch, document.createTextNode(c.label));
+        list.append(item);
+      }
+      box.append(title, caption, list);
+      return box;
+    }
     const bar = Object.assign(document.createElement('canvas'), { className: 'legend-bar', width: 200, height: 12 });
     drawColorBar(bar.getContext('2d'), legend.colors, 0, 0, bar.width, bar.height);
     const ticks = Object.assign(document.createElement('div'), { className: 'legend-ticks' });
@@ -195,7 +207,8 @@ export function showLegends(container, legends, onTitle) {
 // in an ink chosen from what is under the box once darkened (never the bar's colours).
 function drawLegend(g, legend, x0, y0, s) {
   const pad = 10 * s, barWidth = Math.round(220 * s), barHeight = Math.round(14 * s), font = Math.round(12 * s);
-  const boxWidth = barWidth + 2 * pad, boxHeight = barHeight + 3 * font + 3 * pad;
+  const boxWidth = barWidth + 2 * pad;
+  const boxHeight = legend.classes ? 3 * pad + font + legend.classes.length * (font + pad / 2) : barHeight + 3 * font + 3 * pad;
   g.fillStyle = 'rgba(0, 0, 0, 0.55)';
   g.fillRect(x0, y0, boxWidth, boxHeight);
   const ink = inkOn(meanColour(g, x0, y0, boxWidth, boxHeight));
@@ -204,6 +217,17 @@ function drawLegend(g, legend, x0, y0, s) {
   g.textBaseline = 'top';
   g.textAlign = 'left';
   g.fillText(legend.title, x0 + pad, y0 + pad, barWidth);
+  if (legend.classes) {  // categories: a swatch and a name each, below the title
+    g.font = `${font}px system-ui, sans-serif`;
+    legend.classes.forEach((c, k) => {
+      const y = y0 + 2 * pad + font + k * (font + pad / 2);
+      g.fillStyle = `rgb(${c.color.map((x) => Math.round(255 * x)).join(',')})`;
+      g.fillRect(x0 + pad, y, font, font);
+      g.fillStyle = ink;
+      g.fillText(c.label, x0 + 2 * pad + font, y, barWidth - font - pad);
+    });
+    return boxWidth;
+  }
   // what it colours after the title, where it fits
   const titleWidth = g.measureText(legend.title).width;
   g.font = `${font}px system-ui, sans-serif`;

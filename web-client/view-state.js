@@ -4,6 +4,7 @@
 // curve's shape; tfBody() maps them onto attribute values for tf.set.
 import { DEFAULT_PRESET, PRESETS, colorAt } from './colormaps.js';
 import { defaultLines, linesFromHash, linesToHash } from './lines.js';
+import { defaultTensors, tensorsFromHash, tensorsToHash } from './tensors.js';
 import { planesFromHash, planesToHash } from './planes.js';
 import { regionsFromHash, regionsToHash } from './regions.js';
 
@@ -64,6 +65,7 @@ export function defaultView() {
     interactionQuality: 60, stillQuality: 90, pngStills: false,
     clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
     lines: defaultLines(),      // stream lines and point isosurfaces (lines.js)
+    tensors: defaultTensors(),  // a tensor field's tubes and surfaces (tensors.js)
     hiddenRegions: [],          // boundary regions left out (regions.js)
   };
 }
@@ -71,7 +73,8 @@ export function defaultView() {
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
-  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
+  const tensors = { ...(view.tensors ?? defaultTensors()), field: null };
+  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, tensors, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
 }
 
 // ---------- what of an attribute is drawn ----------
@@ -112,7 +115,7 @@ export function drawnName(attribute, component) {
 
 // ---------- URL fragment ----------
 
-const kLegendKeys = ['attribute', 'iso', 'lines'];
+const kLegendKeys = ['attribute', 'iso', 'lines', 'tensors'];
 
 const num = (x) => String(+(+x).toPrecision(6));
 const list = (v) => v.map(num).join(',');
@@ -143,7 +146,7 @@ export function viewToHash(view) {
   if (view.logScale) put('log', 1);
   if (view.background) put('bg', view.background.map(hex).join(''));
   for (const [key, title] of Object.entries(view.legendTitles ?? {})) if (title && kLegendKeys.includes(key)) put(`title.${key}`, title);
-  put('mode', [...['dvr', 'iso', 'surface'].filter((m) => view[m]), ...(view.lines?.on ? ['lines'] : []), ...(view.lines?.points ? ['points'] : [])].join('+') || 'slice');
+  put('mode', [...['dvr', 'iso', 'surface'].filter((m) => view[m]), ...(view.lines?.on ? ['lines'] : []), ...(view.lines?.points ? ['points'] : []), ...(view.tensors?.on ? ['tensors'] : [])].join('+') || 'slice');
   if (view.wireframe) put('wireframe', 1);
   if (view.box) put('box', 1);
   if (view.isovalues.length) put('iso', list(view.isovalues));
@@ -154,6 +157,7 @@ export function viewToHash(view) {
   put('quality', `${view.interactionQuality},${view.stillQuality}${view.pngStills ? ',png' : ''}`);
   p.push(...planesToHash(view));
   p.push(...linesToHash(view));
+  p.push(...tensorsToHash(view));
   p.push(...regionsToHash(view));
   return p.join('&');
 }
@@ -211,8 +215,9 @@ export function viewFromHash(hash) {
   for (const key of kLegendKeys) if (h.get(`title.${key}`)) view.legendTitles[key] = h.get(`title.${key}`).slice(0, 200);
   const modes = h.get('mode')?.split('+') ?? [];
   view.lines = linesFromHash(h, modes);
+  view.tensors = tensorsFromHash(h, modes);
   // 'slice': none of the others (the slice planes alone); a mode of nothing known keeps the default
-  const known = ['dvr', 'iso', 'surface', 'lines', 'points', 'slice'];
+  const known = ['dvr', 'iso', 'surface', 'lines', 'points', 'tensors', 'slice'];
   if (h.has('mode') && modes.some((m) => known.includes(m))) for (const m of ['dvr', 'iso', 'surface']) view[m] = modes.includes(m);
   view.wireframe = h.get('wireframe') === '1';
   view.box = h.get('box') === '1';

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <queue>
 #include <stdexcept>
@@ -135,14 +136,28 @@ const storage::Attribute& tensor_attribute(const storage::TetMesh& mesh, const s
   return *a;
 }
 
-Anisotropy classify(double cl, double cp, double min_linear, double min_planar) {
+}  // namespace
+
+Anisotropy classify_anisotropy(double cl, double cp, double min_linear, double min_planar) {
   if (cl >= min_linear && cl >= cp) return Anisotropy::linear;
   if (cp >= min_planar) return Anisotropy::planar;
   if (cl >= min_linear) return Anisotropy::linear;
   return Anisotropy::isotropic;
 }
 
-}  // namespace
+std::vector<storage::SymmetricTensor> tensors_at(const storage::TetMesh& mesh, const std::string& tensor, std::span<const Vec3> points) {
+  const storage::Attribute& a = tensor_attribute(mesh, tensor);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<storage::SymmetricTensor> out(points.size(), storage::SymmetricTensor{nan, nan, nan, nan, nan, nan});
+  if (mesh.tet_count() == 0) return out;
+  const detail::TetLocator locator(mesh);
+  for (size_t i = 0; i < points.size(); ++i) {
+    double w[4];
+    const uint32_t t = locator.containing(points[i], w, 1e-9);
+    if (t != detail::kNoTet) out[i] = storage::interpolate_tensor(a.values.data(), &mesh.tets[4 * size_t(t)], w);
+  }
+  return out;
+}
 
 AnisotropySegmentation segment_anisotropy(const storage::TetMesh& mesh, const std::string& tensor, double min_linear, double min_planar) {
   const storage::Attribute& a = tensor_attribute(mesh, tensor);
@@ -151,7 +166,7 @@ AnisotropySegmentation segment_anisotropy(const storage::TetMesh& mesh, const st
   for (size_t v = 0; v < mesh.vertex_count(); ++v) {
     const auto q = storage::tensor_quantities(storage::tensor_from_symmetric(&a.values[6 * v]));
     const double cl = q[size_t(storage::TensorQuantity::kLinear)], cp = q[size_t(storage::TensorQuantity::kPlanar)];
-    s.vertex_class[v] = std::isfinite(cl) && std::isfinite(cp) ? classify(cl, cp, min_linear, min_planar) : Anisotropy::isotropic;
+    s.vertex_class[v] = std::isfinite(cl) && std::isfinite(cp) ? classify_anisotropy(cl, cp, min_linear, min_planar) : Anisotropy::isotropic;
     ++s.vertices[size_t(s.vertex_class[v])];
   }
   double total = 0;

@@ -27,7 +27,10 @@ export const LINE_LIMITS = Object.freeze({
   max_point_size: 64,
 });
 export const MAX_HIDDEN_REGIONS = 1024;  // regions.set hidden: ids below this, at most this many
-export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points', 'slice'];
+export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points', 'tensors', 'slice'];
+// tensors.set (protocol.h kMaxTensorCells): seeding cells, and the colours a tensor's points take
+export const MAX_TENSOR_CELLS = 32;
+export const TENSOR_COLORS = ['class', 'lambda1', 'lambda2', 'lambda3', 'trace', 'von_mises', 'fa', 'cl', 'cp', 'cs'];
 
 export class ProtocolError extends Error {
   constructor(code, message, id = null) {
@@ -223,6 +226,19 @@ const checkers = {
       if (values.length > limits.max_isovalues) f.fail('values', `more than ${limits.max_isovalues} isovalues`);
       values.forEach((v) => f.number('values', v, -1e30, 1e30));
     }
+    f.optNumber('size', 0, LINE_LIMITS.max_point_size);
+  },
+  'tensors.set'(f) {
+    const field = f.string('field', 128);
+    if (field === '') f.fail('field', 'empty');
+    for (const name of ['density', 'surface_density']) {
+      const n = f.find(name);
+      if (n !== undefined && (!isWhole(n) || n > MAX_TENSOR_CELLS)) f.fail(name, `out of range [0, ${MAX_TENSOR_CELLS}]`);
+    }
+    f.optNumber('min_cl', 0, 1);
+    f.optNumber('min_cp', 0, 1);
+    const color = f.string('color', 32);
+    if (color !== undefined && !TENSOR_COLORS.includes(color)) f.fail('color', `expected ${TENSOR_COLORS.join(', ')}`);
     f.optNumber('size', 0, LINE_LIMITS.max_point_size);
   },
   ping() {},

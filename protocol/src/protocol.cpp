@@ -2,6 +2,8 @@
 // says the same in JSON Schema; protocol/js/codec.js in JavaScript).
 #include "tetrascope/protocol/protocol.h"
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstring>
 
@@ -96,6 +98,7 @@ ModeSet parse_mode_set(const Fields& f) {
     m.surface = modes.surface;
     m.lines = modes.lines;
     m.points = modes.points;
+    m.tensors = modes.tensors;
   } catch (const std::invalid_argument& e) {
     f.fail("mode", e.what());
   }
@@ -190,6 +193,23 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
     m.size = f.number("size", 0, kMaxPointSizePixels);
     return m;
   }
+  if (type == "tensors.set") {
+    TensorsSet m;
+    m.field = f.string("field", 128);
+    if (m.field && m.field->empty()) f.fail("field", "empty");
+    if (auto n = f.integer("density", 0, kMaxTensorCells)) m.density = uint32_t(*n);
+    if (auto n = f.integer("surface_density", 0, kMaxTensorCells)) m.surface_density = uint32_t(*n);
+    m.min_cl = f.number("min_cl", 0, 1);
+    m.min_cp = f.number("min_cp", 0, 1);
+    m.color = f.string("color", 32);
+    if (m.color) {
+      static constexpr const char* kColors[] = {"class", "lambda1", "lambda2", "lambda3", "trace", "von_mises", "fa", "cl", "cp", "cs"};
+      if (std::find(std::begin(kColors), std::end(kColors), *m.color) == std::end(kColors))
+        f.fail("color", "expected class, lambda1, lambda2, lambda3, trace, von_mises, fa, cl, cp or cs");
+    }
+    m.size = f.number("size", 0, kMaxPointSizePixels);
+    return m;
+  }
   if (type == "ping") return Ping{};
   if (type == "regions.set") return parse_regions_set(f);
   if (type == "clip.set") return ClipSet{parse_clip_spec(f.object(), id)};  // planes.cpp
@@ -220,9 +240,10 @@ Modes parse_modes(std::string_view text) {
     else if (part == "surface") m.surface = true;
     else if (part == "lines") m.lines = true;
     else if (part == "points") m.points = true;
+    else if (part == "tensors") m.tensors = true;
     else if (part == "slice") {  // the slice planes only (planes.h): none of the others
     }
-    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface, lines, points, slice or combinations such as dvr+lines)");
+    else throw std::invalid_argument("unknown mode '" + std::string(part) + "' (dvr, iso, surface, lines, points, tensors, slice or combinations such as dvr+lines)");
     at = plus + 1;
   }
   return m;

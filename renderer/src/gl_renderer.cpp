@@ -53,6 +53,7 @@ void check_settings(const RenderSettings& s) {
   if (!(s.iso_opacity > 0 && s.iso_opacity <= 1)) throw std::invalid_argument("isosurface opacity must be in (0, 1]");
   check_line_settings(s);
   check_point_settings(s);
+  if (!(s.tensor_point_size >= 0 && s.tensor_point_size <= kMaxPointSize)) throw std::invalid_argument("tensor point size must be 0 (covering) to 64 pixels");
 }
 
 // The camera, its matrix (near and far planes around the mesh's bounding sphere; with the eye
@@ -147,6 +148,7 @@ class GlRenderer final : public Renderer {
     for (GLuint buffer : {vertex_buffer_, tet_buffer_, order_buffer_, cell_buffer_, surface_buffer_, line_buffer_})
       if (buffer) glNamedBufferData(buffer, 4, nullptr, GL_STATIC_DRAW);
     surface_vertices_ = 0;
+    tensor_pass_.release();
     if (table_texture_) glDeleteTextures(1, &table_texture_);
     table_texture_ = 0;
     table_ = {};
@@ -204,9 +206,11 @@ class GlRenderer final : public Renderer {
     if (iso_triangles_drawn && !translucent_iso && !stop()) opaque |= draw_opaque_isosurfaces(setup, s, tm);
     if (!s.slices.planes.empty() && !stop()) opaque |= draw_slices(setup, s.slices);
     glDisable(GL_POLYGON_OFFSET_FILL);
-    // stream lines and point isosurfaces (lines.cpp, point_iso.cpp): opaque before the volume
+    // stream lines, point isosurfaces and tensor points (lines.cpp, point_iso.cpp,
+    // tensor_pass.cpp): opaque before the volume
     const PassView pass_view{setup.frame, setup.mvp, s.width, s.height, setup.lo, setup.hi, colormap_texture_};
     if (s.points && !stop()) opaque |= point_pass_.draw(pass_view, s, tm);
+    if (s.tensor_points && !stop()) opaque |= tensor_pass_.draw(pass_view, s, tm);
     if (s.lines && !stop()) opaque |= line_pass_.draw_opaque(pass_view, s, tm);
     if (s.slices.edges && !s.slices.planes.empty()) draw_lines(setup, slices_.edges);
     if (s.surface && !stop()) draw_boundary_edges(setup, s.wireframe, s.hidden_regions);
@@ -750,6 +754,7 @@ class GlRenderer final : public Renderer {
   std::map<std::vector<double>, std::vector<float>> iso_cache_;  // key: isovalues, then by_iso_color
   LinePass line_pass_;       // after context_: made with a current context, gone before it
   PointIsoPass point_pass_;
+  TensorPointPass tensor_pass_;
   struct SliceCache {
     std::optional<view::SliceSpec> key;  // the planes sliced (lit or flat alike)
     std::vector<float> triangles, edges;  // (x, y, z, value) corners

@@ -1,4 +1,4 @@
-// The GL passes of stream lines (§7.3) and point-based isosurfaces (§7.2), hooked into
+// The GL passes of stream lines (§7.3), point-based isosurfaces (§7.2) and tensor points (§7.4.2), hooked into
 // GlRenderer's frame (gl_renderer.cpp): each pass gets the frame's camera, matrix and
 // colormap through PassView and leaves the GL state as it found it (depth test on, blending
 // off, depth writes on).
@@ -80,6 +80,22 @@ class PointIsoPass {
   GLuint program_ = 0, vao_ = 0;
   const SceneMesh* mesh_ = nullptr;
   std::map<std::vector<double>, Uploaded> cache_;  // key: isovalues, area, target
+};
+
+// A tensor field's points (§7.4.2, tensor_pass.cpp): lit splats, opaque, depth-tested.
+class TensorPointPass {
+ public:
+  TensorPointPass();
+  ~TensorPointPass();
+  TensorPointPass(const TensorPointPass&) = delete;
+  TensorPointPass& operator=(const TensorPointPass&) = delete;
+  // Colour, depth and distance. False when no point.
+  bool draw(const PassView& view, const RenderSettings& s, FrameTimings& tm);
+  void release();
+
+ private:
+  GLuint program_ = 0, vao_ = 0, buffer_ = 0;
+  std::shared_ptr<const TensorPoints> held_;  // the uploaded set
 };
 
 }  // namespace tetrascope::renderer

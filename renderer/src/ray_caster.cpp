@@ -294,6 +294,7 @@ RayCaster::~RayCaster() = default;
 std::string RayCaster::unsupported(const RenderSettings& s) {
   if (s.surface || s.wireframe || s.box) return "surfaces, wireframes and boxes";
   if (s.points) return "point-based isosurfaces";
+  if (s.tensor_points) return "tensor points";
   if (s.lines) return "stream lines";
   if (s.use_iso_color_attribute) return "isosurfaces coloured by another attribute";
   if (!s.dvr) return "isosurfaces or slices without the volume";

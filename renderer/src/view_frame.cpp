@@ -41,6 +41,17 @@ bool volume_shown(const RenderSettings& s) {
   return std::any_of(s.tf.opacity.begin(), s.tf.opacity.end(), [](const auto& point) { return point[1] > 0; });
 }
 
+// The vertex hierarchy records attributes by name and components: their kinds (a tensor, a
+// scalar derived from one) come from the store's manifest, for the tensor passes.
+void with_kinds(storage::TetMesh& mesh, const storage::StoreManifest& manifest) {
+  for (storage::Attribute& a : mesh.attributes)
+    if (const storage::StoreAttribute* m = find_attribute(manifest, a.info.name); m && m->components == a.info.components) {
+      a.info.kind = m->kind;
+      a.info.positive_semidefinite = m->positive_semidefinite;
+      a.info.derived_from = m->derived_from;
+    }
+}
+
 }  // namespace
 
 ViewPipeline::ViewPipeline(const storage::Store& store, const lod::Dag& dag, storage::SegmentCache& cache, std::shared_ptr<const lod::VertexHierarchy> vertices)
@@ -74,8 +85,11 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   t.assemble_ms = ms_since(start);
   update_clip(request.clip, t);
   classify_regions(request, t);
-  if (trace) trace_lines(mesh ? *mesh : front_->mesh(), request.line);
+  if ((trace || tensors_stale(request)) && !mesh) mesh = front_->mesh();
+  if (mesh) with_kinds(*mesh, store_->manifest());
+  if (trace) trace_lines(*mesh, request.line);
   if (request.lines) apply_lines(request.line, s);
+  update_tensors(mesh ? *mesh : storage::TetMesh{}, request, s);
 }
 
 ViewPipeline::ViewPipeline(storage::TetMesh mesh) : mesh_(std::move(mesh)), bounds_(storage::compute_bounds(*mesh_)) {}
@@ -151,6 +165,32 @@ void ViewPipeline::trace_lines(const storage::TetMesh& mesh, const LineRequest& 
   traced_ = request;
   selected_for_.reset();
   lines_cut_error_ = cut_estimated_error_;
+}
+
+bool ViewPipeline::tensors_stale(const ViewRequest& request) const {
+  if (!request.tensors) return false;
+  if (!tensors_traced_) return true;
+  view::TensorRequest a = *tensors_traced_, b = request.tensor;
+  a.point_size = b.point_size = 0;
+  return !(a == b);
+}
+
+void ViewPipeline::update_tensors(const storage::TetMesh& mesh, const ViewRequest& request, RenderSettings& s) {
+  if (tensors_stale(request)) {
+    TensorPoints points = renderer::tensor_points(mesh, request.tensor);
+    // a derived quantity coloured over its range over the whole dataset, as the store records
+    // it: the same value the same colour on every trace, and the range a legend can state
+    const std::string derived = points.field + "." + points.color;
+    if (const storage::StoreAttribute* a = store_ && !points.by_class ? find_attribute(store_->manifest(), derived) : nullptr; a && a->max > a->min) {
+      points.value_min = a->min;
+      points.value_max = a->max;
+    }
+    tensor_points_ = std::make_shared<const TensorPoints>(std::move(points));
+    tensors_traced_ = request.tensor;
+  }
+  if (!request.tensors) return;
+  s.tensor_points = tensor_points_;
+  s.tensor_point_size = request.tensor.point_size;
 }
 
 // The lines into the settings; a box or a click becomes line ids once (a click with the
@@ -264,11 +304,10 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     t.assemble_ms = ms_since(start);
     update_clip(request.clip, t);
     classify_regions(request, t);
-    if (trace) {
-      if (!assembled) assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip);
-      trace_lines(assembled->mesh, request.line);
-    }
+    if ((trace || tensors_stale(request)) && !assembled) assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip);
+    if (trace) trace_lines(assembled->mesh, request.line);
     if (request.lines) apply_lines(request.line, s);
+    update_tensors(assembled ? assembled->mesh : storage::TetMesh{}, request, s);
     return s;
   }
   const auto start = Clock::now();
@@ -280,6 +319,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   classify_regions(request, t);
   if (trace) trace_lines(*mesh_, request.line);
   if (request.lines) apply_lines(request.line, s);
+  update_tensors(*mesh_, request, s);
   return s;
 }
 

@@ -14,6 +14,7 @@
 #include "tetrascope/protocol/protocol.h"
 #include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/storage/boundary_tags.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::server {
 namespace fs = std::filesystem;
@@ -155,7 +156,15 @@ void add_histograms(const storage::Attribute& attr, const storage::StoreAttribut
 nlohmann::json store_summary(const std::string& name, const storage::Store& store) {
   const auto& m = store.manifest();
   nlohmann::json attributes = nlohmann::json::array();
-  for (const auto& a : m.attributes) attributes.push_back({{"name", a.name}, {"components", a.components}, {"range", {a.min, a.max}}});
+  for (const auto& a : m.attributes) {
+    nlohmann::json entry = {{"name", a.name}, {"components", a.components}, {"range", {a.min, a.max}}};
+    // tensors and their derived scalars say so (storage/tensor.h): the viewer's tensor panel
+    if (a.kind != storage::AttributeKind::kValue) {
+      storage::AttributeInfo info{a.name, a.components, a.kind, a.positive_semidefinite, a.derived_from};
+      storage::add_attribute_kind_json(entry, info);
+    }
+    attributes.push_back(entry);
+  }
   // a multiresolution store holds every level: its mesh is the input's
   const nlohmann::json input = m.json.contains("multiresolution") ? m.json["multiresolution"].value("input", nlohmann::json::object()) : nlohmann::json::object();
   return {{"name", name},

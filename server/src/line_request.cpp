@@ -59,4 +59,27 @@ void check_vector_field(const Dataset& dataset, const std::string& name, uint32_
     throw protocol::ProtocolError(protocol::code::kBadField, "field: '" + name + "' has " + std::to_string(found->components) + " component(s); stream lines need a vector field (" + dataset.name + " has: " + vectors + ")", id);
 }
 
+void apply_tensors_set(const protocol::TensorsSet& m, view::TensorRequest& tensor) {
+  if (m.field) tensor.field = *m.field;
+  if (m.density) tensor.tube_cells = *m.density;
+  if (m.surface_density) tensor.surface_cells = *m.surface_density;
+  if (m.min_cl) tensor.min_linear = *m.min_cl;
+  if (m.min_cp) tensor.min_planar = *m.min_cp;
+  if (m.color) tensor.color = *m.color;
+  if (m.size) tensor.point_size = *m.size;
+}
+
+void check_tensor_field(const Dataset& dataset, const std::string& name, uint32_t id) {
+  std::string tensors;
+  const storage::StoreAttribute* found = nullptr;
+  for (const auto& a : dataset.store->manifest().attributes) {
+    if (a.kind == storage::AttributeKind::kTensor) tensors += (tensors.empty() ? "" : ", ") + a.name;
+    if (a.name == name) found = &a;
+  }
+  if (tensors.empty()) tensors = "none";
+  if (!found) throw protocol::ProtocolError(protocol::code::kNotFound, "no attribute '" + name + "' in " + dataset.name + " (its tensor fields: " + tensors + ")", id);
+  if (found->kind != storage::AttributeKind::kTensor)
+    throw protocol::ProtocolError(protocol::code::kBadField, "field: '" + name + "' is not a symmetric tensor (" + dataset.name + " has: " + tensors + ")", id);
+}
+
 }  // namespace tetrascope::server

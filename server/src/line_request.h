@@ -1,5 +1,6 @@
-// lines.set and points.set (protocol.h) applied to a session's view request, and the check of
-// a stream-line field against the dataset (at the edge, so a bad field is answered at once).
+// lines.set, points.set and tensors.set (protocol.h) applied to a session's view request, and
+// the checks of a stream-line or tensor field against the dataset (at the edge, so a bad field
+// is answered at once).
 #pragma once
 
 #include <cstdint>
@@ -23,5 +24,10 @@ void apply_points_set(const protocol::PointsSet& message, view::ViewRequest& vie
 // Throws ProtocolError: not_found when the dataset has no attribute `name`, bad_field when it
 // is not a 3-component (vector) attribute; both name the dataset's vector fields.
 void check_vector_field(const Dataset& dataset, const std::string& name, uint32_t id);
+
+void apply_tensors_set(const protocol::TensorsSet& message, view::TensorRequest& tensor);
+// Throws ProtocolError: not_found when the dataset has no attribute `name`, bad_field when it
+// is not a symmetric tensor; both name the dataset's tensor fields.
+void check_tensor_field(const Dataset& dataset, const std::string& name, uint32_t id);
 
 }  // namespace tetrascope::server

@@ -51,7 +51,9 @@ nlohmann::json open_session(const LoadtestOptions& o, std::unique_ptr<SessionCli
   client->expect("hello.ok");
   client->send("view.resize", {{"width", o.width}, {"height", o.height}});
   client->send("dataset.open", {{"name", o.dataset}});
-  return client->expect("dataset.info", std::chrono::seconds(60));
+  nlohmann::json info = client->expect("dataset.info", std::chrono::seconds(60));
+  if (!o.mode.empty()) client->send("mode.set", {{"mode", o.mode}});
+  return info;
 }
 
 // A session lost under the client (its server went away: a replica killed behind a load
@@ -262,6 +264,7 @@ void run_client(const LoadtestOptions& o, unsigned index, ClientResult& r) {
 nlohmann::json run_loadtest(const LoadtestOptions& o) {
   if (o.clients < 1 || o.clients > kMaxLoadtestClients) throw std::invalid_argument("--clients must be 1 to " + std::to_string(kMaxLoadtestClients));
   if (!(o.duration_s >= 1 && o.duration_s <= kMaxLoadtestSeconds)) throw std::invalid_argument("--duration must be 1 to 600 seconds");
+  if (!o.mode.empty()) protocol::parse_modes(o.mode);  // std::invalid_argument naming an unknown part
   if (o.path != "orbit" && o.path != "random" && o.path != "orbit-pause") throw std::invalid_argument("--path must be orbit, random or orbit-pause");
   if (!(o.orbit_s > 0 && o.orbit_s <= kMaxLoadtestSeconds) || !(o.pause_s > 0 && o.pause_s <= kMaxLoadtestSeconds))
     throw std::invalid_argument("--orbit and --pause must be above 0 and at most 600 seconds");

@@ -193,6 +193,7 @@ ViewSession::Then ViewSession::on_message(const protocol::ModeSet& m, uint32_t i
     s.view.surface = m.surface;
     s.view.lines = m.lines;
     s.view.points = m.points;
+    s.view.tensors = m.tensors;
     if (m.wireframe) s.view.wireframe = *m.wireframe;
     if (m.box) s.view.box = *m.box;
     if (m.background) s.background = *m.background;
@@ -247,6 +248,12 @@ ViewSession::Then ViewSession::on_message(const protocol::LinesSet& m, uint32_t 
 ViewSession::Then ViewSession::on_message(const protocol::PointsSet& m, uint32_t id) {
   change_state(id, [&](ViewState& s) { apply_points_set(m, s.view); });
   return Then::kStill;
+}
+
+ViewSession::Then ViewSession::on_message(const protocol::TensorsSet& m, uint32_t id) {
+  if (m.field) check_tensor_field(*need_dataset(id), *m.field, id);
+  change_state(id, [&](ViewState& s) { apply_tensors_set(m, s.view.tensor); });
+  return Then::kStill;  // tracing takes a while: one still
 }
 
 // The ids were checked against kMaxHiddenRegions at the edge; here against the dataset's count.

@@ -6,7 +6,8 @@
 // pyramids, wedges and hexahedra (higher-order ones by their corners), MIXED sections, and
 // surface, line and point sections counted and skipped; a FlowSolution at Vertex as point data
 // and one at CellCenter as cell data (the last of each location, or the one the zone's
-// ZoneIterativeData names for the last step), fields NAMEX NAMEY NAMEZ joined into a vector
+// ZoneIterativeData names for the last step), fields NAMEX NAMEY NAMEZ joined into a vector (vertex NAMEXX NAMEXY NAMEXZ NAMEYY NAMEYZ
+// NAMEZZ into a symmetric tensor)
 // NAME as ParaView does. Coordinates, connectivity and values are read in chunks (partial
 // reads of the arrays), so memory follows the chunk, not the file. The node layer rather than
 // the mid-level library: the mid-level library of Debian 12 (CGNS 3.4) refuses every file
@@ -64,20 +65,55 @@ std::pair<int, int> element_kind(CGNS_ENUMT(ElementType_t) type) {
   return {kVtkVertex, 0};  // NODE, BAR_*, TRI_*, QUAD_*
 }
 
-// A variable of the file: one field, or three joined into a vector.
+// A variable of the file: one field, three joined into a vector, or six into a symmetric tensor.
 struct Variable {
   std::string name;
-  std::vector<std::string> fields;  // the CGNS field names, one a component
+  std::vector<std::string> fields;  // the CGNS field names, one a component (a tensor's in the order xx yy zz xy yz xz)
+  bool tensor = false;
 };
 
+// NAMEXX NAMEXY NAMEXZ NAMEYY NAMEYZ NAMEZZ (SIDS's symmetric tensors, as ReynoldsStressXX ...;
+// YX, ZX, ZY accepted for XY, XZ, YZ; lower case likewise), anywhere in the list, with
+// `names[i]` its XX: the six fields in the stored order; empty when they are not all there.
+std::vector<std::string> symmetric_tensor_fields(const std::vector<std::string>& names, size_t i, const std::vector<bool>& used) {
+  const std::string& a = names[i];
+  if (a.size() < 3) return {};
+  const std::string tail = a.substr(a.size() - 2), base = a.substr(0, a.size() - 2);
+  const bool upper = tail == "XX";
+  if (!upper && tail != "xx") return {};
+  auto find = [&](const char* one, const char* other) -> std::string {
+    for (const char* suffix : {one, other}) {
+      std::string end = suffix;
+      if (!upper)
+        for (char& c : end) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      const std::string want = base + end;
+      const auto it = std::find(names.begin(), names.end(), want);
+      if (it != names.end() && !used[static_cast<size_t>(it - names.begin())]) return want;
+    }
+    return "";
+  };
+  std::vector<std::string> fields = {a, find("YY", "YY"), find("ZZ", "ZZ"), find("XY", "YX"), find("YZ", "ZY"), find("XZ", "ZX")};
+  for (const std::string& f : fields)
+    if (f.empty()) return {};
+  return fields;
+}
+
 // NAMEX NAMEY NAMEZ (or NAMEx ..., anywhere in the list) become one vector NAME, at the place
-// of its X component, as ParaView's CGNS reader joins VelocityX/Y/Z and MomentumX/Y/Z.
-std::vector<Variable> join_components(const std::vector<std::string>& names) {
+// of its X component, as ParaView's CGNS reader joins VelocityX/Y/Z and MomentumX/Y/Z; with
+// `tensors`, the six components of a symmetric tensor (symmetric_tensor_fields) one tensor NAME.
+std::vector<Variable> join_components(const std::vector<std::string>& names, bool tensors) {
   std::vector<Variable> out;
   std::vector<bool> used(names.size(), false);
   for (size_t i = 0; i < names.size(); ++i) {
     if (used[i]) continue;
     const std::string& a = names[i];
+    if (std::vector<std::string> six = tensors ? symmetric_tensor_fields(names, i, used) : std::vector<std::string>{}; !six.empty()) {
+      for (const std::string& f : six) used[static_cast<size_t>(std::find(names.begin(), names.end(), f) - names.begin())] = true;
+      std::string shown = a.substr(0, a.size() - 2);
+      if (shown.size() > 1 && shown.back() == '_') shown.pop_back();
+      out.push_back({shown, std::move(six), true});
+      continue;
+    }
     const char last = a.empty() ? '\0' : a.back();
     if (a.size() >= 2 && (last == 'X' || last == 'x')) {
       const std::string base = a.substr(0, a.size() - 1);
@@ -88,11 +124,11 @@ std::vector<Variable> join_components(const std::vector<std::string>& names) {
         used[static_cast<size_t>(y - names.begin())] = used[static_cast<size_t>(z - names.begin())] = true;
         std::string shown = base;
         if (shown.size() > 1 && shown.back() == '_') shown.pop_back();
-        out.push_back({shown, {a, *y, *z}});
+        out.push_back({shown, {a, *y, *z}, false});
         continue;
       }
     }
-    out.push_back({a, {a}});
+    out.push_back({a, {a}, false});
   }
   return out;
 }
@@ -433,9 +469,9 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
     return out;
   };
   for (const Zone& zone : zones_)
-    if (point_variables_.empty() && !zone.vertex_solution.name.empty()) point_variables_ = join_components(names(zone.vertex_solution));
+    if (point_variables_.empty() && !zone.vertex_solution.name.empty()) point_variables_ = join_components(names(zone.vertex_solution), true);
   for (const Zone& zone : zones_)
-    if (cell_variables_.empty() && !zone.cell_solution.name.empty()) cell_variables_ = join_components(names(zone.cell_solution));
+    if (cell_variables_.empty() && !zone.cell_solution.name.empty()) cell_variables_ = join_components(names(zone.cell_solution), false);  // cell tensors stay six scalars (averaged per component)
   int file_type = 0;
   {
     std::lock_guard<std::mutex> hold(library_lock());
@@ -446,7 +482,8 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
                         " unstructured zone" + (zones_.size() == 1 ? "" : "s");
   header_.vertex_count = vertex_total_;
   header_.cell_count = cells;
-  for (const Variable& v : point_variables_) header_.attributes.push_back({v.name, static_cast<uint32_t>(v.fields.size())});
+  for (const Variable& v : point_variables_)
+    header_.attributes.push_back({v.name, static_cast<uint32_t>(v.fields.size()), v.tensor ? AttributeKind::kTensor : AttributeKind::kValue});
   for (const Variable& v : cell_variables_) header_.cell_attributes.push_back({v.name, static_cast<uint32_t>(v.fields.size())});
   if (zones_.size() > 1) stats.warnings.push_back(std::to_string(zones_.size()) + " zones joined: points on zone interfaces are not merged");
   return header_;
@@ -656,8 +693,13 @@ void CgnsReader::read_vertices(size_t count, float* xyz, std::span<float* const>
       const size_t c = point_variables_[a].fields.size();
       for (size_t k = 0; k < c; ++k) {
         read_field(zone, zone.vertex_solution, point_variables_[a].fields[k], in_vertex_zone_, n, scratch_[0]);
-        for (size_t i = 0; i < n; ++i)
-          if (!to_stored_float(scratch_[0][i], attributes[a][(done + i) * c + k])) ++stats.nonfinite_attribute_values;
+        for (size_t i = 0; i < n; ++i) {
+          if (to_stored_float(scratch_[0][i], attributes[a][(done + i) * c + k])) continue;
+          if (point_variables_[a].tensor)  // a tensor's eigen-analysis needs every component
+            fail("zone '" + zone.name + "', tensor '" + point_variables_[a].name + "' (field " + point_variables_[a].fields[k] + "), vertex " +
+                 std::to_string(in_vertex_zone_ + static_cast<int64_t>(i) + 1) + ": " + std::to_string(scratch_[0][i]) + " is not a finite 32-bit float");
+          ++stats.nonfinite_attribute_values;
+        }
       }
     }
     in_vertex_zone_ += static_cast<int64_t>(n);

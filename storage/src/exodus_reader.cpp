@@ -5,7 +5,8 @@
 // corners; shells, bars and other lower-dimensional blocks counted and skipped), nodal
 // variables as point data and element variables as cell data at one time step (the last),
 // components named NAME_x, NAME_y, NAME_z (or NAMEx, ...) joined into a vector as ParaView
-// does. Coordinates, connectivity and values are read in chunks (the library's partial
+// does, and nodal NAME_XX NAME_YY NAME_ZZ NAME_XY NAME_YZ NAME_ZX (in a row, any order) into a
+// symmetric tensor. Coordinates, connectivity and values are read in chunks (the library's partial
 // reads), so memory follows the chunk, not the file. The NetCDF library is not thread-safe:
 // every call into it holds one process-wide lock.
 #include <exodusII.h>
@@ -19,6 +20,7 @@
 #include <mutex>
 
 #include "format_reader.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::storage::detail {
 namespace {
@@ -52,16 +54,54 @@ std::pair<int, int> element_kind(const std::string& name) {
   return {kVtkVertex, 0};  // TRI, QUAD, SHELL, BAR, BEAM, TRUSS, SPHERE, CIRCLE, ...
 }
 
-// A variable of the file: one Exodus variable, or three joined into a vector.
+// A variable of the file: one Exodus variable, three joined into a vector, or six into a
+// symmetric tensor.
 struct Variable {
   std::string name;
-  std::vector<int> indices;  // 1-based Exodus variable indices, one a component
+  std::vector<int> indices;  // 1-based Exodus variable indices, one a component (a tensor's in the order xx yy zz xy yz xz)
+  bool tensor = false;
 };
 
-// NAME_x NAME_y NAME_z (or NAMEx NAMEy NAMEz, any case) in a row become one vector NAME.
-std::vector<Variable> join_components(const std::vector<std::string>& names) {
+std::string upper_text(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// NAME_XX NAME_YY NAME_ZZ NAME_XY NAME_YZ NAME_ZX (or _XZ; any order, any case, the '_'
+// optional) in a row of six: SEACAS's and ParaView's convention for a symmetric tensor. The
+// indices in the stored order xx yy zz xy yz xz; empty when the six are not one.
+std::vector<int> symmetric_tensor_at(const std::vector<std::string>& names, size_t i, std::string& base) {
+  if (i + 6 > names.size() || names[i].size() < 3) return {};
+  const size_t n = names[i].size();
+  base = names[i].substr(0, n - 2);
+  std::vector<int> indices(6, 0);
+  for (size_t k = 0; k < 6; ++k) {
+    const std::string& name = names[i + k];
+    if (name.size() != n || name.compare(0, n - 2, base) != 0) return {};
+    const std::string suffix = upper_text(name.substr(n - 2));
+    static const char* const kSuffixes[6][2] = {{"XX", "XX"}, {"YY", "YY"}, {"ZZ", "ZZ"}, {"XY", "YX"}, {"YZ", "ZY"}, {"XZ", "ZX"}};
+    int slot = -1;
+    for (int s = 0; s < 6; ++s)
+      if (suffix == kSuffixes[s][0] || suffix == kSuffixes[s][1]) slot = s;
+    if (slot < 0 || indices[size_t(slot)] != 0) return {};
+    indices[size_t(slot)] = int(i + k) + 1;
+  }
+  if (!base.empty() && base.back() == '_') base.pop_back();
+  if (base.empty()) return {};
+  return indices;
+}
+
+// NAME_x NAME_y NAME_z (or NAMEx NAMEy NAMEz, any case) in a row become one vector NAME; with
+// `tensors`, six components of a symmetric tensor (symmetric_tensor_at) one tensor NAME.
+std::vector<Variable> join_components(const std::vector<std::string>& names, bool tensors) {
   std::vector<Variable> out;
   for (size_t i = 0; i < names.size();) {
+    std::string tensor_name;
+    if (std::vector<int> six = tensors ? symmetric_tensor_at(names, i, tensor_name) : std::vector<int>{}; !six.empty()) {
+      out.push_back({tensor_name, std::move(six), true});
+      i += 6;
+      continue;
+    }
     if (i + 2 < names.size()) {
       const std::string& a = names[i];
       const size_t n = a.size();
@@ -73,12 +113,12 @@ std::vector<Variable> join_components(const std::vector<std::string>& names) {
       if (vector) {
         std::string base = a.substr(0, n - 1);
         if (!base.empty() && base.back() == '_') base.pop_back();
-        out.push_back({base.empty() ? a : base, {int(i) + 1, int(i) + 2, int(i) + 3}});
+        out.push_back({base.empty() ? a : base, {int(i) + 1, int(i) + 2, int(i) + 3}, false});
         i += 3;
         continue;
       }
     }
-    out.push_back({names[i], {int(i) + 1}});
+    out.push_back({names[i], {int(i) + 1}, false});
     ++i;
   }
   return out;
@@ -293,10 +333,10 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   for (const Block& b : blocks_) declared += static_cast<uint64_t>(b.count) * static_cast<uint64_t>(b.nodes) * 4;
   check_declared_size(declared, file_bytes);
   const int64_t steps = ex_inquire_int(exoid_, EX_INQ_TIME);
-  nodal_ = join_components(variable_names(EX_NODAL));
+  nodal_ = join_components(variable_names(EX_NODAL), true);
   const std::vector<std::string> element_names = variable_names(EX_ELEM_BLOCK);
   const size_t element_variables = element_names.size();
-  element_ = join_components(element_names);
+  element_ = join_components(element_names, false);  // element tensors stay six scalars (cell data is averaged per component)
   std::string when = "no time step";
   if (steps > 0) {
     step_ = static_cast<int>(std::min<int64_t>(steps, std::numeric_limits<int>::max()));
@@ -320,7 +360,7 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   header_.description = "Exodus II, " + std::to_string(blocks_.size()) + " element blocks, " + when;
   header_.vertex_count = static_cast<uint64_t>(nodes_);
   header_.cell_count = cells;
-  for (const Variable& v : nodal_) header_.attributes.push_back({v.name, static_cast<uint32_t>(v.indices.size())});
+  for (const Variable& v : nodal_) header_.attributes.push_back({v.name, static_cast<uint32_t>(v.indices.size()), v.tensor ? AttributeKind::kTensor : AttributeKind::kValue});
   for (const Variable& v : element_) header_.cell_attributes.push_back({v.name, static_cast<uint32_t>(v.indices.size())});
   return header_;
 }
@@ -398,8 +438,13 @@ void ExodusReader::read_vertices(size_t count, float* xyz, std::span<float* cons
     const size_t c = nodal_[a].indices.size();
     for (size_t k = 0; k < c; ++k) {
       call("nodal variable '" + nodal_[a].name + "'", [&] { return ex_get_partial_var(exoid_, step_, EX_NODAL, nodal_[a].indices[k], 1, first, static_cast<int64_t>(count), scratch_[0].data()); });
-      for (size_t i = 0; i < count; ++i)
-        if (!to_stored_float(scratch_[0][i], attributes[a][i * c + k])) ++stats.nonfinite_attribute_values;
+      for (size_t i = 0; i < count; ++i) {
+        if (to_stored_float(scratch_[0][i], attributes[a][i * c + k])) continue;
+        if (nodal_[a].tensor)  // a tensor's eigen-analysis needs every component
+          fail("nodal tensor '" + nodal_[a].name + "': node " + std::to_string(vertices_given_ + i + 1) + ", component " + kTensorComponentNames[k] + ": " +
+               std::to_string(scratch_[0][i]) + " is not a finite 32-bit float");
+        ++stats.nonfinite_attribute_values;
+      }
     }
   }
   vertices_given_ += count;

@@ -18,6 +18,7 @@
 #include "tetrascope/storage/mesh_stream.h"
 #include "cli_run.h"
 #include "fixture_writers.h"
+#include "mesh_checks.h"
 #include "test_paths.h"
 
 namespace tetrascope::server {
@@ -278,6 +279,73 @@ TEST_F(ServerTest, StreamLinesOnAScalarOrMissingFieldAreRefusedAndLinesChangeThe
 // range over the dataset (the X range of the mesh's own values, unlike the magnitude's) and
 // histogram; the X component draws another image than the magnitude; a component of a scalar
 // or an unknown one is refused and the session lives on.
+// A tensor dataset viewed as tubes and diffusion surfaces (§7.4.2): a box whose diffusion
+// tensor is linear along x below z = 0.5 and planar (normal z) above, preprocessed by the real
+// `tetrascope preprocess`; mode.set "tensors" changes the image, tensors.set recolours it and
+// changes the seeding, a field that is no tensor or absent is refused, the session lives on.
+TEST_F(ServerTest, TensorsShowAsTubesAndSurfacesAndBadTensorRequestsAreRefused) {
+  const fs::path mesh_file = scratch_dir("tensor-mesh") / "layers.vtk";
+  {
+    testing::CellMesh m = testing::from_tets(testing::kuhn_box(8, 0.2, [](float x, float, float) { return x; }));
+    storage::Attribute d{{"D", 9, storage::AttributeKind::kTensor}, {}};
+    for (size_t v = 0; v < m.x.size(); ++v) {
+      const float medium = m.z[v] < 0.5f ? 0.15f : 0.9f;
+      for (float c : {1.f, 0.f, 0.f, 0.f, medium, 0.f, 0.f, 0.f, 0.05f}) d.values.push_back(c);
+    }
+    m.attributes.push_back(d);
+    testing::write_vtk_legacy(mesh_file, m);
+  }
+  ASSERT_EQ(testing::run_cli("preprocess " + mesh_file.string() + " -o " + (data_dir() / "layers").string() + " --progress none").status, 0);
+  start();
+  SessionClient c(ws_);
+  c.send("hello", {{"version", 1}});
+  c.expect("hello.ok");
+  c.send("view.resize", {{"width", 240}, {"height", 200}});
+  c.send("dataset.open", {{"name", "layers"}});
+  const auto info = c.expect("dataset.info", 60s);
+  bool has_tensor = false;
+  for (const auto& a : info["attributes"]) has_tensor |= a["name"] == "D" && a["kind"] == "tensor";
+  ASSERT_TRUE(has_tensor) << info.dump();
+  auto still_for = [&](uint32_t id) {
+    for (;;) {
+      Frame f = next_still(c);
+      if (f.header.width == 0 || f.header.message_id >= id) return f;
+    }
+  };
+  const Frame plain = still_for(c.send("mode.set", {{"mode", "slice"}}));
+  const Frame classes = still_for(c.send("mode.set", {{"mode", "tensors"}}));
+  EXPECT_TRUE(classes.jpeg != plain.jpeg) << "the tubes and surfaces show";
+  EXPECT_GT(classes.jpeg.size(), plain.jpeg.size() + 1000) << "more than an empty background";
+  const Frame by_fa = still_for(c.send("tensors.set", {{"color", "fa"}}));
+  EXPECT_TRUE(by_fa.jpeg != classes.jpeg) << "coloured by fractional anisotropy";
+  const Frame no_surfaces = still_for(c.send("tensors.set", {{"surface_density", 0}, {"density", 4}}));
+  EXPECT_TRUE(no_surfaces.jpeg != by_fa.jpeg) << "fewer tubes, no surfaces";
+  c.send("tensors.set", {{"field", "nope"}});
+  EXPECT_EQ(error_code_of(c), "not_found") << "a field the dataset lacks";
+  c.send("tensors.set", {{"field", "D.fa"}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "a derived scalar is not a tensor";
+  c.send("tensors.set", {{"density", 33}});
+  EXPECT_EQ(error_code_of(c), "bad_field") << "seeding past its limit";
+  c.send("tensors.set", {{"color", "purple"}});
+  EXPECT_EQ(error_code_of(c), "bad_field");
+  const Frame again = still_for(c.send("tensors.set", {{"field", "D"}, {"color", "class"}, {"size", 3}}));
+  EXPECT_GT(again.header.width, 0u);
+  EXPECT_FALSE(c.closed());
+  // the load test's sessions draw the tensor's points (loadtest --mode) without an error
+  LoadtestOptions o;
+  o.url = ws_;
+  o.dataset = "layers";
+  o.duration_s = 2;
+  o.width = 240;
+  o.height = 200;
+  o.mode = "slice+tensors";
+  const nlohmann::json r = run_loadtest(o);
+  EXPECT_EQ(r["errors"], 0) << r.dump();
+  EXPECT_GT(r["frames"].get<uint64_t>(), 0u) << r.dump();
+  o.mode = "dvr+glyphs";
+  EXPECT_THROW(run_loadtest(o), std::invalid_argument);
+}
+
 TEST_F(ServerTest, AVectorComponentHasItsOwnRangeAndImage) {
   const storage::TetMesh mesh = storage::load_mesh(testing::sample_mesh());
   const storage::Attribute* velocity = mesh.find_attribute("Velocity");

@@ -60,7 +60,9 @@ void write_fields(int fn, int B, int Z, int S, const std::vector<storage::Attrib
       } else {
         for (size_t v = 0; v < m.x.size(); ++v) values.push_back(a.values[v * a.info.components + k]);
       }
-      const std::string name = a.info.components == 1 ? a.info.name : a.info.name + "XYZ"[k];
+      // a tensor (6 components, stored xx yy zz xy yz xz) as SIDS names it: NAMEXX ... NAMEZZ
+      static const char* const kTensorSuffix[6] = {"XX", "YY", "ZZ", "XY", "YZ", "XZ"};
+      const std::string name = a.info.components == 1 ? a.info.name : a.info.kind == storage::AttributeKind::kTensor ? a.info.name + kTensorSuffix[k] : a.info.name + "XYZ"[k];
       int F = 0;
       check(cg_field_write(fn, B, Z, S, CGNS_ENUMV(RealDouble), name.c_str(), values.data(), &F));
     }
@@ -527,6 +529,48 @@ TEST(HostileCgns, TruncatedAndFlippedFilesGetAnErrorOrReadNeverCrash) {
     }
     EXPECT_GT(refused, 0) << (adf ? "ADF" : "HDF5");
   }
+}
+
+// A hex zone with the vertex tensor ReynoldsStress (SIDS's NAMEXX ... NAMEZZ; σxx = 10 + x,
+// σyy = 2, σzz = 1, σxy = y, σyz = 0.5, σxz = z), one vertex's XY NaN when `bad` is set.
+Fixture tensor_zone(bool bad) {
+  Fixture f = hex_zone();
+  storage::Attribute stress{{"ReynoldsStress", 6, storage::AttributeKind::kTensor}, {}};
+  for (size_t v = 0; v < f.mesh.x.size(); ++v) {
+    const float xy = bad && v == 3 ? std::nanf("") : f.mesh.y[v];
+    stress.values.insert(stress.values.end(), {10 + f.mesh.x[v], 2.f, 1.f, xy, 0.5f, f.mesh.z[v]});
+  }
+  f.mesh.attributes.push_back(stress);
+  return f;
+}
+
+TEST(Cgns, SixFieldsNamedXXToZZAreOneSymmetricTensorWithItsDerivedScalars) {
+  const Fixture f = tensor_zone(false);
+  const auto path = scratch_dir("cgns_tensor") / "m.cgns";
+  write_cgns(path, {f.mesh});
+  const TetMesh mesh = storage::load_mesh(path);
+  const storage::Attribute* stress = mesh.find_attribute("ReynoldsStress");
+  ASSERT_NE(stress, nullptr);
+  EXPECT_EQ(stress->info.kind, storage::AttributeKind::kTensor);
+  ASSERT_EQ(stress->info.components, 6u);
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    const float* t = &stress->values[6 * v];
+    EXPECT_FLOAT_EQ(t[0], 10 + mesh.x[v]);
+    EXPECT_FLOAT_EQ(t[3], mesh.y[v]);
+    EXPECT_FLOAT_EQ(t[5], mesh.z[v]);
+    EXPECT_FLOAT_EQ(t[4], 0.5f);
+  }
+  ASSERT_NE(mesh.find_attribute("ReynoldsStress.von_mises"), nullptr);
+  EXPECT_NE(mesh.find_attribute("Velocity"), nullptr) << "the vector beside it";
+  EXPECT_EQ(mesh.find_attribute("ReynoldsStressXX"), nullptr);
+}
+
+TEST(HostileCgns, ANonFiniteTensorComponentIsRefusedNamingTheTensorAndVertex) {
+  const Fixture f = tensor_zone(true);
+  const auto path = scratch_dir("cgns_tensor_nan") / "m.cgns";
+  write_cgns(path, {f.mesh});
+  const std::string error = mesh_read_error(path);
+  EXPECT_NE(error.find("tensor 'ReynoldsStress' (field ReynoldsStressXY), vertex 4"), std::string::npos) << error;
 }
 
 }  // namespace

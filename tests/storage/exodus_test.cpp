@@ -12,6 +12,7 @@
 #include <random>
 
 #include "fixture_writers.h"
+#include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/lod/mt/mt_build.h"
@@ -292,6 +293,90 @@ TEST(HostileExodus, TruncatedAndFlippedFilesGetAnErrorOrReadNeverCrash) {
     }
   }
   EXPECT_GT(refused, 0);
+}
+
+// A block of 48 tets with the nodal variables `names` (six of a tensor, by SEACAS's suffixes,
+// in the order given) holding, at node i, the components of the stress σxx = 100 + 10 x, σyy =
+// 20, σzz = -5, σxy = 3 y, σyz = 1, σzx = 2 z (by the suffix's letters); `bad_node` gets a NaN in
+// its XY component.
+void write_exodus_tensor(const std::filesystem::path& path, const std::vector<std::string>& names, int bad_node = -1) {
+  const TetMesh box = kuhn_box(2, 0, [](float, float, float) { return 0.0; });
+  int word = 8, io_word = 8;
+  const int exoid = ex_create(path.c_str(), EX_CLOBBER, &word, &io_word);
+  if (exoid < 0) throw std::runtime_error("ex_create failed");
+  ex_put_init(exoid, "tensor fixture", 3, static_cast<int64_t>(box.vertex_count()), static_cast<int64_t>(box.tet_count()), 1, 0, 0);
+  std::vector<double> x(box.x.begin(), box.x.end()), y(box.y.begin(), box.y.end()), z(box.z.begin(), box.z.end());
+  ex_put_coord(exoid, x.data(), y.data(), z.data());
+  std::vector<int> conn;
+  for (uint32_t v : box.tets) conn.push_back(static_cast<int>(v) + 1);
+  ex_put_block(exoid, EX_ELEM_BLOCK, 1, "TETRA", static_cast<int64_t>(box.tet_count()), 4, 0, 0, 0);
+  ex_put_conn(exoid, EX_ELEM_BLOCK, 1, conn.data(), nullptr, nullptr);
+  std::vector<const char*> pointers;
+  for (const auto& n : names) pointers.push_back(n.c_str());
+  ex_put_variable_param(exoid, EX_NODAL, static_cast<int>(names.size()));
+  ex_put_variable_names(exoid, EX_NODAL, static_cast<int>(names.size()), const_cast<char**>(pointers.data()));
+  const double t = 1;
+  ex_put_time(exoid, 1, &t);
+  for (size_t v = 0; v < names.size(); ++v) {
+    std::string suffix = names[v].substr(names[v].size() - 2);
+    for (char& c : suffix) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    std::vector<double> values;
+    for (size_t i = 0; i < box.vertex_count(); ++i) {
+      double value = suffix == "XX" ? 100 + 10 * box.x[i] : suffix == "YY" ? 20 : suffix == "ZZ" ? -5 : suffix == "XY" ? 3 * box.y[i] : suffix == "YZ" ? 1 : 2 * box.z[i];
+      if (int(i) == bad_node && suffix == "XY") value = std::nan("");
+      values.push_back(value);
+    }
+    ex_put_var(exoid, 1, EX_NODAL, static_cast<int>(v) + 1, 1, static_cast<int64_t>(values.size()), values.data());
+  }
+  ex_close(exoid);
+}
+
+TEST(Exodus, NodalVariablesNamedXXToZXAreOneSymmetricTensorWithItsDerivedScalars) {
+  const auto path = scratch_dir("exodus_tensor") / "m.exo";
+  write_exodus_tensor(path, {"stress_XX", "stress_YY", "stress_ZZ", "stress_XY", "stress_YZ", "stress_ZX", "temp"});
+  const TetMesh m = storage::load_mesh(path);
+  const storage::Attribute* stress = m.find_attribute("stress");
+  ASSERT_NE(stress, nullptr);
+  EXPECT_EQ(stress->info.kind, storage::AttributeKind::kTensor);
+  EXPECT_EQ(stress->info.components, 6u);
+  for (size_t i = 0; i < m.vertex_count(); ++i) {
+    const float* t = &stress->values[6 * i];  // xx yy zz xy yz xz
+    EXPECT_FLOAT_EQ(t[0], 100 + 10 * m.x[i]);
+    EXPECT_FLOAT_EQ(t[1], 20);
+    EXPECT_FLOAT_EQ(t[2], -5);
+    EXPECT_FLOAT_EQ(t[3], 3 * m.y[i]);
+    EXPECT_FLOAT_EQ(t[4], 1);
+    EXPECT_FLOAT_EQ(t[5], 2 * m.z[i]);
+  }
+  const storage::Attribute* von_mises = m.find_attribute("stress.von_mises");
+  ASSERT_NE(von_mises, nullptr);
+  EXPECT_EQ(von_mises->info.kind, storage::AttributeKind::kTensorDerived);
+  ASSERT_NE(m.find_attribute("temp"), nullptr) << "the seventh variable stays a scalar";
+  EXPECT_EQ(m.find_attribute("stress_XX"), nullptr);
+  // lower case, another order, XZ for ZX and no underscore
+  write_exodus_tensor(path, {"sigxz", "sigyy", "sigxx", "sigzz", "sigyz", "sigxy"});
+  const TetMesh n = storage::load_mesh(path);
+  const storage::Attribute* sig = n.find_attribute("sig");
+  ASSERT_NE(sig, nullptr);
+  EXPECT_EQ(sig->info.kind, storage::AttributeKind::kTensor);
+  for (size_t i = 0; i < n.vertex_count(); ++i) EXPECT_FLOAT_EQ(sig->values[6 * i], 100 + 10 * n.x[i]) << "xx first";
+}
+
+TEST(HostileExodus, ANonFiniteTensorComponentIsRefusedNamingTheTensorAndNode) {
+  const auto path = scratch_dir("exodus_tensor_nan") / "m.exo";
+  write_exodus_tensor(path, {"stress_XX", "stress_YY", "stress_ZZ", "stress_XY", "stress_YZ", "stress_ZX"}, 4);
+  const std::string error = mesh_read_error(path);
+  EXPECT_NE(error.find("nodal tensor 'stress': node 5, component xy"), std::string::npos) << error;
+}
+
+TEST(HostileExodus, SixNamesThatAreNotOneTensorStayScalars) {
+  const auto path = scratch_dir("exodus_tensor_not") / "m.exo";
+  // a repeated suffix, and a base that changes: no tensor, six scalars
+  write_exodus_tensor(path, {"s_XX", "s_XX", "s_ZZ", "s_XY", "s_YZ", "s_ZX"});
+  const TetMesh m = storage::load_mesh(path);
+  for (const auto& a : m.attributes) EXPECT_NE(a.info.kind, storage::AttributeKind::kTensor) << a.info.name;
+  write_exodus_tensor(path, {"a_XX", "a_YY", "a_ZZ", "b_XY", "b_YZ", "b_ZX"});
+  for (const auto& a : storage::load_mesh(path).attributes) EXPECT_NE(a.info.kind, storage::AttributeKind::kTensor) << a.info.name;
 }
 
 }  // namespace

@@ -42,7 +42,8 @@ constexpr uint32_t kMaxLineSteps = 100000;        // lines.set max_steps
 constexpr uint32_t kMaxSelectedLines = 4096;      // lines.set select.lines
 constexpr double kMaxLineWidthPixels = 32;        // lines.set line_width, from 1
 constexpr double kMaxPointSizePixels = 64;        // points.set size, from 0 (covering)
-constexpr uint32_t kMaxHiddenRegions = 1024;      // regions.set hidden: ids below this, at most this many
+constexpr uint32_t kMaxHiddenRegions = 1024;
+constexpr uint32_t kMaxTensorCells = 32;          // tensors.set density and surface_density (0: none)      // regions.set hidden: ids below this, at most this many
 
 // Every limit of a session, each configurable (ServerOptions::limits; `serve` has options for
 // the sessions, message size and rate and the image side) and tested at and past it.
@@ -105,16 +106,17 @@ struct TfSet {
   TransferFunction tf;  // checked (parse_transfer_function); the attribute is the session's to find
 };
 // What to draw: "dvr", "iso" (or "isosurface"), "surface", "lines" (stream lines) and
-// "points" (point isosurfaces) joined by '+', as mode.set and `tetrascope render --mode` take
+// "points" (point isosurfaces) and "tensors" (a tensor field's tubes and diffusion surfaces
+// as points) joined by '+', as mode.set and `tetrascope render --mode` take
 // them; "slice" alone draws none of them (only the slice planes of slice.set / --slice).
 // Throws std::invalid_argument naming an unknown part.
 struct Modes {
-  bool dvr = false, iso = false, surface = false, lines = false, points = false;
+  bool dvr = false, iso = false, surface = false, lines = false, points = false, tensors = false;
 };
 Modes parse_modes(std::string_view text);
 
 struct ModeSet {
-  bool dvr = true, iso = false, surface = false, lines = false, points = false;
+  bool dvr = true, iso = false, surface = false, lines = false, points = false, tensors = false;
   std::optional<bool> wireframe, box;
   std::optional<std::array<float, 3>> background;  // r g b in [0, 1]
 };
@@ -159,6 +161,16 @@ struct PointsSet {
   std::vector<double> values;       // none: 8 regularly spaced over the colour range
   std::optional<double> size;       // splat pixels; 0: covering
 };
+// A tensor field's stream tubes and diffusion surfaces as points (§7.4.2). Every field
+// optional; what is absent stays as it was.
+struct TensorsSet {
+  std::optional<std::string> field;        // a symmetric tensor attribute (the session checks it)
+  std::optional<uint32_t> density;         // tube seeding: cells along the longest side, 0..kMaxTensorCells
+  std::optional<uint32_t> surface_density; // diffusion-surface seeding, 0..kMaxTensorCells
+  std::optional<double> min_cl, min_cp;    // 0..1: the anisotropy where tubes run and surfaces grow
+  std::optional<std::string> color;        // "class" or a derived quantity (lambda1 ... cs)
+  std::optional<double> size;              // splat pixels, 0..kMaxPointSizePixels; 0: covering
+};
 struct Ping {};
 // Boundary regions the surface leaves out (ids of dataset.info's regions), the whole set each
 // time. The session checks the ids against the dataset.
@@ -167,7 +179,7 @@ struct RegionsSet {
 };
 
 using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, LinesSet, PointsSet, Ping,
-                             ClipSet, SliceSet, Probe, RegionsSet>;
+                             ClipSet, SliceSet, Probe, RegionsSet, TensorsSet>;
 
 struct Envelope {
   std::string type;

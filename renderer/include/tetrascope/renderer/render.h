@@ -27,7 +27,10 @@
 //    selected lines opaque and the others ghosted (semi-transparent, one colour, sorted back
 //    to front; §7.3.2). Opaque lines are drawn before the volume and stop its rays; ghosts
 //    are blended after it (see renderer/src/lines.cpp for what that costs);
-//  - points: many isosurfaces sampled by points, density by area, drawn as lit splats (§7.2).
+//  - points: many isosurfaces sampled by points, density by area, drawn as lit splats (§7.2);
+//  - tensors: a tensor field's stream tubes and diffusion surfaces sampled by points (§7.4.2),
+//    tube points lit by the illuminated-lines model about their tangent, surface points by
+//    Blinn-Phong about the surface normal, opaque, before the volume.
 // The colour legend is not drawn into the image: `render --json` and the server send it as
 // data (colormap, range, attribute), for the client to draw.
 #pragma once
@@ -87,6 +90,37 @@ std::vector<uint32_t> line_at_pixel(const LineSet& lines, const view::Camera& ca
 
 using view::FlowStyle;
 
+// A tensor field drawn by points (§7.4.2), built once per trace (tensor_points) and shared
+// between frames like a LineSet. Stream tubes: the lines of the major eigenvector through
+// linear regions (cl at least the request's min_linear), resampled every `spacing` of arc
+// length, each sample a ring of kTubeRingPoints points on the ellipse of the cross-section,
+// its axes the medium and minor eigenvectors with radii in the ratio of their eigenvalues'
+// magnitudes (the smaller at least a quarter of the larger), the larger `radius`. Diffusion
+// surfaces (lod/field/diffusion_surfaces.h) through planar regions: points spread over their
+// triangles by area, one a spacing² on average (§7.2's sampling). Per point: position, normal
+// (the ellipse's outward normal on a tube, the surface's minor eigenvector), tangent (a tube's
+// direction; zero on a surface, which the pass takes for a surface point), colour value.
+struct TensorPoints {
+  std::vector<float> xyz, normal, tangent, value;
+  uint64_t tubes = 0, surfaces = 0, tube_points = 0, surface_points = 0, surface_triangles = 0;
+  double spacing = 0, radius = 0;        // world units
+  bool by_class = true;                  // value is the anisotropy class (0 isotropic, 1 linear, 2 planar)
+  double value_min = 0, value_max = 1;   // the colour range of a derived quantity
+  std::string field, color;              // the tensor drawn; "class" or the quantity colouring it
+  double trace_ms = 0;                   // tracing and sampling
+  size_t count() const { return value.size(); }
+};
+constexpr int kTubeRingPoints = 8;
+constexpr uint64_t kMaxTensorPoints = 4'000'000;  // more: the spacing grows until they fit
+// The tubes and surfaces of `request` through `mesh` (trusted), resolving an empty field to
+// the first tensor attribute. Throws std::invalid_argument for a field that is not a symmetric
+// tensor (or none at all), a colour that is neither "class" nor a derived quantity, or
+// thresholds outside [0, 1].
+TensorPoints tensor_points(const storage::TetMesh& mesh, const view::TensorRequest& request);
+// The colours of the classes in "class" colouring (§7.4.4's figure 7.21: red linear, green
+// planar, blue isotropic), by Anisotropy order (isotropic, linear, planar), RGB 0..1.
+constexpr std::array<std::array<float, 3>, 3> kAnisotropyColors = {{{0.25f, 0.45f, 0.95f}, {0.92f, 0.22f, 0.18f}, {0.20f, 0.78f, 0.30f}}};
+
 // Limits of the line and point passes (checked by Renderer::render).
 constexpr double kMaxLineWidth = 32;   // pixels
 constexpr double kMaxPointSize = 64;   // pixels
@@ -124,6 +158,9 @@ struct RenderSettings : view::DrawOptions {
   // the world, so far halos are narrower and far arrows shorter, like the geometry. No effect
   // in an orthographic view.
   double depth_correction = 1;
+  // a tensor field's tubes and surfaces as lit points (§7.4.2): drawn when set, opaque
+  std::shared_ptr<const TensorPoints> tensor_points;
+  double tensor_point_size = 0;          // splat diameter in pixels; 0: covering splats
   // point-based isosurfaces (§7.2, DrawOptions::points)
   double point_area = 0;                 // isosurface area a point stands for; 0: total area / point_target
   bool point_depth_scaling = false;      // §7.2: fewer points far away
@@ -136,7 +173,7 @@ struct RenderSettings : view::DrawOptions {
 struct FrameTimings {
   double sort_ms = 0, draw_ms = 0, readback_ms = 0, encode_ms = 0, total_ms = 0;
   uint64_t tets_drawn = 0, tets_skipped = 0, iso_triangles = 0;
-  uint64_t line_segments_opaque = 0, line_segments_ghosted = 0, points = 0;
+  uint64_t line_segments_opaque = 0, line_segments_ghosted = 0, points = 0, tensor_points = 0;
   bool interrupted = false;  // should_stop said stop: a partial image
   double classify_ms = 0;    // projected tetrahedra: the CPU classification (inside draw_ms)
   double cpu_ms = 0;         // CPU time of the whole process over the frame, every thread (llvmpipe's too): the work, on a shared machine

@@ -114,12 +114,18 @@ class ViewPipeline {
   // cut they were traced on (stores only).
   std::shared_ptr<const LineSet> lines() const { return lines_; }
   std::optional<double> lines_cut_error() const { return lines_cut_error_; }
+  // The tensor points of the last request with tensors (null: none yet).
+  std::shared_ptr<const TensorPoints> tensor_points() const { return tensor_points_; }
 
  private:
   void resolve_attribute(view::TransferFunction& tf) const;
   void rebuild_scene(const storage::TetMesh& mesh, const view::TransferFunction& tf, const std::string& iso_color_attribute);
   void trace_lines(const storage::TetMesh& mesh, const LineRequest& request);
   void apply_lines(const LineRequest& request, RenderSettings& s);
+  // The tensor points traced again when the request's tensor part changed (the point size
+  // alone draws the same points), then into the settings.
+  void update_tensors(const storage::TetMesh& mesh, const ViewRequest& request, RenderSettings& s);
+  bool tensors_stale(const ViewRequest& request) const;
   // update() on the vertex front (stores with vertices.bin)
   void update_front(const ViewRequest& request, RenderSettings& s, ViewTimings& t, bool trace);
 
@@ -144,6 +150,8 @@ class ViewPipeline {
   std::optional<LineRequest> selected_for_;  // the request selection_ answers
   std::vector<uint32_t> selection_;
   std::optional<double> lines_cut_error_;
+  std::shared_ptr<const TensorPoints> tensor_points_;
+  std::optional<view::TensorRequest> tensors_traced_;  // the request tensor_points_ answers
   // the clipped scene, rebuilt when the scene or the clip changes
   void update_clip(const view::ClipSpec& clip, ViewTimings& timings);
   void classify_regions(const ViewRequest& request, ViewTimings& timings);

@@ -24,6 +24,7 @@ struct LoadtestOptions {
   uint32_t width = 1024, height = 768;
   bool allow_remote = false; // else loopback hosts only
   bool reconnect = true;     // a session lost mid-run (a replica gone) is opened again and counted, not a failure
+  std::string mode;          // sent as mode.set once the dataset is open (protocol::parse_modes); empty: the server's default
 };
 constexpr unsigned kMaxLoadtestClients = 64;
 constexpr double kMaxLoadtestSeconds = 600;

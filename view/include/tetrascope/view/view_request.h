@@ -63,6 +63,23 @@ struct LineRequest {
   bool operator==(const LineRequest&) const = default;
 };
 
+// Tensor fields drawn by points (§7.4.2): stream tubes along the major eigenvector in linear
+// regions and diffusion surfaces in planar ones, each sampled by lit points; traced on the
+// view's mesh when the field, seeding or thresholds change, recoloured without tracing.
+struct TensorRequest {
+  std::string field;               // a symmetric tensor attribute; empty: the dataset's first
+  uint32_t tube_cells = 8;         // dense seeding of the tubes: cells along the box's longest side (0: no tubes)
+  uint32_t surface_cells = 3;      // dense seeding of the diffusion surfaces (0: no surfaces)
+  double min_linear = 0.2;         // cl: a tube runs where the linear anisotropy is at least this
+  double min_planar = 0.25;        // cp: a surface grows where the planar anisotropy is at least this
+  // "class": red linear, green planar, blue isotropic (the point's own tensor against the two
+  // thresholds, the larger measure deciding); else a derived quantity of the tensor
+  // (storage::kTensorQuantityNames: lambda1, ..., von_mises, fa, cl, cp, cs) through the colormap
+  std::string color = "class";
+  double point_size = 0;           // splat diameter in pixels; 0: covering splats
+  bool operator==(const TensorRequest&) const = default;
+};
+
 struct ViewRequest : DrawOptions {
   ViewRequest() {
     width = 1024;
@@ -72,6 +89,8 @@ struct ViewRequest : DrawOptions {
   std::string iso_color_attribute;     // a second attribute colouring the isosurfaces; empty: by value
   bool lines = false;
   LineRequest line;
+  bool tensors = false;
+  TensorRequest tensor;
   uint64_t budget = 0;                 // tets of the cut (stores only)
   // stores with a vertex hierarchy (vertices.bin): the cut by single vertex splits (the
   // default) or through the segments' DAG

@@ -19,6 +19,7 @@
 
 #include "tetrascope/core/vec3.h"
 #include "tetrascope/storage/mesh.h"
+#include "tetrascope/storage/tensor.h"
 
 namespace tetrascope::lod {
 
@@ -31,8 +32,16 @@ struct AnisotropySegmentation {
   std::array<uint64_t, 3> vertices{};        // per class
 };
 
+// The class of one tensor's cl and cp (segment_anisotropy's rule).
+Anisotropy classify_anisotropy(double cl, double cp, double min_linear, double min_planar);
+
 // Throws std::invalid_argument when `tensor` is not a symmetric tensor attribute of `mesh`.
 AnisotropySegmentation segment_anisotropy(const storage::TetMesh& mesh, const std::string& tensor, double min_linear, double min_planar);
+
+// The tensor `tensor` interpolated linearly at each point, found in its tet by a grid over
+// the tets' boxes; a point outside every tet gets NaN components. Throws
+// std::invalid_argument when `tensor` is not a symmetric tensor attribute of `mesh`.
+std::vector<storage::SymmetricTensor> tensors_at(const storage::TetMesh& mesh, const std::string& tensor, std::span<const Vec3> points);
 
 // The cut-border's operations, counted per run.
 enum class SurfaceOperation : uint8_t { create, left, right, end, split, merge, border, kCount };
