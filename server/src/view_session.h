@@ -68,6 +68,7 @@ class ViewSession {
   Then on_message(const protocol::SliceSet& m, uint32_t id);
   Then on_message(const protocol::Probe& m, uint32_t id);
   Then on_message(const protocol::RegionsSet& m, uint32_t id);
+  Then on_message(const protocol::TimeSet& m, uint32_t id);
 
   Server::Impl& server_;
   SessionState& shared_;
