@@ -11,6 +11,7 @@ import { backgroundOf, composeStill, drawAxes, drawBox, inkOn, showLegends } fro
 import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
 import { RegionsPanel, shownBounds } from './regions.js';
+import { TimePanel } from './time.js';
 import { TfEditor } from './tf-editor.js';
 import { componentsOf, drawnName, effectiveOpacity, forDataset, histogramOfDrawn, logScale, rangeOfDrawn, tfBody, viewFromHash, viewToHash } from './view-state.js';
 import { visibleCorners } from './visible.js';
@@ -99,6 +100,12 @@ const regionsPanel = new RegionsPanel($('boundary-panel'), {
   },
   saved: () => saveViewInHash(),
 });
+const timePanel = new TimePanel($('time-panel'), {
+  send,
+  view: () => state.view,
+  saved: () => saveViewInHash(),
+});
+state.time = timePanel;
 const probe = new Probe(frameCanvas, $('probe'), { send });
 state.probe = probe;
 const jobs = new Jobs(authHeaders, {
@@ -258,6 +265,7 @@ async function onFrame(buffer) {
   stats.frame(header, payload.length);
   refinement.frame(header);
   linesPanel.onFrame(header);
+  timePanel.onFrame(header);
   state.onFrame?.(header);  // a hook for the browser test: called once a frame is on the screen
 }
 
@@ -441,6 +449,7 @@ function onDataset(info) {
   datasetNotice = '';
   linesPanel.setDataset(info);
   regionsPanel.setDataset(info);
+  timePanel.setDataset(info);
   showView();
   planes.show();
   sendAll();
@@ -579,6 +588,7 @@ function sendAll() {
   sendQuality();
   planes.sendAll();
   regionsPanel.send();
+  timePanel.send();
   sendCamera(false);  // last: the still that follows shows everything
   saveViewInHash();
 }

@@ -6,6 +6,7 @@ import { DEFAULT_PRESET, PRESETS, colorAt } from './colormaps.js';
 import { defaultLines, linesFromHash, linesToHash } from './lines.js';
 import { planesFromHash, planesToHash } from './planes.js';
 import { regionsFromHash, regionsToHash } from './regions.js';
+import { timeFromHash, timeToHash } from './time.js';
 
 // The default opacity curve, chosen by looking at the shared datasets (disk_out_ref,
 // fea_bracket, nasa_bluntfin, freefem_leman, onera_m6, nasa_combustion_chamber,
@@ -65,13 +66,14 @@ export function defaultView() {
     clips: [], slices: [], sliceEdges: false, sliceFlat: false,  // planes.js
     lines: defaultLines(),      // stream lines and point isosurfaces (lines.js)
     hiddenRegions: [],          // boundary regions left out (regions.js)
+    timeStep: 0,                // a time series' step shown (time.js)
   };
 }
 
 // Forgets what belongs to one dataset (another one is opened).
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
-  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
+  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, legendTitles: {}, isoColorBy: null, hiddenRegions: [], timeStep: 0 };
 }
 
 // ---------- what of an attribute is drawn ----------
@@ -91,7 +93,8 @@ export function componentsOf(attribute) {
 // component_ranges), else the attribute's (a vector's magnitude); never empty.
 export function rangeOfDrawn(attribute, component) {
   const k = COMPONENTS.indexOf(component) - 1;
-  const r = k >= 0 && attribute?.component_ranges?.[k] ? attribute.component_ranges[k] : attribute?.range;
+  // a time series: over every step (series_range), so that colours stay put while it plays
+  const r = k >= 0 && attribute?.component_ranges?.[k] ? attribute.component_ranges[k] : attribute?.series_range ?? attribute?.range;
   if (!r) return null;
   return r[1] > r[0] ? [...r] : [r[0], r[0] + 1];
 }
@@ -155,6 +158,7 @@ export function viewToHash(view) {
   p.push(...planesToHash(view));
   p.push(...linesToHash(view));
   p.push(...regionsToHash(view));
+  p.push(...timeToHash(view));
   return p.join('&');
 }
 
@@ -230,6 +234,7 @@ export function viewFromHash(hash) {
   }
   Object.assign(view, planesFromHash(h));
   Object.assign(view, regionsFromHash(h));
+  Object.assign(view, timeFromHash(h));
   return view;
 }
 
