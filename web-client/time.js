@@ -4,7 +4,8 @@
 // playing, each step is sent once the frame of the one before is on the screen, at most at
 // the chosen rate (or as fast as frames come), with the step after it as time.set's prefetch,
 // so that the server inflates its values while this step's frame is made. The frames of a
-// play are interaction frames; the view refines to a still once it is paused.
+// play are interaction frames, not refined (the next step follows); Pause sends the step
+// alone, which the server refines to a still.
 
 const MAX_TIME_STEP = 99999;  // protocol/js/codec.js's (not imported: view-state.js imports this under node)
 
@@ -100,6 +101,8 @@ export class TimePanel {
     this.playing = false;
     clearTimeout(this.timer);
     this.timer = null;
+    // the step shown, alone: the server refines it to a still (a play's steps are not refined)
+    this.waitingFor = this.host.send('time.set', { step: this.host.view().timeStep ?? 0 });
     this.show();
   }
 

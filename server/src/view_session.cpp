@@ -94,7 +94,7 @@ std::shared_ptr<Dataset> ViewSession::need_dataset(uint32_t id) {
 void ViewSession::apply(const protocol::Envelope& envelope) {
   const Then then = std::visit([&](const auto& message) { return on_message(message, envelope.id); }, envelope.message);
   if (then == Then::kReplied) return;
-  link_.request_frames(then == Then::kInteraction ? FrameRequest::kInteraction : FrameRequest::kStill);
+  link_.request_frames(then == Then::kInteraction ? FrameRequest::kInteraction : then == Then::kPlaying ? FrameRequest::kPlaying : FrameRequest::kStill);
 }
 
 // Updates the shared view state under the lock and records the message as the newest applied.
@@ -263,7 +263,8 @@ ViewSession::Then ViewSession::on_message(const protocol::RegionsSet& m, uint32_
 }
 
 // The step was checked against kMaxTimeStep at the edge; here against the dataset's steps.
-// While a series plays, each step is an interaction frame (refined when the play stops).
+// While a series plays (a step with the next one to prefetch) each step is an interaction
+// frame and nothing refines; a step alone (the slider, a pause) refines to a still.
 ViewSession::Then ViewSession::on_message(const protocol::TimeSet& m, uint32_t id) {
   const auto dataset = need_dataset(id);
   const uint32_t count = dataset->steps ? dataset->steps->count() : 1;
@@ -276,7 +277,7 @@ ViewSession::Then ViewSession::on_message(const protocol::TimeSet& m, uint32_t i
     s.time_step = m.step;
     s.prefetch_step = m.prefetch;
   });
-  return Then::kInteraction;
+  return m.prefetch ? Then::kPlaying : Then::kInteraction;
 }
 
 ViewSession::Then ViewSession::on_message(const protocol::Ping&, uint32_t id) {

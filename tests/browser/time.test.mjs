@@ -2,8 +2,8 @@
 // each, whose scalar moves along x from step to step) preprocessed into one store. The Time
 // panel lists its steps; the slider shows a step (time.set; the image changes, the URL says
 // step=); Play advances through the steps, each sent once the frame of the step before is on
-// the screen with the next one as its prefetch, wrapping round; Pause stops on a step and the
-// view refines to a still of it; a link with step= opens on that step.
+// the screen with the next one as its prefetch, wrapping round; Pause sends the step shown
+// alone and the view refines to a still of it; a link with step= opens on that step.
 //   node --test tests/browser/time.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -109,11 +109,13 @@ test('Play advances step by step with the next step prefetched, wrapping round; 
   await page.locator('#time-play').click();
   assert.equal(await page.locator('#time-play').innerText(), 'Play');
   const sent = await page.evaluate((n) => window.tetrascope.sent.filter((m) => m.type === 'time.set').slice(n).map((m) => m.body), before);
-  assert.ok(sent.length >= 6, `${sent.length} steps sent`);
+  assert.ok(sent.length >= 7, `${sent.length} steps sent`);
+  const paused = sent.pop();  // Pause: the step shown, alone, to be refined
   sent.forEach((body, k) => {
     assert.equal(body.step, (2 + 1 + k) % kSteps, `the play's step ${k}`);
     assert.equal(body.prefetch, (body.step + 1) % kSteps, 'the step after it is prefetched');
   });
+  assert.deepEqual(paused, { step: sent.at(-1).step });
   const rate = await page.evaluate(() => window.tetrascope.time.measuredRate());
   assert.ok(rate > 0, 'steps were shown while playing');
   console.log(`played ${sent.length} steps at ${rate.toFixed(1)} steps/s (headless Chromium, llvmpipe, 5000 tets)`);

@@ -1,6 +1,7 @@
 // Time series through the server: a series store (made by the real `tetrascope preprocess` of
 // VTU step files) lists its steps in dataset.info and the REST description, time.set shows a
-// step (its still differs from step 0's; the next step's values are prefetched), and a step
+// step (a play's step, with the next to prefetch, as an interaction frame; a step alone refined
+// to a still that differs from step 0's), and a step
 // past the last, a time.set on a dataset of one step or a damaged step block get clear errors
 // while the server goes on serving. The real server on an ephemeral loopback port, real
 // WebSocket and HTTP clients.
@@ -83,8 +84,8 @@ class TimeSeriesServerTest : public ::testing::Test {
     protocol::FrameHeader header;
     std::string image;
   };
-  // The next still answering message `id` or later (errors fail the test).
-  static Frame still_after(SessionClient& c, uint32_t id) {
+  // The next frame answering message `id` or later, a still when `still` (errors fail the test).
+  static Frame frame_after(SessionClient& c, uint32_t id, bool still = false) {
     const auto deadline = std::chrono::steady_clock::now() + 60s;
     while (std::chrono::steady_clock::now() < deadline) {
       auto m = c.read(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
@@ -95,11 +96,12 @@ class TimeSeriesServerTest : public ::testing::Test {
       }
       Frame f{protocol::decode_frame_header(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(m->data.data()), m->data.size()), protocol::Limits{}),
               m->data.substr(protocol::kFrameHeaderBytes)};
-      if (f.header.still && f.header.message_id >= id) return f;
+      if ((f.header.still || !still) && f.header.message_id >= id) return f;
     }
-    ADD_FAILURE() << "no still for message " << id;
+    ADD_FAILURE() << "no frame for message " << id;
     return {};
   }
+  static Frame still_after(SessionClient& c, uint32_t id) { return frame_after(c, id, true); }
 
   fs::path data_;
   std::unique_ptr<Server> server_;
@@ -123,7 +125,11 @@ TEST_F(TimeSeriesServerTest, DatasetInfoAndTheRestDescriptionListTheStepsAndTime
   EXPECT_TRUE(listed) << list.dump();
 
   const Frame first = still_after(*c, 0);
-  const uint32_t id = c->send("time.set", {{"step", 2}, {"prefetch", 0}});
+  // a play's step (with the next to prefetch): an interaction frame, not refined
+  const uint32_t playing = c->send("time.set", {{"step", 1}, {"prefetch", 2}});
+  const Frame played = frame_after(*c, playing);
+  EXPECT_FALSE(played.header.still || played.header.refining) << "a play's step is not refined";
+  const uint32_t id = c->send("time.set", {{"step", 2}});  // a step alone: refined to a still
   const Frame later = still_after(*c, id);
   EXPECT_GT(later.header.tets, 0u);
   EXPECT_NE(first.image, later.image) << "step 2's bump is elsewhere: its still should differ from step 0's";
