@@ -9,6 +9,7 @@
 #include "tetrascope/lod/cut/dag.h"
 #include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/lod/mt/store_check.h"
+#include "tetrascope/lod/mt/time_series.h"
 #include "tetrascope/lod/cut/variants.h"
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/lod/mt/segmentation.h"
@@ -20,6 +21,7 @@
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
 #include "tetrascope/storage/tensor.h"
+#include "tetrascope/storage/time_steps.h"
 
 namespace tetrascope::apps {
 namespace {
@@ -58,6 +60,17 @@ void print_store_regions(const nlohmann::json& regions) {
   for (const auto& r : regions["regions"])
     std::printf("  region %-3u %-24s %llu triangles%s\n", r["id"].get<unsigned>(), r["name"].get<std::string>().empty() ? "-" : r["name"].get<std::string>().c_str(),
                 r["triangles"].get<unsigned long long>(), r["touches_domain_box"].get<bool>() ? "  (on the domain's box)" : "");
+}
+
+void print_time_steps(const storage::StoreManifest& m) {
+  const std::vector<storage::TimeStep> steps = storage::manifest_time_steps(m);
+  if (steps.empty()) return;
+  std::printf("time steps  %zu, t = %g .. %g (steps.bin %.1f MB)\n", steps.size(), steps.front().time, steps.back().time, m.json["time_steps"].value("bytes", 0.0) / 1e6);
+  for (const auto& s : steps) {
+    std::printf("  step %-4u t = %-12g %-28s", s.index, s.time, s.name.c_str());
+    for (size_t a = 0; a < s.ranges.size() && a < 2; ++a) std::printf("  %s %g .. %g", m.attributes[a].name.c_str(), s.ranges[a][0], s.ranges[a][1]);
+    std::printf("\n");
+  }
 }
 
 int print_store_info(const std::string& path, bool json) {
@@ -110,6 +123,7 @@ int print_store_info(const std::string& path, bool json) {
       std::printf("            %s %.1f kB (%llu tags, %llu tagged triangles)\n", storage::kBoundaryTagsFile, j["files"][storage::kBoundaryTagsFile]["bytes"].get<double>() / 1e3,
                   m.json["boundary_tags"].value("tags", 0ull), m.json["boundary_tags"].value("triangles", 0ull));
     print_store_regions(j["regions"]);
+    print_time_steps(m);
     return 0;
   }
   std::printf("store       %s (format %u)\n", path.c_str(), m.version);
@@ -127,6 +141,26 @@ int print_store_info(const std::string& path, bool json) {
   return 0;
 }
 
+// preprocess of a time series: the store of the first step, then every step's values.
+int preprocess_series(const Args& args, const std::vector<storage::SeriesInput>& series, const lod::PreprocessOptions& options) {
+  storage::Progress progress(progress_mode(args), {{"read", 0.03}, {"partition", 0.01}, {"simplify", 0.66}, {"write", 0.08}, {"steps", 0.22}});
+  lod::PreprocessReport build;
+  const lod::SeriesReport report = lod::preprocess_series(series, args.get("--output"), options, &progress, &build);
+  lod::require_sound_store(args.get("--output"));  // steps.bin's blocks and ranges included
+  if (args.has("--json")) {
+    nlohmann::json j = build.to_json();
+    j["time_steps"] = {{"steps", report.steps}, {"bytes", report.steps_bytes}, {"interpolated_vertices", report.interpolated_vertices},
+                       {"outside_vertices", report.outside_vertices}, {"seconds", report.seconds}};
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::printf("%s: %llu tets -> %zu levels, %u segments; %u time steps (t = %g .. %g), steps.bin %.1f MB (%.1f bytes a vertex a step); %.2f s (steps %.2f s)\n",
+              args.get("--output").c_str(), static_cast<unsigned long long>(build.input_tets), build.levels.size(), build.segments, report.steps, series.front().time,
+              series.back().time, report.steps_bytes / 1e6, double(report.steps_bytes) / double(report.steps - 1) / double(std::max<uint64_t>(1, build.input_vertices)),
+              build.seconds + report.seconds, report.seconds);
+  return 0;
+}
+
 }  // namespace
 
 int run_info(const Arguments& raw) {
@@ -136,7 +170,8 @@ int run_info(const Arguments& raw) {
     return 2;
   }
   const std::string& path = args.positionals()[0];
-  if (std::filesystem::is_directory(path)) return print_store_info(path, args.has("--json"));
+  // a store is a folder with a manifest; another folder may be an OpenFOAM case or time folder
+  if (std::filesystem::is_directory(path) && std::filesystem::exists(std::filesystem::path(path) / "manifest.json")) return print_store_info(path, args.has("--json"));
   auto summary = storage::summarize_mesh(path);
   if (args.has("--json")) std::cout << storage::summary_json(summary).dump(2) << "\n";
   else std::cout << storage::summary_text(summary);
@@ -159,6 +194,7 @@ int run_verify(const Arguments& raw) {
         for (auto& p : lod::verify_variants(*store, *dag)) report.problems.push_back(p);
         for (auto& p : lod::verify_vertex_hierarchy(store->path())) report.problems.push_back(p);
       }
+      for (auto& p : storage::verify_time_steps(*store)) report.problems.push_back(p);
     } catch (const std::exception& e) {
       report.problems.push_back(e.what());
     }
@@ -205,9 +241,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants", "--vertices"});
-  if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH -o STORE [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--vertices independent|queue|off] [--force] [--progress bar|json|none] [--json]\n");
+  Args args(raw, {"--force", "--json", "--all-steps"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants", "--vertices"});
+  if (args.positionals().empty() || !args.has("--output")) {
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH|SERIES.pvd|STEP_FILES...|'PATTERN' -o STORE [--all-steps] [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--vertices independent|queue|off] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -257,6 +293,10 @@ int run_preprocess(const Arguments& raw) {
   if (args.has("--compress-segments")) options.compression = storage::parse_compression(args.get("--compress-segments"));
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
   // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them
+  // a time series: a .pvd, several step files, a pattern, or an OpenFOAM case with --all-steps
+  const std::vector<storage::SeriesInput> series = storage::series_inputs(args.positionals(), args.has("--all-steps"));
+  if (series.empty() && args.positionals().size() != 1) throw std::invalid_argument("preprocess takes one mesh, or the steps of a time series");
+  if (!series.empty()) return preprocess_series(args, series, options);
   storage::Progress progress(lead ? progress_mode(args) : storage::Progress::Mode::kNone,
                              {{"read", 0.03}, {"partition", 0.01}, {"simplify", 0.86}, {"write", 0.10}});
   lod::PreprocessReport report;

@@ -28,6 +28,7 @@
 #include "tetrascope/storage/mesh_stream.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/tensor.h"
+#include "tetrascope/storage/time_steps.h"
 #include "tetrascope/storage/vtk_writer.h"
 
 namespace tetrascope::apps {
@@ -351,9 +352,42 @@ double write_reference(const RenderOptions& o, const r::SceneMesh& scene, const 
   return r::psnr(image, reference);
 }
 
+// --step N or --time T: a step of a time series, its values and a segment cache that gives
+// them (step 0: the store's own values and no cache of its own).
+struct ChosenStep {
+  uint32_t step = 0;
+  std::shared_ptr<const storage::TimeSteps> steps;
+  std::shared_ptr<const std::vector<float>> values;  // null: step 0
+  std::unique_ptr<storage::SegmentCache> cache;      // the step's segments (step > 0)
+};
+
+void choose_step(const Args& args, const storage::Store& store, ChosenStep& out) {
+  if (!args.has("--step") && !args.has("--time")) return;
+  if (args.has("--step") && args.has("--time")) throw std::invalid_argument("--step or --time, not both");
+  out.steps = storage::TimeSteps::open(store);
+  if (!out.steps) throw std::invalid_argument(store.path().string() + " holds one time step; --step and --time choose a step of a time series");
+  if (args.has("--step")) {
+    out.step = args.number("--step", 0);
+    if (out.step >= out.steps->count())
+      throw std::invalid_argument("--step " + std::to_string(out.step) + ": the series has steps 0.." + std::to_string(out.steps->count() - 1));
+  } else {
+    out.step = out.steps->step_at_time(args.real("--time"));
+  }
+  out.values = out.steps->values(out.step);
+  if (!out.values) return;
+  const storage::Store* s = &store;
+  std::shared_ptr<const storage::TimeSteps> steps = out.steps;
+  std::shared_ptr<const std::vector<float>> values = out.values;
+  out.cache = std::make_unique<storage::SegmentCache>(store, std::make_shared<storage::SegmentPool>(kCutCacheBytes), [s, steps, values](std::shared_ptr<const storage::MappedSegment> segment) {
+    return storage::with_step_values(std::move(segment), s->manifest(), steps->layout(), *values);
+  });
+}
+
 // `tetrascope cut` on the store's vertex hierarchy: the front for the view under the budget.
 int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, const view::TransferFunction& tf, std::span<const double> isovalues,
-                    const lod::CutCriteria& view, const protocol::ClipSpec& clip, uint64_t budget, const storage::StoreManifest& manifest) {
+                    const lod::CutCriteria& view, const protocol::ClipSpec& clip, uint64_t budget, const storage::StoreManifest& manifest, const ChosenStep& step) {
+  if (step.values && step.steps->layout().collapses != vertices.collapse_count())
+    throw storage::TimeStepsError("steps.bin: " + std::to_string(step.steps->layout().collapses) + " collapsed vertices, vertices.bin has " + std::to_string(vertices.collapse_count()));
   lod::FrontCriteria criteria = lod::front_criteria(vertices, tf, isovalues);
   criteria.camera = view.camera;
   criteria.clip = view.clip;
@@ -361,7 +395,7 @@ int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, cons
   const auto start = Clock::now();
   const lod::FrontChanges changes = front.update(criteria, budget);
   const double update_ms = ms_since(start);
-  storage::TetMesh mesh = front.mesh();
+  storage::TetMesh mesh = front.mesh(nullptr, step.values ? step.values->data() : nullptr);
   for (storage::Attribute& a : mesh.attributes)  // tensors and their derived scalars, as the manifest keeps them
     for (const storage::StoreAttribute& m : manifest.attributes)
       if (m.name == a.info.name) a.info = {m.name, m.components, m.kind, m.positive_semidefinite, m.derived_from};
@@ -382,13 +416,15 @@ int write_front_cut(const Args& args, const lod::VertexHierarchy& vertices, cons
 int run_cut(const Arguments& all) {
   protocol::ClipSpec clip;
   const Arguments raw = take_plane_options(all, clip, nullptr);
-  Args args(raw, {"--json"}, {"--output", "--budget", "--camera", "--size", "--tf", "--iso", "--attribute", "--lod"});
+  Args args(raw, {"--json"}, {"--output", "--budget", "--camera", "--size", "--tf", "--iso", "--attribute", "--lod", "--step", "--time"});
   if (args.positionals().size() != 1 || !args.has("--output") || !args.has("--budget")) {
-    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--lod vertices|segments] [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope cut STORE --budget N -o OUT.vtk [--lod vertices|segments] [--camera C] [--size WxH] [--tf TF.json] [--attribute A] [--iso v1,v2] [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--step N | --time T] [--json]\n");
     return 2;
   }
   const OpenedStore opened = open_multires(args.positionals()[0], " (made by segment); run tetrascope preprocess for a multiresolution store");
   const storage::Store& store = *opened.store;
+  ChosenStep step;
+  choose_step(args, store, step);
   const uint64_t budget = args.number("--budget", 0);
   if (budget == 0) throw std::invalid_argument("--budget must be at least 1");
   view::TransferFunction tf;
@@ -406,7 +442,7 @@ int run_cut(const Arguments& all) {
   }
   criteria.clip = clip.half_spaces();
   const auto vertices = args.get("--lod", "vertices") == "vertices" ? lod::open_vertex_hierarchy(store.path()) : nullptr;
-  if (vertices) return write_front_cut(args, *vertices, tf, isovalues, criteria, clip, budget, store.manifest());
+  if (vertices) return write_front_cut(args, *vertices, tf, isovalues, criteria, clip, budget, store.manifest(), step);
   lod::Cut cut(*opened.dag);
   const std::unique_ptr<lod::Variants> variants = lod::Variants::open(store, *opened.dag);  // as render shows the cut
   cut.attach_variants(variants.get());
@@ -414,7 +450,7 @@ int run_cut(const Arguments& all) {
   const auto changes = cut.update(criteria, budget);
   const double update_ms = ms_since(start);
   storage::SegmentCache cache(store, kCutCacheBytes);
-  auto mesh = lod::assemble_cut(store, cache, cut, false, criteria.clip);
+  auto mesh = lod::assemble_cut(store, step.cache ? *step.cache : cache, cut, false, criteria.clip);
   if (!clip.empty()) mesh.mesh = r::clip_mesh(mesh.mesh, clip);
   storage::write_vtk(args.get("--output"), mesh.mesh, "tetrascope cut of " + std::filesystem::path(args.positionals()[0]).filename().string());
   nlohmann::json j = {{"tets", mesh.mesh.tet_count()}, {"vertices", mesh.mesh.vertex_count()}, {"patches", mesh.patches.size()}, {"budget", budget},
@@ -436,9 +472,9 @@ int run_render(const Arguments& all) {
             {"--output", "--mode", "--attribute", "--component", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
              "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions", "--tensor", "--tube-cells", "--surface-cells", "--tensor-min-cl",
-             "--tensor-min-cp", "--tensor-color", "--tensor-point-size"});
+             "--tensor-min-cp", "--tensor-color", "--tensor-point-size", "--step", "--time"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|NAMES|box] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|NAMES|box] [--step N | --time T] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n"
@@ -452,16 +488,20 @@ int run_render(const Arguments& all) {
   const std::string input = args.positionals()[0];
   OpenedStore opened;
   std::unique_ptr<storage::SegmentCache> cache;
+  ChosenStep step;  // before the pipeline, which reads its cache
   std::unique_ptr<r::ViewPipeline> pipeline;
   std::shared_ptr<const r::RegionMap> regions;  // found only for --hide-regions
   if (std::filesystem::is_directory(input)) {
     opened = open_multires(input, "; render the mesh file or preprocess it");
     cache = std::make_unique<storage::SegmentCache>(*opened.store, kCutCacheBytes);
     pipeline = std::make_unique<r::ViewPipeline>(*opened.store, *opened.dag, *cache, o.view.segment_cut ? nullptr : lod::open_vertex_hierarchy(opened.store->path()));
+    choose_step(args, *opened.store, step);
+    if (step.cache) pipeline->set_step(step.step, *step.cache, step.values);
     o.view.budget = args.number("--budget", kDefaultRenderBudget);
     if (args.has("--hide-regions")) regions = r::RegionMap::of_store(*opened.store, *opened.dag, kCutCacheBytes);
   } else {
     if (args.has("--budget")) throw std::invalid_argument("--budget applies to a multiresolution store; a mesh file renders whole");
+    if (args.has("--step") || args.has("--time")) throw std::invalid_argument("--step and --time choose a step of a preprocessed time series (a store)");
     storage::TetMesh mesh = storage::load_mesh(input);
     if (args.has("--hide-regions")) regions = r::RegionMap::tagged(mesh, mesh.face_tags);
     pipeline = std::make_unique<r::ViewPipeline>(std::move(mesh));

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 from paraview import servermanager
-from paraview.simple import (CellDatatoPointData, CellSize, CleantoGrid, ExodusIIWriter, LegacyVTKReader, MergeBlocks,
+from paraview.simple import (CellDatatoPointData, CellSize, CleantoGrid, ExodusIIWriter, GetAnimationScene, LegacyVTKReader, MergeBlocks,
                              OpenDataFile, OpenFOAMReader, PointDatatoCellData, SaveData, Wavelet)
 from vtk.util.numpy_support import vtk_to_numpy
 
@@ -53,16 +53,19 @@ def fetch(proxy):
 GENERATED = {"ObjectId", "GlobalElementId", "PedigreeElementId", "GlobalNodeId", "PedigreeNodeId", "ids", "object_id"}
 
 
-def check(path, ours_path):
+def check(path, ours_path, at_time=None):
+    """The comparison as a dict; an OpenFOAM case at `at_time` (default: its latest time)."""
     start = time.perf_counter()
     if path.endswith(".foam"):  # the internal mesh at the latest time, polyhedra kept whole
         reader = OpenFOAMReader(FileName=path)
         reader.MeshRegions = ["internalMesh"]
         reader.Decomposepolyhedra = 0
         reader.UpdatePipelineInformation()
-        reader.UpdatePipeline(max(reader.TimestepValues))
+        when = max(reader.TimestepValues) if at_time is None else at_time
+        reader.UpdatePipeline(when)
+        GetAnimationScene().AnimationTime = when  # what the filters below and Fetch update at
         source = MergeBlocks(Input=reader)
-        source.UpdatePipeline(max(reader.TimestepValues))
+        source.UpdatePipeline(when)
     else:
         source = OpenDataFile(path)
         if path.endswith(".cgns"):  # ParaView's CGNS reader loads no array unless asked
@@ -139,11 +142,11 @@ def check(path, ours_path):
         theirs = vtk_to_numpy(array).astype(np.float64).reshape(n, -1)[order[order >= 0]]
         ours = vtk_to_numpy(ours_grid.GetPointData().GetArray(array.GetName())).astype(np.float64).reshape(len(ours_points), -1)[order >= 0]
         result.setdefault("point_arrays", []).append({"name": array.GetName(), "max_relative_difference": float(np.abs(ours - theirs).max() / max(np.abs(theirs).max(), 1e-30))})
-    print(json.dumps(result))
+    return result
 
 
 if __name__ == "__main__":
     if sys.argv[1] == "make":
         make(sys.argv[2], sys.argv[3])
     else:
-        check(sys.argv[2], sys.argv[3])
+        print(json.dumps(check(sys.argv[2], sys.argv[3])))

@@ -12,6 +12,7 @@ import { backgroundOf, composeStill, drawAxes, drawBox, inkOn, showLegends } fro
 import { PlanesPanel } from './planes.js';
 import { Probe } from './probe.js';
 import { RegionsPanel, shownBounds } from './regions.js';
+import { TimePanel } from './time.js';
 import { TfEditor } from './tf-editor.js';
 import { componentsOf, drawnName, effectiveOpacity, forDataset, histogramOfDrawn, logScale, rangeOfDrawn, tfBody, viewFromHash, viewToHash } from './view-state.js';
 import { visibleCorners } from './visible.js';
@@ -107,6 +108,12 @@ const regionsPanel = new RegionsPanel($('boundary-panel'), {
   },
   saved: () => saveViewInHash(),
 });
+const timePanel = new TimePanel($('time-panel'), {
+  send,
+  view: () => state.view,
+  saved: () => saveViewInHash(),
+});
+state.time = timePanel;
 const probe = new Probe(frameCanvas, $('probe'), { send });
 state.probe = probe;
 const jobs = new Jobs(authHeaders, {
@@ -266,6 +273,7 @@ async function onFrame(buffer) {
   stats.frame(header, payload.length);
   refinement.frame(header);
   linesPanel.onFrame(header);
+  timePanel.onFrame(header);
   state.onFrame?.(header);  // a hook for the browser test: called once a frame is on the screen
 }
 
@@ -450,6 +458,7 @@ function onDataset(info) {
   linesPanel.setDataset(info);
   tensorsPanel.setDataset(info);
   regionsPanel.setDataset(info);
+  timePanel.setDataset(info);
   showView();
   planes.show();
   sendAll();
@@ -591,6 +600,7 @@ function sendAll() {
   sendQuality();
   planes.sendAll();
   regionsPanel.send();
+  timePanel.send();
   sendCamera(false);  // last: the still that follows shows everything
   saveViewInHash();
 }

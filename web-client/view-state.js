@@ -7,6 +7,7 @@ import { defaultLines, linesFromHash, linesToHash } from './lines.js';
 import { defaultTensors, tensorsFromHash, tensorsToHash } from './tensors.js';
 import { planesFromHash, planesToHash } from './planes.js';
 import { regionsFromHash, regionsToHash } from './regions.js';
+import { timeFromHash, timeToHash } from './time.js';
 
 // The default opacity curve, chosen by looking at the shared datasets (disk_out_ref,
 // fea_bracket, nasa_bluntfin, freefem_leman, onera_m6, nasa_combustion_chamber,
@@ -67,6 +68,7 @@ export function defaultView() {
     lines: defaultLines(),      // stream lines and point isosurfaces (lines.js)
     tensors: defaultTensors(),  // a tensor field's tubes and surfaces (tensors.js)
     hiddenRegions: [],          // boundary regions left out (regions.js)
+    timeStep: 0,                // a time series' step shown (time.js)
   };
 }
 
@@ -74,7 +76,7 @@ export function defaultView() {
 export function forDataset(view, name) {
   const lines = { ...(view.lines ?? defaultLines()), field: null, from: null, to: null, select: null };
   const tensors = { ...(view.tensors ?? defaultTensors()), field: null };
-  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, tensors, legendTitles: {}, isoColorBy: null, hiddenRegions: [] };
+  return { ...view, dataset: name, attribute: null, component: 'magnitude', camera: null, range: null, isovalues: [], unitDistance: null, clips: [], slices: [], lines, tensors, legendTitles: {}, isoColorBy: null, hiddenRegions: [], timeStep: 0 };
 }
 
 // ---------- what of an attribute is drawn ----------
@@ -94,7 +96,8 @@ export function componentsOf(attribute) {
 // component_ranges), else the attribute's (a vector's magnitude); never empty.
 export function rangeOfDrawn(attribute, component) {
   const k = COMPONENTS.indexOf(component) - 1;
-  const r = k >= 0 && attribute?.component_ranges?.[k] ? attribute.component_ranges[k] : attribute?.range;
+  // a time series: over every step (series_range), so that colours stay put while it plays
+  const r = k >= 0 && attribute?.component_ranges?.[k] ? attribute.component_ranges[k] : attribute?.series_range ?? attribute?.range;
   if (!r) return null;
   return r[1] > r[0] ? [...r] : [r[0], r[0] + 1];
 }
@@ -159,6 +162,7 @@ export function viewToHash(view) {
   p.push(...linesToHash(view));
   p.push(...tensorsToHash(view));
   p.push(...regionsToHash(view));
+  p.push(...timeToHash(view));
   return p.join('&');
 }
 
@@ -235,6 +239,7 @@ export function viewFromHash(hash) {
   }
   Object.assign(view, planesFromHash(h));
   Object.assign(view, regionsFromHash(h));
+  Object.assign(view, timeFromHash(h));
   return view;
 }
 

@@ -99,8 +99,7 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   PreprocessReport report;
 
   stage("read", 0);
-  std::filesystem::path hashed = mesh_path;
-  if (storage::format_from_path(mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
+  const std::filesystem::path hashed = storage::fingerprinted_file(mesh_path);
   // under MPI every rank reads and builds, rank 0 alone hashes and writes
   const bool writes = !options.ranks || options.ranks->rank() == 0;
   std::optional<storage::FileHasher> sha256;

@@ -250,8 +250,7 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
   const Hierarchy& h = in.hierarchy;
   uint64_t stored_tets = 0;
   for (uint32_t n = 0; n < h.nodes.size(); ++n) stored_tets += h.nodes.tet_count(n);
-  std::filesystem::path hashed = in.mesh_path;
-  if (storage::format_from_path(in.mesh_path) == storage::MeshFormat::kTetgen) hashed.replace_extension(".ele");
+  const std::filesystem::path hashed = storage::fingerprinted_file(in.mesh_path);
   nlohmann::json manifest;
   manifest["format"] = "tetrascope-store";
   manifest["version"] = storage::store::kFormatVersion;

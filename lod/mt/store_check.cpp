@@ -7,6 +7,7 @@
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/store_verify.h"
+#include "tetrascope/storage/time_steps.h"
 
 namespace tetrascope::lod {
 
@@ -22,6 +23,7 @@ std::vector<std::string> check_store(const std::filesystem::path& directory) {
       for (auto& p : verify_variants(*store, *dag)) problems.push_back(p);
       for (auto& p : verify_vertex_hierarchy(directory)) problems.push_back(p);
     }
+    for (auto& p : storage::verify_time_steps(*store)) problems.push_back(p);
   } catch (const std::exception& e) {
     problems.push_back(e.what());
   }

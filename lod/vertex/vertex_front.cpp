@@ -456,7 +456,8 @@ FrontChanges VertexFront::update_packages(uint64_t budget) {
   return changes;
 }
 
-storage::TetMesh VertexFront::mesh(std::vector<uint32_t>* vertex_ids) const {
+storage::TetMesh VertexFront::mesh(std::vector<uint32_t>* vertex_ids, const float* values) const {
+  const float* source = values ? values : h_.values.data();
   const uint32_t V = h_.input_vertices, N = h_.vertex_count();
   std::vector<uint32_t> rep(N);
   for (uint32_t v = N; v-- > 0;) {
@@ -497,7 +498,7 @@ storage::TetMesh VertexFront::mesh(std::vector<uint32_t>* vertex_ids) const {
     a.info = info;
     a.values.resize(ids.size() * info.components);
     for (size_t k = 0; k < ids.size(); ++k)
-      for (uint32_t j = 0; j < info.components; ++j) a.values[k * info.components + j] = h_.values[size_t{ids[k]} * h_.value_floats + first + j];
+      for (uint32_t j = 0; j < info.components; ++j) a.values[k * info.components + j] = source[size_t{ids[k]} * h_.value_floats + first + j];
     first += info.components;
     out.attributes.push_back(std::move(a));
   }

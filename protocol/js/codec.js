@@ -27,6 +27,7 @@ export const LINE_LIMITS = Object.freeze({
   max_point_size: 64,
 });
 export const MAX_HIDDEN_REGIONS = 1024;  // regions.set hidden: ids below this, at most this many
+export const MAX_TIME_STEP = 99999;  // time.set step and prefetch: 0 to this
 export const MODE_PARTS = ['dvr', 'iso', 'isosurface', 'surface', 'lines', 'points', 'tensors', 'slice'];
 // tensors.set (protocol.h kMaxTensorCells): seeding cells, and the colours a tensor's points take
 export const MAX_TENSOR_CELLS = 32;
@@ -248,6 +249,10 @@ const checkers = {
     if (!Array.isArray(hidden)) f.fail('hidden', 'expected a list of region ids');
     if (hidden.length > MAX_HIDDEN_REGIONS) f.fail('hidden', `more than ${MAX_HIDDEN_REGIONS} regions`);
     for (const id of hidden) if (!isWhole(id) || id >= MAX_HIDDEN_REGIONS) f.fail('hidden', `expected region ids from 0 to ${MAX_HIDDEN_REGIONS - 1}`);
+  },
+  'time.set'(f) {
+    if (f.integer('step', 0, MAX_TIME_STEP) === undefined) f.fail('step', 'missing');
+    f.integer('prefetch', 0, MAX_TIME_STEP);
   },
   ...planeCheckers,
 };

@@ -212,6 +212,14 @@ Message parse_body(const std::string& type, const Fields& f, const Limits& limit
   }
   if (type == "ping") return Ping{};
   if (type == "regions.set") return parse_regions_set(f);
+  if (type == "time.set") {
+    TimeSet m;
+    const auto step = f.integer("step", 0, kMaxTimeStep);
+    if (!step) f.fail("step", "missing");
+    m.step = static_cast<uint32_t>(*step);
+    if (auto next = f.integer("prefetch", 0, kMaxTimeStep)) m.prefetch = static_cast<uint32_t>(*next);
+    return m;
+  }
   if (type == "clip.set") return ClipSet{parse_clip_spec(f.object(), id)};  // planes.cpp
   if (type == "slice.set") return SliceSet{parse_slice_spec(f.object(), id)};
   if (type == "probe") return parse_probe(f.object(), limits.max_image_side, id);

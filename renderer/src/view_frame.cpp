@@ -12,6 +12,7 @@
 #include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/renderer/clip.h"
 #include "tetrascope/renderer/ray_caster.h"
+#include "tetrascope/storage/time_steps.h"
 
 namespace tetrascope::renderer {
 namespace {
@@ -75,9 +76,10 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   t.cut_ms = ms_since(start);
   start = Clock::now();
   std::optional<storage::TetMesh> mesh;
-  if (!scene_ || !scene_from_front_ || scene_stale_ || changes.changed || attribute_ != s.tf.attribute || component_ != s.tf.component || iso_color_attribute_ != request.iso_color_attribute) {
-    mesh = front_->mesh();
+  if (!scene_ || !scene_from_front_ || scene_stale_ || step_changed_ || changes.changed || attribute_ != s.tf.attribute || component_ != s.tf.component || iso_color_attribute_ != request.iso_color_attribute) {
+    mesh = front_->mesh(nullptr, step_values_ ? step_values_->data() : nullptr);
     rebuild_scene(*mesh, s.tf, request.iso_color_attribute);
+    step_changed_ = false;
     scene_from_front_ = true;
     scene_stale_ = false;
     assembled_clip_.clear();
@@ -85,11 +87,23 @@ void ViewPipeline::update_front(const ViewRequest& request, RenderSettings& s, V
   t.assemble_ms = ms_since(start);
   update_clip(request.clip, t);
   classify_regions(request, t);
-  if ((trace || tensors_stale(request)) && !mesh) mesh = front_->mesh();
+  if ((trace || tensors_stale(request)) && !mesh) mesh = front_->mesh(nullptr, step_values_ ? step_values_->data() : nullptr);
   if (mesh) with_kinds(*mesh, store_->manifest());
   if (trace) trace_lines(*mesh, request.line);
   if (request.lines) apply_lines(request.line, s);
   update_tensors(mesh ? *mesh : storage::TetMesh{}, request, s);
+}
+
+void ViewPipeline::set_step(uint32_t step, storage::SegmentCache& cache, std::shared_ptr<const std::vector<float>> values) {
+  if (!store_) throw std::invalid_argument("time steps are those of a store");
+  if (front_ && values && values->size() < size_t{vertices_->vertex_count()} * vertices_->value_floats)
+    throw storage::TimeStepsError(store_->path().string() + ": step " + std::to_string(step) + " has values for fewer vertices than vertices.bin holds");
+  if (step == step_ && &cache == cache_) return;
+  step_ = step;
+  cache_ = &cache;
+  step_values_ = std::move(values);
+  step_changed_ = true;
+  traced_.reset();  // the lines follow the step's field
 }
 
 ViewPipeline::ViewPipeline(storage::TetMesh mesh) : mesh_(std::move(mesh)), bounds_(storage::compute_bounds(*mesh_)) {}
@@ -118,7 +132,9 @@ void ViewPipeline::resolve_attribute(view::TransferFunction& tf) const {
     if (!tf.range) tf.range = std::array<double, 2>{r[0], r[1] > r[0] ? r[1] : r[0] + 1};
     return;
   }
-  if (!tf.range) tf.range = std::array<double, 2>{a->components == 1 ? a->min : 0, a->max > a->min ? a->max : a->min + 1};
+  // a time series: the range over every step, so that colours stay put while the steps play
+  const std::array<double, 2> r = storage::series_range(manifest, static_cast<size_t>(a - manifest.attributes.data()));
+  if (!tf.range) tf.range = std::array<double, 2>{a->components == 1 ? r[0] : 0, r[1] > r[0] ? r[1] : r[0] + 1};
 }
 
 void ViewPipeline::rebuild_scene(const storage::TetMesh& mesh, const view::TransferFunction& tf, const std::string& iso_color_attribute) {
@@ -287,7 +303,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
     start = Clock::now();
     // segments wholly clipped away are not read (a change of the clip may need others)
     std::optional<lod::CutMesh> assembled;
-    if (!scene_ || scene_from_front_ || scene_stale_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute || component_ != s.tf.component ||
+    if (!scene_ || scene_from_front_ || scene_stale_ || step_changed_ || !changes.added.empty() || !changes.removed.empty() || changes.variants_changed || attribute_ != s.tf.attribute || component_ != s.tf.component ||
         iso_color_attribute_ != request.iso_color_attribute || !(assembled_clip_ == criteria.clip)) {
       assembled = lod::assemble_cut(*store_, *cache_, *cut_, false, criteria.clip, should_stop);
       if (assembled->interrupted || (should_stop && should_stop())) {
@@ -298,6 +314,7 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
       }
       rebuild_scene(assembled->mesh, s.tf, request.iso_color_attribute);
       scene_from_front_ = false;
+      step_changed_ = false;
       assembled_clip_ = criteria.clip;
       scene_stale_ = false;
     }

@@ -153,17 +153,40 @@ void add_histograms(const storage::Attribute& attr, const storage::StoreAttribut
   out["component_histograms"] = histograms;
 }
 
+// A time series' steps (index, time, name, each attribute's range), and each attribute's
+// range over them all; an empty list for one step (a damaged list: reported when opened).
+nlohmann::json time_steps_json(const storage::StoreManifest& m) {
+  nlohmann::json steps = nlohmann::json::array();
+  std::vector<storage::TimeStep> listed;
+  try {
+    listed = storage::manifest_time_steps(m);
+  } catch (const storage::TimeStepsError&) {
+    return steps;
+  }
+  for (const storage::TimeStep& s : listed) {
+    nlohmann::json ranges = nlohmann::json::array();
+    for (const auto& r : s.ranges) ranges.push_back({r[0], r[1]});
+    steps.push_back({{"index", s.index}, {"time", s.time}, {"name", s.name}, {"ranges", ranges}});
+  }
+  return steps;
+}
+
 nlohmann::json store_summary(const std::string& name, const storage::Store& store) {
   const auto& m = store.manifest();
   nlohmann::json attributes = nlohmann::json::array();
-  for (const auto& a : m.attributes) {
+  for (size_t i = 0; i < m.attributes.size(); ++i) {
+    const storage::StoreAttribute& a = m.attributes[i];
     nlohmann::json entry = {{"name", a.name}, {"components", a.components}, {"range", {a.min, a.max}}};
     // tensors and their derived scalars say so (storage/tensor.h): the viewer's tensor panel
     if (a.kind != storage::AttributeKind::kValue) {
       storage::AttributeInfo info{a.name, a.components, a.kind, a.positive_semidefinite, a.derived_from};
       storage::add_attribute_kind_json(entry, info);
     }
-    attributes.push_back(entry);
+    if (m.json.contains("time_steps")) {  // over every step: the range colours keep while the steps play
+      const auto r = storage::series_range(m, i);
+      entry["series_range"] = {r[0], r[1]};
+    }
+    attributes.push_back(std::move(entry));
   }
   // a multiresolution store holds every level: its mesh is the input's
   const nlohmann::json input = m.json.contains("multiresolution") ? m.json["multiresolution"].value("input", nlohmann::json::object()) : nlohmann::json::object();
@@ -174,7 +197,8 @@ nlohmann::json store_summary(const std::string& name, const storage::Store& stor
           {"stored_tets", m.tet_count},
           {"source", fs::path(m.source_file).filename().string()},
           {"attributes", attributes},
-          {"bounds", {{"min", m.bounds.min}, {"max", m.bounds.max}}}};
+          {"bounds", {{"min", m.bounds.min}, {"max", m.bounds.max}}},
+          {"time_steps", time_steps_json(m)}};
 }
 
 }  // namespace
@@ -250,6 +274,42 @@ nlohmann::json regions_json(const renderer::RegionMap* regions) {
 
 }  // namespace
 
+storage::SegmentCache& Dataset::step_cache(uint32_t step) {
+  if (step == 0 || !steps) return *cache;
+  if (step >= steps->count()) throw std::invalid_argument("no time step " + std::to_string(step));
+  std::lock_guard lock(steps_mutex_);
+  auto& slot = step_caches_[step];
+  if (!slot) {
+    // the values are asked for as segments are mapped (TimeSteps keeps the last few inflated):
+    // a cache of a step no longer shown holds none of them
+    std::shared_ptr<const storage::TimeSteps> series = steps;
+    const storage::Store* s = store.get();
+    slot = std::make_unique<storage::SegmentCache>(*store, pool_, [series, s, step](std::shared_ptr<const storage::MappedSegment> segment) {
+      return storage::with_step_values(std::move(segment), s->manifest(), series->layout(), *series->values(step));
+    });
+  }
+  return *slot;
+}
+
+void Dataset::prefetch(uint32_t step) {
+  if (!steps || step == 0 || step >= steps->count()) return;
+  std::lock_guard lock(steps_mutex_);
+  if (prefetching_.valid() && prefetching_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+  std::shared_ptr<const storage::TimeSteps> series = steps;
+  prefetching_ = std::async(std::launch::async, [series, step] {
+    try {
+      series->values(step);
+    } catch (const std::exception&) {
+      // damage is reported when the step is shown
+    }
+  });
+}
+
+Dataset::~Dataset() {
+  if (prefetching_.valid()) prefetching_.wait();
+  step_caches_.clear();  // before the store they read
+}
+
 std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   if (!valid_name(name)) throw NotFound("no dataset named '" + name + "'");
   std::lock_guard lock(mutex_);
@@ -269,6 +329,10 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
     if (d->dag) lod::Variants::open(*d->store, *d->dag);  // its header and index checked now; a variant's block when shown
     d->vertices = lod::open_vertex_hierarchy(folder);      // every section's checksum and link checked now
     tags = storage::open_boundary_tags(*d->store);          // boundary_tags.bin: checksums, names and ids checked now
+    d->steps = storage::TimeSteps::open(*d->store);         // steps.bin: header and index checked now; a step's block when shown
+    if (d->steps && d->vertices && d->steps->layout().collapses != d->vertices->collapse_count())
+      throw storage::TimeStepsError("steps.bin: values for " + std::to_string(d->steps->layout().collapses) + " collapsed vertices, vertices.bin has " +
+                                    std::to_string(d->vertices->collapse_count()));
   } catch (const std::exception& e) {
     const std::string why = without_server_paths(e.what(), data_dir_);
     if (!is_store_damage(e)) throw std::runtime_error(why);
@@ -277,6 +341,7 @@ std::shared_ptr<Dataset> DatasetRegistry::open(const std::string& name) {
   }
   if (!d->dag) throw std::runtime_error(name + " is a single-level store: run tetrascope preprocess to view it");
   d->cache = std::make_unique<storage::SegmentCache>(*d->store, pool_);
+  d->pool_ = pool_;
   d->info = store_summary(name, *d->store);
   d->info["levels"] = d->dag->level_count();
   // value histograms of the coarsest level, for the transfer-function editor

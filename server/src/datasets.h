@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -18,6 +19,7 @@
 #include "tetrascope/lod/vertex/vertex_hierarchy.h"
 #include "tetrascope/renderer/boundary_regions.h"
 #include "tetrascope/storage/store.h"
+#include "tetrascope/storage/time_steps.h"
 
 namespace tetrascope::server {
 
@@ -66,6 +68,15 @@ struct Dataset {
   std::shared_ptr<const lod::VertexHierarchy> vertices;  // vertices.bin, null when the store has none
   nlohmann::json info;  // name, counts, levels, bounds, attributes (range, 64-bin histogram of the coarsest level), regions
   std::shared_ptr<const renderer::RegionMap> regions;  // null: none found (a store above kMaxRegionTets)
+  std::shared_ptr<const storage::TimeSteps> steps;     // a time series' steps.bin, null for one step
+
+  // The segments of time step `step` (0: `cache`), sharing the server's cache budget; made on
+  // first use. Thread-safe.
+  storage::SegmentCache& step_cache(uint32_t step);
+  // Step `step`'s values inflated in the background (the step the viewer plays next), unless a
+  // prefetch is still running. Thread-safe.
+  void prefetch(uint32_t step);
+  ~Dataset();
 
   // Sessions viewing the dataset register here; closing it (deleted, or found damaged) calls
   // each callback once with an error code and message (from the closing thread: a callback
@@ -80,6 +91,11 @@ struct Dataset {
   bool closed_ = false;
   std::string closed_code_, closed_message_;
   std::vector<std::pair<std::weak_ptr<void>, OnClosed>> watchers_;
+  std::mutex steps_mutex_;
+  std::map<uint32_t, std::unique_ptr<storage::SegmentCache>> step_caches_;
+  std::future<void> prefetching_;
+  friend class DatasetRegistry;
+  std::shared_ptr<storage::SegmentPool> pool_;  // the registry's, for the steps' caches
 };
 
 // Thrown by DatasetRegistry::open for a store that fails its checks (what is wrong, paths

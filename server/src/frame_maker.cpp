@@ -96,6 +96,9 @@ RenderedFrame FrameMaker::render_frame(const ViewState& state, const FramePlan& 
   const auto start = Clock::now();
   if (!worker.renderer) worker.renderer = renderer::Renderer::create();
   open(state.dataset);
+  if (state.dataset->steps) {  // the step's segments and values (checked as they are read: damage closes the dataset)
+    pipeline_->set_step(state.time_step, state.dataset->step_cache(state.time_step), state.dataset->steps->values(state.time_step));
+  }
   view::ViewRequest request = state.view;
   const view::Camera camera = request.camera ? *request.camera : view::default_camera(pipeline_->bounds());
   const uint64_t still_budget = std::max<uint64_t>(state.view.budget, 1);

@@ -29,6 +29,8 @@ struct ViewState {
   double interaction_scale = 1;  // of the view size, for interaction frames
   std::optional<std::array<float, 3>> background;  // mode.set's; none: the renderer's
   uint32_t message_id = 0;       // the last control message applied
+  uint32_t time_step = 0;        // time.set's (0 for a dataset of one step)
+  std::optional<uint32_t> prefetch_step;  // time.set's: the step shown next (play)
 };
 
 // One render context of the pool, and which scene it holds (by generation, so a scene is

@@ -11,13 +11,14 @@ FrameScheduler::FrameScheduler(Server::Impl& server, SessionState& shared, Link 
     : server_(server), shared_(shared), link_(std::move(link)), still_timer_(link_.strand), pace_timer_(link_.strand) {}
 
 void FrameScheduler::request(FrameRequest kind) {
+  if (kind == FrameRequest::kPlaying) still_timer_.cancel();  // a play: the next step comes, no still
   if (kind == FrameRequest::kInteraction) {
     still_timer_.expires_after(server_.options.still_delay);
     still_timer_.async_wait([this, keep = link_.hold()](const boost::system::error_code& ec) {
       if (!ec) schedule(Pending::kRefine);
     });
   }
-  schedule(kind == FrameRequest::kInteraction ? Pending::kInteraction : Pending::kRefine);
+  schedule(kind == FrameRequest::kStill ? Pending::kRefine : Pending::kInteraction);
 }
 
 void FrameScheduler::close() {

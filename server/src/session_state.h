@@ -16,8 +16,9 @@ namespace tetrascope::server {
 enum class Pending { kNone, kInteraction, kRefine };
 
 // What a message asks of the scheduler once applied: an interaction frame (with refinement
-// after still_delay), or refinement up to a still.
-enum class FrameRequest { kInteraction, kStill };
+// after still_delay), refinement up to a still, or an interaction frame of a play (a time
+// series' step with the next one to come: no refinement, which the next step would stop).
+enum class FrameRequest { kInteraction, kStill, kPlaying };
 
 struct SessionState {
   std::mutex mutex;  // guards state, pending and the scheduler's bookkeeping (frame_scheduler.h)

@@ -94,7 +94,7 @@ std::shared_ptr<Dataset> ViewSession::need_dataset(uint32_t id) {
 void ViewSession::apply(const protocol::Envelope& envelope) {
   const Then then = std::visit([&](const auto& message) { return on_message(message, envelope.id); }, envelope.message);
   if (then == Then::kReplied) return;
-  link_.request_frames(then == Then::kInteraction ? FrameRequest::kInteraction : FrameRequest::kStill);
+  link_.request_frames(then == Then::kInteraction ? FrameRequest::kInteraction : then == Then::kPlaying ? FrameRequest::kPlaying : FrameRequest::kStill);
 }
 
 // Updates the shared view state under the lock and records the message as the newest applied.
@@ -136,6 +136,8 @@ ViewSession::Then ViewSession::on_message(const protocol::DatasetOpen& m, uint32
     s.view.line = view::LineRequest{};  // fields and seeds of the last dataset
     s.view.clip = {};
     s.view.slices = {};
+    s.time_step = 0;  // the last dataset's step
+    s.prefetch_step.reset();
   });
   watch(dataset);
   link_.send_text(dataset_info_reply(*dataset, view::default_camera(dataset->store->manifest().bounds), id));
@@ -265,6 +267,24 @@ ViewSession::Then ViewSession::on_message(const protocol::RegionsSet& m, uint32_
                                   "hidden: no region " + std::to_string(m.hidden.back()) + " in " + dataset->name + " (it has " + std::to_string(count) + ")", id);
   change_state(id, [&](ViewState& s) { s.view.hidden_regions = m.hidden; });
   return Then::kStill;
+}
+
+// The step was checked against kMaxTimeStep at the edge; here against the dataset's steps.
+// While a series plays (a step with the next one to prefetch) each step is an interaction
+// frame and nothing refines; a step alone (the slider, a pause) refines to a still.
+ViewSession::Then ViewSession::on_message(const protocol::TimeSet& m, uint32_t id) {
+  const auto dataset = need_dataset(id);
+  const uint32_t count = dataset->steps ? dataset->steps->count() : 1;
+  if (m.step >= count)
+    throw protocol::ProtocolError(protocol::code::kBadField, "step: no time step " + std::to_string(m.step) + " in " + dataset->name + " (it has " + std::to_string(count) + ")", id);
+  if (m.prefetch && *m.prefetch >= count)
+    throw protocol::ProtocolError(protocol::code::kBadField, "prefetch: no time step " + std::to_string(*m.prefetch) + " in " + dataset->name + " (it has " + std::to_string(count) + ")", id);
+  if (m.prefetch) dataset->prefetch(*m.prefetch);  // inflated while this step's frame is made
+  change_state(id, [&](ViewState& s) {
+    s.time_step = m.step;
+    s.prefetch_step = m.prefetch;
+  });
+  return m.prefetch ? Then::kPlaying : Then::kInteraction;
 }
 
 ViewSession::Then ViewSession::on_message(const protocol::Ping&, uint32_t id) {

@@ -41,7 +41,7 @@ class ViewSession {
  private:
   // What a message asks for once applied: nothing more (a reply was sent), refinement up to a
   // still, or an interaction frame with refinement after still_delay.
-  enum class Then { kReplied, kStill, kInteraction };
+  enum class Then { kReplied, kStill, kInteraction, kPlaying };
 
   void apply(const protocol::Envelope& envelope);
   void refuse(const std::string& code, const std::string& message, std::optional<uint32_t> id);
@@ -69,6 +69,7 @@ class ViewSession {
   Then on_message(const protocol::Probe& m, uint32_t id);
   Then on_message(const protocol::RegionsSet& m, uint32_t id);
   Then on_message(const protocol::TensorsSet& m, uint32_t id);
+  Then on_message(const protocol::TimeSet& m, uint32_t id);
 
   Server::Impl& server_;
   SessionState& shared_;

@@ -30,9 +30,31 @@ const char* format_name(MeshFormat format) {
   return "?";
 }
 
+bool is_openfoam_time_folder(const std::filesystem::path& path) {
+  std::error_code ec;
+  const std::string name = path.filename().string();
+  char* end = nullptr;
+  const double t = std::strtod(name.c_str(), &end);
+  return !name.empty() && end && *end == '\0' && std::isfinite(t) && std::filesystem::is_directory(path, ec) &&
+         std::filesystem::is_directory(path.parent_path() / "constant" / "polyMesh", ec);
+}
+
+std::filesystem::path fingerprinted_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  const MeshFormat format = format_from_path(path);
+  std::filesystem::path hashed = path;
+  if (format == MeshFormat::kTetgen) hashed.replace_extension(".ele");
+  if (format == MeshFormat::kOpenFoam && std::filesystem::is_directory(path, ec)) {
+    const std::filesystem::path mesh = (is_openfoam_time_folder(path) ? path.parent_path() : path) / "constant" / "polyMesh";
+    hashed = std::filesystem::exists(mesh / "points", ec) ? mesh / "points" : mesh / "points.gz";
+  }
+  return hashed;
+}
+
 MeshFormat format_from_path(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path / "constant" / "polyMesh", ec)) return MeshFormat::kOpenFoam;
+  if (is_openfoam_time_folder(path)) return MeshFormat::kOpenFoam;  // one time step of a case
   std::string ext = path.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".vtk") return MeshFormat::kVtkLegacy;

@@ -335,7 +335,11 @@ Field read_field(const fs::path& path, const ReadLimits& limits, uint64_t cells,
   const std::string kind = f.word();
   std::vector<double> values;
   if (kind == "uniform") {
+    // a uniform value is text even in a binary file (OpenFOAM writes it as tokens)
+    const bool binary = f.binary;
+    f.binary = false;
     read_values(f, 1, components, values, "a uniform value");
+    f.binary = binary;
     field.values.resize(cells * components);
     for (uint64_t c = 0; c < cells; ++c)
       for (uint32_t k = 0; k < components; ++k)
@@ -382,6 +386,7 @@ class OpenFoamReader final : public FormatReader {
   void read_mesh(const fs::path& mesh);
   void classify(ReadStats& stats);
   void read_fields(const fs::path& folder, ReadStats& stats);
+  void finish_header(const std::string& when);
   // The cell's points with, for a hexahedron or wedge, the VTK order; false when its faces do
   // not make the shape.
   bool vtk_order(uint64_t cell, Shape shape, std::vector<uint32_t>& out) const;
@@ -668,13 +673,19 @@ void OpenFoamReader::read_fields(const fs::path& folder, ReadStats& stats) {
 
 MeshHeader OpenFoamReader::index(ReadStats& stats) {
   std::error_code ec;
-  fs::path folder = fs::is_directory(path_, ec) ? path_ : path_.parent_path();
+  const bool one_time = is_openfoam_time_folder(path_);  // CASE/TIME: that time's fields
+  fs::path folder = one_time ? path_.parent_path() : fs::is_directory(path_, ec) ? path_ : path_.parent_path();
   if (folder.empty()) folder = ".";  // "case.foam" in the working folder
   const fs::path mesh = folder / "constant" / "polyMesh";
   if (!fs::is_directory(mesh, ec)) throw MeshError(path_.string() + ": not an OpenFOAM case (no constant/polyMesh beside it)");
   read_mesh(mesh);
   classify(stats);
   read_patches(mesh);
+  if (one_time) {
+    read_fields(path_, stats);
+    finish_header("time " + path_.filename().string());
+    return header_;
+  }
   // the latest time folder that holds a field
   std::vector<std::pair<double, fs::path>> times;
   for (const auto& entry : fs::directory_iterator(folder, ec)) {
@@ -690,12 +701,16 @@ MeshHeader OpenFoamReader::index(ReadStats& stats) {
     if (!fields_.empty()) when = "time " + it->second.filename().string() + " (" + std::to_string(times.size()) + " time folders)";
   }
   if (times.size() > 1 && !fields_.empty()) stats.warnings.push_back(std::to_string(times.size()) + " time folders: the latest with fields, " + when + ", is read");
+  finish_header(when);
+  return header_;
+}
+
+void OpenFoamReader::finish_header(const std::string& when) {
   header_.format = MeshFormat::kOpenFoam;
   header_.description = "OpenFOAM case, " + std::to_string(cells_) + " cells, " + when;
   header_.vertex_count = points_.size() / 3 + extra_xyz_.size() / 3;
   header_.cell_count = cells_;
   for (const Field& f : fields_) header_.cell_attributes.push_back(f.info);
-  return header_;
 }
 
 void OpenFoamReader::read_vertices(size_t count, float* xyz, std::span<float* const>, ReadStats&) {

@@ -83,13 +83,18 @@ SegmentCache::SegmentCache(const Store& store, uint64_t budget_bytes) : SegmentC
 
 SegmentCache::SegmentCache(const Store& store, std::shared_ptr<SegmentPool> pool) : store_(store), pool_(std::move(pool)), id_(pool_->add_cache()) {}
 
+SegmentCache::SegmentCache(const Store& store, std::shared_ptr<SegmentPool> pool, Transform transform)
+    : store_(store), pool_(std::move(pool)), id_(pool_->add_cache()), transform_(std::move(transform)) {}
+
 SegmentCache::~SegmentCache() { pool_->remove_cache(id_); }
 
 std::shared_ptr<const MappedSegment> SegmentCache::get(uint32_t segment) {
   if (auto hit = pool_->find(id_, segment)) return hit;
   // map and validate outside the pool's lock; two threads may race to map the same segment,
   // and the first to insert wins
-  return pool_->insert(id_, segment, store_.map_segment(segment));
+  auto mapped = store_.map_segment(segment);
+  if (transform_) mapped = transform_(std::move(mapped));
+  return pool_->insert(id_, segment, std::move(mapped));
 }
 
 SegmentCache::Stats SegmentCache::stats() const { return pool_->cache_stats(id_); }

@@ -21,6 +21,11 @@ using namespace store;
 
 uint32_t crc32_of(const void* data, size_t bytes, uint32_t seed) { return libdeflate_crc32(seed, data, bytes); }
 
+MappedSegment::MappedSegment(std::shared_ptr<const MappedSegment> base, std::vector<float> values)
+    : address_(nullptr), length_(0), view_(base->view()), base_(std::move(base)), values_(std::move(values)) {
+  view_.attributes = values_;
+}
+
 MappedSegment::~MappedSegment() {
   if (address_) ::munmap(address_, length_);
 }

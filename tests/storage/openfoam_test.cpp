@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 
 #include "fixture_writers.h"
@@ -16,6 +17,7 @@
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/series.h"
 
 namespace tetrascope::testing {
 namespace {
@@ -201,6 +203,53 @@ TEST(OpenFoamCase, TheCaseFolderItselfOpensAndInfoSaysWhatItRead) {
   EXPECT_EQ(j["format"], "openfoam");
   EXPECT_EQ(j["cells"]["polyhedra"], 1);
   EXPECT_NE(s.header.description.find("time 0.5"), std::string::npos) << s.header.description;
+}
+
+// A time folder (CASE/TIME) reads as the case with that time's fields (a uniform value in a
+// binary file too), and a case's time folders that hold fields are a time series' steps, in
+// time order.
+TEST(OpenFoamCase, ATimeFolderReadsThatTimesFieldsAndTheCaseListsItsTimesAsSteps) {
+  const auto dir = scratch_dir("openfoam_times");
+  write_case(dir, three_cells(), false);
+  std::filesystem::create_directories(dir / "2");  // a time folder without a field: no step
+  // a binary field file whose internalField is uniform: the value is text (as OpenFOAM writes it)
+  write_file(dir / "0" / "p", header("volScalarField", "p", true) + "dimensions      [0 2 -2 0 0 0 0];\n\ninternalField   uniform -1;\n\nboundaryField\n{\n}\n");
+  EXPECT_EQ(storage::format_from_path(dir / "0"), storage::MeshFormat::kOpenFoam);
+  const TetMesh first = storage::load_mesh(dir / "0");
+  ASSERT_NE(first.find_attribute("p"), nullptr);
+  EXPECT_EQ(first.find_attribute("U"), nullptr) << "the 0 folder holds p alone";
+  for (float v : first.find_attribute("p")->values) EXPECT_FLOAT_EQ(v, -1.0f);
+  const TetMesh later = storage::load_mesh(dir / "0.5");
+  ASSERT_NE(later.find_attribute("U"), nullptr);
+  const auto& p = later.find_attribute("p")->values;
+  EXPECT_GE(*std::min_element(p.begin(), p.end()), 1.0f);
+  EXPECT_LE(*std::max_element(p.begin(), p.end()), 9.0f);
+  EXPECT_EQ(later.tet_count(), first.tet_count());
+  const auto steps = storage::series_inputs({dir.string()}, true);
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_EQ(steps[0].name, "0");
+  EXPECT_EQ(steps[1].name, "0.5");
+  EXPECT_DOUBLE_EQ(steps[1].time, 0.5);
+  EXPECT_TRUE(storage::series_inputs({(dir / "case.foam").string()}, false).empty()) << "one case without --all-steps is one step";
+}
+
+TEST(OpenFoamCase, AllStepsOfAFileThatIsNoCaseIsRefusedNamingWhatItReads) {
+  const auto dir = scratch_dir("openfoam_all_steps_file");
+  std::ofstream(dir / "mesh.vtk") << "# vtk DataFile Version 3.0\n";
+  try {
+    storage::series_inputs({(dir / "mesh.vtk").string()}, true);
+    FAIL() << "accepted";
+  } catch (const storage::MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("--all-steps reads an OpenFOAM case's time folders"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SeriesInputs, NumbersInNamesOrderAFileSeries) {
+  EXPECT_TRUE(storage::natural_less("step_2.vtu", "step_10.vtu"));
+  EXPECT_FALSE(storage::natural_less("step_10.vtu", "step_2.vtu"));
+  EXPECT_TRUE(storage::natural_less("a_002.vtu", "a_3.vtu"));
+  EXPECT_TRUE(storage::natural_less("run1_t9.vtu", "run2_t1.vtu"));
+  EXPECT_FALSE(storage::natural_less("same.vtu", "same.vtu"));
 }
 
 // polyMesh/boundary with the three cells' boundary faces in three patches (the order OpenFOAM

@@ -178,8 +178,17 @@ struct RegionsSet {
   std::vector<uint32_t> hidden;  // ascending, each once
 };
 
+// The time step of a time series shown (dataset.info's time_steps: 0..count-1; the session
+// checks it against the dataset), and optionally the step the viewer shows next (its values
+// are made ready meanwhile: play).
+constexpr uint32_t kMaxTimeStep = 99999;
+struct TimeSet {
+  uint32_t step = 0;
+  std::optional<uint32_t> prefetch;
+};
+
 using Message = std::variant<Hello, DatasetOpen, CameraSet, TfSet, ModeSet, IsoSet, LodSet, ViewResize, QualitySet, LinesSet, PointsSet, Ping,
-                             ClipSet, SliceSet, Probe, RegionsSet, TensorsSet>;
+                             ClipSet, SliceSet, Probe, RegionsSet, TensorsSet, TimeSet>;
 
 struct Envelope {
   std::string type;

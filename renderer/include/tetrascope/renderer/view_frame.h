@@ -72,6 +72,13 @@ class ViewPipeline {
   // every face is shown.
   void set_regions(std::shared_ptr<const RegionMap> regions) { regions_ = std::move(regions); }
 
+  // A time series' step (storage/time_steps.h): `cache` gives the step's segments (outliving
+  // the pipeline, or until the next set_step) and `values` its values (null for step 0: the
+  // store's own, with the constructor's cache). The scene is rebuilt at the next update when
+  // the step changed; the cut is kept (it is chosen by step 0's errors).
+  void set_step(uint32_t step, storage::SegmentCache& cache, std::shared_ptr<const std::vector<float>> values);
+  uint32_t step() const { return step_; }
+
   // Resolves the request, updates the cut and reassembles the scene when the cut or the
   // attributes changed; returns the settings to draw with. Throws std::invalid_argument for
   // an attribute the dataset lacks. `should_stop` (may be empty) is asked between the
@@ -132,6 +139,9 @@ class ViewPipeline {
   const storage::Store* store_ = nullptr;
   const lod::Dag* dag_ = nullptr;
   storage::SegmentCache* cache_ = nullptr;
+  uint32_t step_ = 0;
+  std::shared_ptr<const std::vector<float>> step_values_;  // null: step 0
+  bool step_changed_ = false;                              // the scene is of another step
   std::unique_ptr<lod::Variants> variants_;  // the store's, null when none (declared before cut_, which points to it)
   std::unique_ptr<lod::Cut> cut_;
   std::shared_ptr<const lod::VertexHierarchy> vertices_;

@@ -27,6 +27,12 @@ const char* format_name(MeshFormat format);
 // .g .gen, an OpenFOAM case folder or a .foam/.OpenFOAM file in it, CGNS .cgns .adf); throws
 // MeshError otherwise.
 MeshFormat format_from_path(const std::filesystem::path& path);
+// A time folder of an OpenFOAM case (a folder named by a number beside constant/polyMesh):
+// read as the case with that time's fields.
+bool is_openfoam_time_folder(const std::filesystem::path& path);
+// The file a store's manifest fingerprints (sha256, bytes) for an input: TetGen's .ele, an
+// OpenFOAM case folder's or time folder's constant/polyMesh/points, else the file itself.
+std::filesystem::path fingerprinted_file(const std::filesystem::path& path);
 
 struct MeshHeader {
   MeshFormat format = MeshFormat::kVtkLegacy;

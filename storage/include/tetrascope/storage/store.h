@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <list>
 #include <memory>
 #include <mutex>
@@ -86,18 +87,23 @@ class MappedSegment {
  public:
   MappedSegment(void* address, size_t length, SegmentView view, std::vector<uint32_t> decoded = {})
       : address_(address), length_(length), view_(view), decoded_(std::move(decoded)) {}
+  // `base` with its attributes replaced by `values` (a time step's, owned here; laid out as
+  // SegmentView::attributes); base stays mapped while this lives.
+  MappedSegment(std::shared_ptr<const MappedSegment> base, std::vector<float> values);
   ~MappedSegment();
   MappedSegment(const MappedSegment&) = delete;
   MappedSegment& operator=(const MappedSegment&) = delete;
   const SegmentView& view() const { return view_; }
   // what the segment holds in memory: the mapping and the decoded arrays
-  size_t mapped_bytes() const { return length_ + decoded_.size() * sizeof(uint32_t); }
+  size_t mapped_bytes() const { return length_ + decoded_.size() * sizeof(uint32_t) + values_.size() * sizeof(float) + (base_ ? base_->mapped_bytes() : 0); }
 
  private:
   void* address_;
   size_t length_;
   SegmentView view_;
   std::vector<uint32_t> decoded_;
+  std::shared_ptr<const MappedSegment> base_;  // a time step's segment: the mapping it reads
+  std::vector<float> values_;                  // a time step's segment: its attributes
 };
 
 class Store {
@@ -172,6 +178,10 @@ class SegmentCache {
   using Stats = SegmentPool::Stats;
   SegmentCache(const Store& store, uint64_t budget_bytes);           // a pool of its own
   SegmentCache(const Store& store, std::shared_ptr<SegmentPool> pool);  // shares `pool`'s budget
+  // A cache whose segments pass through `transform` once mapped (a time step's values:
+  // with_step_values, time_steps.h).
+  using Transform = std::function<std::shared_ptr<const MappedSegment>(std::shared_ptr<const MappedSegment>)>;
+  SegmentCache(const Store& store, std::shared_ptr<SegmentPool> pool, Transform transform);
   ~SegmentCache();
   SegmentCache(const SegmentCache&) = delete;
   SegmentCache& operator=(const SegmentCache&) = delete;
@@ -182,6 +192,7 @@ class SegmentCache {
   const Store& store_;
   std::shared_ptr<SegmentPool> pool_;
   uint64_t id_;
+  Transform transform_;
 };
 
 // CRC-32 (zlib's polynomial) of a byte range.

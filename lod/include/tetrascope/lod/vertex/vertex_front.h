@@ -111,8 +111,9 @@ class VertexFront {
   uint64_t tet_count() const { return tets_; }
 
   // The front's mesh: its vertices (those its tets use, in vertex-id order) with their
-  // attributes, and per vertex its id in the hierarchy.
-  storage::TetMesh mesh(std::vector<uint32_t>* vertex_ids = nullptr) const;
+  // attributes, and per vertex its id in the hierarchy. `values` (optional): the values of
+  // another time step, laid out as VertexHierarchy::values.
+  storage::TetMesh mesh(std::vector<uint32_t>* vertex_ids = nullptr, const float* values = nullptr) const;
   // Per-collapse E for `criteria` (tests, tools).
   std::vector<double> errors(const FrontCriteria& criteria) const;
 
