@@ -114,7 +114,7 @@ int run_simplify(const Arguments& raw) {
       std::fprintf(stderr, "tetrascope simplify: %s: simplified by quadric collapses instead\n",
                    report.tetgen_failure.empty() ? "the border encloses a cavity the sampler cannot keep" : report.tetgen_failure.c_str());
     j["phase_seconds"] = {{"border", report.border_seconds}, {"sample", report.sample_seconds}, {"tetrahedralize", report.tetrahedralize_seconds},
-                          {"output", report.output_seconds}};
+                          {"output", report.output_seconds}, {"fit", report.fit_seconds}};
   }
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %llu -> %llu tets (%.1f%%), %llu collapses in %.2f s (%.0f/s), max queue %llu\n", args.get("--output").c_str(),

@@ -82,6 +82,9 @@ int orient3d_sign(const Point3& a, const Point3& b, const Point3& c, const Point
   const double permanent = std::abs(adx) * (std::abs(bdy * cdz) + std::abs(bdz * cdy)) + std::abs(bdx) * (std::abs(cdy * adz) + std::abs(cdz * ady)) +
                            std::abs(cdx) * (std::abs(ady * bdz) + std::abs(adz * bdy));
   if (std::abs(det) > kOrientBound * permanent) return sign_of(det);
+  // four points in one axis-aligned plane (a box's faces, symmetry planes): a zero row, so the
+  // determinant is exactly 0 (the exact expansion would only confirm it, at many times the cost)
+  if ((adx == 0 && bdx == 0 && cdx == 0) || (ady == 0 && bdy == 0 && cdy == 0) || (adz == 0 && bdz == 0 && cdz == 0)) return 0;
   // the exact predicate needs TetGen's machine constants (the same values in every thread)
   std::call_once(predicates_ready, [] { exactinit(0, 0, 1, 1.0, 1.0, 1.0); });
   Point3 pa = a, pb = b, pc = c, pd = d;
