@@ -12,8 +12,10 @@
 
 #include "tetrascope/lod/simplify/border_intersection.h"
 
-// Shewchuk's exact predicate, compiled into libtet but not declared by tetgen.h
-REAL orient3dexact(REAL* pa, REAL* pb, REAL* pc, REAL* pd);
+// Shewchuk's adaptive exact predicate, compiled into libtet but not declared by tetgen.h: its
+// sign is exact, and it stops at the first stage whose error bound settles it (the full
+// expansion, orient3dexact, cost most of the border phase on curved borders)
+REAL orient3dadapt(REAL* pa, REAL* pb, REAL* pc, REAL* pd, REAL permanent);
 
 namespace tetrascope::lod {
 namespace detail {
@@ -88,7 +90,7 @@ int orient3d_sign(const Point3& a, const Point3& b, const Point3& c, const Point
   // the exact predicate needs TetGen's machine constants (the same values in every thread)
   std::call_once(predicates_ready, [] { exactinit(0, 0, 1, 1.0, 1.0, 1.0); });
   Point3 pa = a, pb = b, pc = c, pd = d;
-  return sign_of(orient3dexact(pa.data(), pb.data(), pc.data(), pd.data()));
+  return sign_of(orient3dadapt(pa.data(), pb.data(), pc.data(), pd.data(), permanent));
 }
 
 bool triangles_intersect(const std::array<Point3, 3>& t, const std::array<Point3, 3>& u) {

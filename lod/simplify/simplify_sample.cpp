@@ -621,6 +621,19 @@ storage::TetMesh assemble_output(const storage::TetMesh& mesh, const std::vector
 
 }  // namespace
 
+SimplifyMethod choose_simplify_method(const storage::TetMesh& mesh, const SimplifyOptions& options, std::string* why) {
+  auto choose = [&](SimplifyMethod method, const std::string& reason) {
+    if (why) *why = reason;
+    return method;
+  };
+  if (options.target_tets == 0 || options.max_error > 0) return choose(SimplifyMethod::kQem, "an error bound: the quadric simplifier's criterion");
+  if (options.target_tets >= mesh.tet_count()) return choose(SimplifyMethod::kQem, "nothing to remove: the quadric simplifier returns the mesh as it is");
+  if (mesh.tet_count() < kAutoSampleMinTets)
+    return choose(SimplifyMethod::kQem, "fewer than " + std::to_string(kAutoSampleMinTets) + " tets: the sampler's fixed costs decide, not its speed");
+  if (!border_self_intersections(mesh, 1).pairs.empty()) return choose(SimplifyMethod::kQem, "the border crosses itself: TetGen cannot mesh it");
+  return choose(SimplifyMethod::kSample, "the sampler: faster at comparable error on meshes of this size");
+}
+
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
   const auto started = std::chrono::steady_clock::now();
   const size_t nv = mesh.vertex_count();

@@ -135,4 +135,13 @@ SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, 
 // conforming with an intersection-free border; throws std::invalid_argument for bad options.
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
 
+// The simplifier `tetrascope simplify --method auto` (its default) takes for this mesh, by the
+// rule measured on the shared data, the blades and held-out meshes (bench/README.md, "The
+// sampling simplifier"): the sampler where the mesh has at least kAutoSampleMinTets tets, the
+// run stops at a tet count and the input's border does not cross itself (TetGen could not
+// mesh it, so the sampler would fall back anyway); the quadric simplifier otherwise. `why`
+// gets the reason in words.
+constexpr uint64_t kAutoSampleMinTets = 100000;
+SimplifyMethod choose_simplify_method(const storage::TetMesh& mesh, const SimplifyOptions& options, std::string* why = nullptr);
+
 }  // namespace tetrascope::lod
