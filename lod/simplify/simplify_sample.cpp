@@ -629,9 +629,18 @@ SimplifyMethod choose_simplify_method(const storage::TetMesh& mesh, const Simpli
   if (options.target_tets == 0 || options.max_error > 0) return choose(SimplifyMethod::kQem, "an error bound: the quadric simplifier's criterion");
   if (options.target_tets >= mesh.tet_count()) return choose(SimplifyMethod::kQem, "nothing to remove: the quadric simplifier returns the mesh as it is");
   if (mesh.tet_count() < kAutoSampleMinTets)
-    return choose(SimplifyMethod::kQem, "fewer than " + std::to_string(kAutoSampleMinTets) + " tets: the sampler's fixed costs decide, not its speed");
+    return choose(SimplifyMethod::kQem, "fewer than " + std::to_string(kAutoSampleMinTets) + " tets: smaller than any mesh the sampler was measured on");
+  {
+    std::vector<uint8_t> on_border(mesh.vertex_count(), 0), used(mesh.vertex_count(), 0);
+    for (uint32_t v : mesh.tets) used[v] = 1;
+    for (const auto& f : border_triangles(mesh))
+      for (uint32_t v : f) on_border[v] = 1;
+    const double share = double(std::count(on_border.begin(), on_border.end(), 1)) / double(std::max<size_t>(1, std::count(used.begin(), used.end(), 1)));
+    if (share > kAutoSampleMaxBorderShare)
+      return choose(SimplifyMethod::kQem, "most vertices on the border (" + std::to_string(int(100 * share)) + "%): the sampler's border phase decides");
+  }
   if (!border_self_intersections(mesh, 1).pairs.empty()) return choose(SimplifyMethod::kQem, "the border crosses itself: TetGen cannot mesh it");
-  return choose(SimplifyMethod::kSample, "the sampler: faster at comparable error on meshes of this size");
+  return choose(SimplifyMethod::kSample, "the sampler: measured faster at comparable error on such meshes");
 }
 
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {

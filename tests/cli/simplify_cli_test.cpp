@@ -80,14 +80,14 @@ TEST(SimplifyCli, SampledMeshIsWrittenAndItsBorderChecked) {
 }
 
 TEST(SimplifyCli, TheDefaultMethodChoosesByTheMesh) {
-  // auto, the default: the quadric simplifier below 100K tets and where the border crosses
-  // itself, the sampler on a larger mesh; each run says why
+  // auto, the default: the quadric simplifier below 30K tets, for an error bound and for its
+  // own options, the sampler on a larger mesh; each run says why
   struct Case {
     std::string file, args, method, because;
   };
   const std::string big = (dir() / "big.vtk").string();
   storage::write_vtk(big, kuhn_box(26, 0.2, [](float x, float y, float z) { return std::sin(6 * x) * y + z; }), "box");
-  for (const Case& c : std::vector<Case>{{box_file("box.vtk"), "--ratio 0.2", "qem", "fewer than 100000 tets"},
+  for (const Case& c : std::vector<Case>{{box_file("box.vtk"), "--ratio 0.2", "qem", "fewer than 30000 tets"},
                                          {box_file("box.vtk"), "--max-error 0.1", "qem", "an error bound"},
                                          {big, "--ratio 0.1 --independent", "qem", "an option of the quadric simplifier"},
                                          {big, "--ratio 0.1", "sample", "the sampler"}}) {
@@ -100,7 +100,9 @@ TEST(SimplifyCli, TheDefaultMethodChoosesByTheMesh) {
     EXPECT_LT(j["tets_after"].get<uint64_t>(), j["tets_before"].get<uint64_t>()) << c.args;
     const CliResult e = run("error " + c.file + " " + out + " --json");
     ASSERT_EQ(e.status, 0) << e.out;
-    if (c.method == "sample") EXPECT_FALSE(nlohmann::json::parse(e.out)["border_self_intersects"].get<bool>());
+    if (c.method == "sample") {
+      EXPECT_FALSE(nlohmann::json::parse(e.out)["border_self_intersects"].get<bool>());
+    }
   }
 }
 

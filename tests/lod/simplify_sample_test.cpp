@@ -129,8 +129,11 @@ TEST(SimplifySample, LockedBorderFacesStayBitIdentical) {
     if (src == 0xFFFFFFFFu) continue;
     const Corner kept = corner(mesh, static_cast<uint32_t>(v)), source = corner(half, src);
     EXPECT_EQ((std::array<float, 3>{kept[0], kept[1], kept[2]}), (std::array<float, 3>{source[0], source[1], source[2]}));
-    if (locked[src]) EXPECT_EQ(kept[3], source[3]) << "locked vertex " << src;
-    else EXPECT_NEAR(kept[3], source[3], 1e-5) << "free vertex " << src;
+    if (locked[src]) {
+      EXPECT_EQ(kept[3], source[3]) << "locked vertex " << src;
+    } else {
+      EXPECT_NEAR(kept[3], source[3], 1e-5) << "free vertex " << src;
+    }
   }
   EXPECT_EQ(check_mesh(mesh).nonpositive, 0u);
   EXPECT_EQ(check_mesh(mesh).faces_shared_by_more_than_two, 0u);

@@ -136,12 +136,14 @@ SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, 
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
 
 // The simplifier `tetrascope simplify --method auto` (its default) takes for this mesh, by the
-// rule measured on the shared data, the blades and held-out meshes (bench/README.md, "The
-// sampling simplifier"): the sampler where the mesh has at least kAutoSampleMinTets tets, the
-// run stops at a tet count and the input's border does not cross itself (TetGen could not
-// mesh it, so the sampler would fall back anyway); the quadric simplifier otherwise. `why`
-// gets the reason in words.
-constexpr uint64_t kAutoSampleMinTets = 100000;
+// rule measured on the shared data and the blades (bench/README.md, "The sampling
+// simplifier"): the sampler where the run stops at a tet count below the mesh's, the mesh has
+// at least kAutoSampleMinTets tets, at most kAutoSampleMaxBorderShare of its vertices lie on
+// its border (where more do, the border phase costs more than QEM saves: the FEM bracket) and
+// its border does not cross itself (TetGen could not mesh it: the sampler would fall back
+// anyway); the quadric simplifier otherwise. `why` gets the reason in words.
+constexpr uint64_t kAutoSampleMinTets = 30000;
+constexpr double kAutoSampleMaxBorderShare = 0.6;
 SimplifyMethod choose_simplify_method(const storage::TetMesh& mesh, const SimplifyOptions& options, std::string* why = nullptr);
 
 }  // namespace tetrascope::lod
