@@ -40,16 +40,20 @@ int run_simplify(const Arguments& raw) {
   Args args(raw, {"--independent", "--json"}, {"--output", "--ratio", "--tets", "--max-error", "--attribute", "--seed", "--boundary-weight",
                                              "--feature-weight", "--vertex-weight", "--min-quality", "--attribute-weight", "--threads",
                                              "--method", "--field-error", "--space-error", "--border-error"});
-  const lod::SimplifyMethod method = simplify_method(args.has("--method") ? args.get("--method") : "qem", "--method");
-  const bool sample = method == lod::SimplifyMethod::kSample;
+  const std::string method_name = args.has("--method") ? args.get("--method") : "auto";
+  const bool automatic = method_name == "auto";
+  lod::SimplifyMethod method = automatic ? lod::SimplifyMethod::kQem : simplify_method(method_name, "--method");
+  bool sample = method == lod::SimplifyMethod::kSample;
   int criteria = args.has("--ratio") + args.has("--tets") + args.has("--max-error") + (sample && (args.has("--field-error") || args.has("--space-error")));
   if (args.positionals().size() != 1 || !args.has("--output") || criteria == 0) {
     std::fprintf(stderr,
-                 "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--attribute A[,B..]] [--independent] [--json]\n"
+                 "usage: tetrascope simplify MESH -o OUT.vtk (--ratio R | --tets N | --max-error E) [--method auto|qem] [--attribute A[,B..]] [--independent] [--json]\n"
                  "       tetrascope simplify MESH -o OUT.vtk --method sample (--ratio R | --tets N | --field-error F | --space-error S) [--border-error B] [--attribute A[,B..]] [--json]\n");
     return 2;
   }
-  if (!sample && (args.has("--field-error") || args.has("--space-error") || args.has("--border-error")))
+  if (automatic && (args.has("--field-error") || args.has("--space-error") || args.has("--border-error")))
+    throw std::invalid_argument("--field-error, --space-error and --border-error belong to --method sample (the default, auto, chooses by the mesh)");
+  if (!automatic && !sample && (args.has("--field-error") || args.has("--space-error") || args.has("--border-error")))
     throw std::invalid_argument("--field-error, --space-error and --border-error belong to --method sample");
   if (sample && args.has("--max-error")) throw std::invalid_argument("--max-error belongs to --method qem; the sampler takes --field-error and --space-error");
   storage::ReadStats stats;
@@ -86,6 +90,15 @@ int run_simplify(const Arguments& raw) {
   options.seed = args.number("--seed", 1);
   options.threads = static_cast<uint32_t>(args.number("--threads", std::max(1u, std::thread::hardware_concurrency())));
   if (options.threads == 0 || options.threads > 64) throw std::invalid_argument("--threads must be in 1..64");
+  std::string chosen_because;
+  // options only the quadric simplifier takes keep it
+  const bool qem_only = args.has("--independent") || args.has("--boundary-weight") || args.has("--feature-weight") || args.has("--vertex-weight") ||
+                        args.has("--min-quality") || args.has("--attribute-weight");
+  if (automatic) {
+    method = qem_only ? lod::SimplifyMethod::kQem : lod::choose_simplify_method(mesh, options, &chosen_because);
+    if (qem_only) chosen_because = "an option of the quadric simplifier was given";
+    sample = method == lod::SimplifyMethod::kSample;
+  }
   options.method = method;
   if (args.has("--field-error")) options.field_error = threshold(args, "--field-error", false);
   if (args.has("--space-error")) options.space_error = threshold(args, "--space-error", false);
@@ -101,6 +114,7 @@ int run_simplify(const Arguments& raw) {
                       {"max_queue", report.max_queue}, {"threads", report.threads}, {"seconds", report.seconds},
                       {"collapses_per_second", report.seconds > 0 ? report.collapses / report.seconds : 0.0},
                       {"method", sample ? "sample" : "qem"}};
+  if (automatic) j["method_chosen_because"] = chosen_because;
   if (sample) {
     j["border_triangles_before"] = report.border_before;
     j["border_triangles_after"] = report.border_after;
@@ -114,7 +128,7 @@ int run_simplify(const Arguments& raw) {
       std::fprintf(stderr, "tetrascope simplify: %s: simplified by quadric collapses instead\n",
                    report.tetgen_failure.empty() ? "the border encloses a cavity the sampler cannot keep" : report.tetgen_failure.c_str());
     j["phase_seconds"] = {{"border", report.border_seconds}, {"sample", report.sample_seconds}, {"tetrahedralize", report.tetrahedralize_seconds},
-                          {"output", report.output_seconds}};
+                          {"output", report.output_seconds}, {"fit", report.fit_seconds}};
   }
   if (args.has("--json")) std::cout << j.dump(2) << "\n";
   else std::printf("%s: %llu -> %llu tets (%.1f%%), %llu collapses in %.2f s (%.0f/s), max queue %llu\n", args.get("--output").c_str(),

@@ -64,7 +64,7 @@ tets_of() { "$py" -c 'import json,sys; print(json.loads(sys.stdin.read().strip()
 # decimate TETS LABEL: the case's mesh decimated to TETS tets and rendered (cached by TETS); sets its tets and PSNRs (8 bits, float, GL)
 decimate() {
   local dec="$out/$base.dec$1.vtk"
-  [[ -s "$dec" ]] || "$bin" simplify "$mesh" -o "$dec" --tets "$1" > /dev/null
+  [[ -s "$dec" ]] || "$bin" simplify "$mesh" -o "$dec" --method qem --tets "$1" > /dev/null
   d_tets=$("$bin" info --json "$dec" | "$py" -c 'import json,sys; print(json.load(sys.stdin)["tetrahedra"])')
   image "$dec" "$out/$name.dec$2" > /dev/null
   d_db=$(psnr "$full" "$(shown "$out/$name.dec$2")") d_float=null

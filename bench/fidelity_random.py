@@ -281,7 +281,7 @@ def main():
             tets = max(1, int(input_tets * pct / 100))
             path = Path(f"{base}.dec{tets}.vtk")
             if not path.exists():
-                run([binary, "simplify", mesh, "-o", path, "--tets", tets])
+                run([binary, "simplify", mesh, "-o", path, "--method", "qem", "--tets", tets])
             decimated[pct] = (tets, path)
         for v in range(a.views):
             attribute = scalars[rng.randrange(len(scalars))]

@@ -37,8 +37,8 @@ for c in "${cases[@]}"; do
   for ratio in 0.1 0.02; do
     ours="$out/$name.$ratio.ours.vtk"; full="$out/$name.$ratio.independent.vtk"; theirs="$out/$name.$ratio.vtk.vtk"
     one="$out/$name.$ratio.one.vtk"; same="$out/$name.$ratio.same.vtk"
-    o=$(build/release/apps/tetrascope simplify "$mesh" -o "$ours" --ratio "$ratio" --attribute "$scalar" --json)
-    f=$(build/release/apps/tetrascope simplify "$mesh" -o "$full" --ratio "$ratio" --attribute "$scalar" --independent --json)
+    o=$(build/release/apps/tetrascope simplify "$mesh" -o "$ours" --method qem --ratio "$ratio" --attribute "$scalar" --json)
+    f=$(build/release/apps/tetrascope simplify "$mesh" -o "$full" --method qem --ratio "$ratio" --attribute "$scalar" --independent --json)
     v=$(pvpython bench/vtk_decimate.py "$mesh" "$theirs" "$ratio" "$scalar" 2>/dev/null | tail -1)
     eo=$(build/release/apps/tetrascope error "$mesh" "$ours" --json)
     ef=$(build/release/apps/tetrascope error "$mesh" "$full" --json)
@@ -46,14 +46,14 @@ for c in "${cases[@]}"; do
     # one thread too where the default used both cores
     s1='null'; e1='null'
     if [[ $(echo "$o" | python3 -c 'import json,sys; print(json.load(sys.stdin)["threads"])') -gt 1 ]]; then
-      s1=$(build/release/apps/tetrascope simplify "$mesh" -o "$one" --ratio "$ratio" --attribute "$scalar" --threads 1 --json)
+      s1=$(build/release/apps/tetrascope simplify "$mesh" -o "$one" --method qem --ratio "$ratio" --attribute "$scalar" --threads 1 --json)
       e1=$(build/release/apps/tetrascope error "$mesh" "$one" --json)
     fi
     # where VTK stops short of the target, ours again at VTK's tet count: the fair comparison
     ss='null'; es='null'
     vt=$(echo "$v" | python3 -c 'import json,sys; print(json.load(sys.stdin)["tets_after"])')
     if python3 -c "import sys; sys.exit(0 if $vt > 1.02 * $ratio * $(echo "$o" | python3 -c 'import json,sys; print(json.load(sys.stdin)["tets_before"])') else 1)"; then
-      ss=$(build/release/apps/tetrascope simplify "$mesh" -o "$same" --tets "$vt" --attribute "$scalar" --json)
+      ss=$(build/release/apps/tetrascope simplify "$mesh" -o "$same" --method qem --tets "$vt" --attribute "$scalar" --json)
       es=$(build/release/apps/tetrascope error "$mesh" "$same" --json)
     fi
     rows+=("$(python3 - "$name" "$scalar" "$ratio" "$o" "$v" "$eo" "$ev" "$f" "$ef" "$s1" "$e1" "$ss" "$es" <<'PY'

@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # The body of `bench/simplify_bench.sh --sample REPEATS` (see there).
+# Environment: SAMPLE_DATASETS ("MESH:SCALAR ..."), BIN (the tetrascope binary), SEED (QEM's
+# --seed, recorded in each row), SKIP_VTK=1 (no VTK decimation: it takes minutes a mesh),
+# HELD_OUT ("NAME ..." meshes never looked at while tuning, marked in their rows),
+# SKIP_QEM_DEFAULT=1 (no QEM run on the default threads: the goals compare one thread; the
+# one-thread QEM's output is then the one judged).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repeats=${1:-3}
-bin=build/release/apps/tetrascope
+bin=${BIN:-build/release/apps/tetrascope}
+seed=${SEED:-1}
 out=bench/out/simplify_sample
 mkdir -p "$out" bench/results
 datasets=${SAMPLE_DATASETS:-"../shared/data/onera_m6_potential.vtk:pressure_coefficient /work/bigdata/blade-1m.vtk:analytic_f /work/bigdata/blade-5m.vtk:analytic_f"}
@@ -26,23 +32,29 @@ for d in $datasets; do
   runs_sample=(); runs_qem1=(); runs_qem=()
   for ((r = 0; r < repeats; ++r)); do
     runs_sample+=("$(timed $bin simplify "$mesh" -o "$out/$name.sample.vtk" --method sample --ratio 0.1 --json)")
+    echo "${runs_sample[-1]}" | grep -q '"fell_back_to_qem": true' && echo "$name: the sampler fell back to QEM" >&2
     tets=$(echo "${runs_sample[-1]}" | python3 -c 'import json,sys; print(json.load(sys.stdin)["report"]["tets_after"])')
-    runs_qem1+=("$(timed $bin simplify "$mesh" -o "$out/$name.qem1.vtk" --tets "$tets" --threads 1 --json)")
-    runs_qem+=("$(timed $bin simplify "$mesh" -o "$out/$name.qem.vtk" --tets "$tets" --json)")
+    runs_qem1+=("$(timed $bin simplify "$mesh" -o "$out/$name.qem1.vtk" --tets "$tets" --method qem --threads 1 --seed "$seed" --json)")
+    if [[ -n "${SKIP_QEM_DEFAULT:-}" ]]; then
+      runs_qem+=("${runs_qem1[-1]}"); cp "$out/$name.qem1.vtk" "$out/$name.qem.vtk"
+    else
+      runs_qem+=("$(timed $bin simplify "$mesh" -o "$out/$name.qem.vtk" --tets "$tets" --method qem --seed "$seed" --json)")
+    fi
   done
   ratio=$(python3 -c "import json; r=json.loads('''${runs_sample[0]}''')['report']; print(r['tets_after']/r['tets_before'])")
-  v=$(pvpython bench/vtk_decimate.py "$mesh" "$out/$name.vtk.vtk" "$ratio" "$scalar" 2>/dev/null | tail -1 || echo null)
+  v=null
+  [[ -n "${SKIP_VTK:-}" ]] || v=$(pvpython bench/vtk_decimate.py "$mesh" "$out/$name.vtk.vtk" "$ratio" "$scalar" 2>/dev/null | tail -1 || echo null)
   es=$($bin error "$mesh" "$out/$name.sample.vtk" --json)
   eq=$($bin error "$mesh" "$out/$name.qem.vtk" --json)
-  ev=$( [[ -s "$out/$name.vtk.vtk" ]] && $bin error "$mesh" "$out/$name.vtk.vtk" --json || echo null)
+  ev=$( [[ "$v" != null && -s "$out/$name.vtk.vtk" ]] && $bin error "$mesh" "$out/$name.vtk.vtk" --json || echo null)
   is=$(pvpython bench/iso_compare.py "$mesh" "$out/$name.sample.vtk" "$scalar" 2>/dev/null | tail -1)
   iq=$(pvpython bench/iso_compare.py "$mesh" "$out/$name.qem.vtk" "$scalar" 2>/dev/null | tail -1)
-  iv=$( [[ -s "$out/$name.vtk.vtk" ]] && pvpython bench/iso_compare.py "$mesh" "$out/$name.vtk.vtk" "$scalar" 2>/dev/null | tail -1 || echo null)
+  iv=$( [[ "$v" != null && -s "$out/$name.vtk.vtk" ]] && pvpython bench/iso_compare.py "$mesh" "$out/$name.vtk.vtk" "$scalar" 2>/dev/null | tail -1 || echo null)
   printf '%s\n' "${runs_sample[@]}" > "$out/$name.runs_sample.jsonl"
   printf '%s\n' "${runs_qem1[@]}" > "$out/$name.runs_qem1.jsonl"
   printf '%s\n' "${runs_qem[@]}" > "$out/$name.runs_qem.jsonl"
-  rows+=("$(python3 - "$name" "$scalar" "$out" "$v" "$es" "$eq" "$ev" "$is" "$iq" "$iv" <<'PY'
-import json, statistics, sys
+  rows+=("$(SEED=$seed python3 - "$name" "$scalar" "$out" "$v" "$es" "$eq" "$ev" "$is" "$iq" "$iv" <<'PY'
+import json, os, statistics, sys
 name, scalar, out, v, es, eq, ev, is_, iq, iv = sys.argv[1:11]
 v, es, eq, ev, is_, iq, iv = map(json.loads, (v, es, eq, ev, is_, iq, iv))
 def runs(kind):
@@ -50,7 +62,7 @@ def runs(kind):
     return {"runs": len(rs), "wall_median": statistics.median(r["wall"] for r in rs), "user_median": statistics.median(r["user"] for r in rs),
             "simplify_seconds_median": statistics.median(r["report"]["seconds"] for r in rs), "peak_rss_mb": max(r["peak_rss_mb"] for r in rs),
             "tets": rs[0]["report"]["tets_after"], "tets_before": rs[0]["report"]["tets_before"], "threads": rs[0]["report"]["threads"],
-            "phases": rs[0]["report"].get("phase_seconds")}
+            "phases": rs[0]["report"].get("phase_seconds"), "fell_back_to_qem": rs[0]["report"].get("fell_back_to_qem")}
 def err(e):
     if not e: return None
     return {"mean_field_error_all": e["mean_field_error"],
@@ -58,12 +70,15 @@ def err(e):
             "hausdorff_relative": e["domain_error"]["hausdorff_relative"], "mean_distance_relative": e["domain_error"]["mean_relative"],
             "border_self_intersects": e["border_self_intersects"], "border_intersecting_pairs": e["border_intersecting_pairs"]}
 s, q1, q = runs("sample"), runs("qem1"), runs("qem")
-row = {"mesh": name, "scalar": scalar, "sample": dict(s, error=err(es), isosurfaces=is_["isosurfaces"]),
+row = {"mesh": name, "scalar": scalar, "seed": int(os.environ["SEED"]), "held_out": name in os.environ.get("HELD_OUT", "").split(),
+       "uptime": open("/proc/loadavg").read().split()[:3], "sample": dict(s, error=err(es), isosurfaces=is_["isosurfaces"]),
        "qem_one_thread": q1, "qem": dict(q, error=err(eq), isosurfaces=iq["isosurfaces"]),
        "vtk": dict(v, error=err(ev), isosurfaces=iv["isosurfaces"] if iv else None) if v else None,
        "speedup_user_vs_qem_one_thread": q1["user_median"] / s["user_median"],
        "speedup_simplify_seconds_vs_qem_one_thread": q1["simplify_seconds_median"] / s["simplify_seconds_median"],
-       "speedup_wall_vs_qem_default": q["wall_median"] / s["wall_median"]}
+       "speedup_wall_vs_qem_default": q["wall_median"] / s["wall_median"],
+       "field_error_ratio": es["mean_field_error"] / max(eq["mean_field_error"], 1e-300),
+       "fell_back_to_qem": s["fell_back_to_qem"]}
 print(json.dumps(row))
 PY
 )")

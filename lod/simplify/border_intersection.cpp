@@ -12,8 +12,10 @@
 
 #include "tetrascope/lod/simplify/border_intersection.h"
 
-// Shewchuk's exact predicate, compiled into libtet but not declared by tetgen.h
-REAL orient3dexact(REAL* pa, REAL* pb, REAL* pc, REAL* pd);
+// Shewchuk's adaptive exact predicate, compiled into libtet but not declared by tetgen.h: its
+// sign is exact, and it stops at the first stage whose error bound settles it (the full
+// expansion, orient3dexact, cost most of the border phase on curved borders)
+REAL orient3dadapt(REAL* pa, REAL* pb, REAL* pc, REAL* pd, REAL permanent);
 
 namespace tetrascope::lod {
 namespace detail {
@@ -82,10 +84,13 @@ int orient3d_sign(const Point3& a, const Point3& b, const Point3& c, const Point
   const double permanent = std::abs(adx) * (std::abs(bdy * cdz) + std::abs(bdz * cdy)) + std::abs(bdx) * (std::abs(cdy * adz) + std::abs(cdz * ady)) +
                            std::abs(cdx) * (std::abs(ady * bdz) + std::abs(adz * bdy));
   if (std::abs(det) > kOrientBound * permanent) return sign_of(det);
+  // four points in one axis-aligned plane (a box's faces, symmetry planes): a zero row, so the
+  // determinant is exactly 0 (the exact expansion would only confirm it, at many times the cost)
+  if ((adx == 0 && bdx == 0 && cdx == 0) || (ady == 0 && bdy == 0 && cdy == 0) || (adz == 0 && bdz == 0 && cdz == 0)) return 0;
   // the exact predicate needs TetGen's machine constants (the same values in every thread)
   std::call_once(predicates_ready, [] { exactinit(0, 0, 1, 1.0, 1.0, 1.0); });
   Point3 pa = a, pb = b, pc = c, pd = d;
-  return sign_of(orient3dexact(pa.data(), pb.data(), pc.data(), pd.data()));
+  return sign_of(orient3dadapt(pa.data(), pb.data(), pc.data(), pd.data(), permanent));
 }
 
 bool triangles_intersect(const std::array<Point3, 3>& t, const std::array<Point3, 3>& u) {

@@ -48,6 +48,12 @@ constexpr double kSizeWeight = 0.05;
 // A border collapse that drops values differing by the whole normalised range costs as much
 // as one moving the border by this share of the diagonal: flat regions of even values go first.
 constexpr double kBorderFieldWeight = 0.05;
+// Border collapses costing less than moving the border by this share of the diagonal (or
+// changing the values by kFreeBorderCost / kBorderFieldWeight of their range) are made past
+// the border's share of the target too, and the tets they free go to interior samples.
+constexpr double kFreeBorderCost = 1e-4;
+
+double sq(double x) { return x * x; }
 
 // Normalised attribute channels (§4.2.2): scalars to [0, 1] by their range, vectors by the
 // longest vector to 0.5 v + 0.5. Returns per vertex `channels` values.
@@ -192,6 +198,10 @@ class PointSampler {
       spread += double(hi - lo) * (hi - lo);
     }
     const double field = std::sqrt(spread), relative_extent = (cell.hi[0] - cell.lo[0]) / extent_;
+    if (!thresholds) {
+      const double priority = end - begin <= 1 ? 0 : nonlinearity(begin, end, cell) + double(end - begin) * sq(kSizeWeight * relative_extent);
+      return {begin, end, cell, depth, priority};
+    }
     double priority = 0;
     if (thresholds) {
       if (options.field_error > 0) priority = std::max(priority, field / options.field_error);
@@ -205,19 +215,66 @@ class PointSampler {
     return {begin, end, cell, depth, priority};
   }
 
-  // the point whose values are closest to the leaf's mean (without attributes: to its centroid)
+  // The leaf's squared error against its values' least-squares linear fit (every channel, in
+  // normalised units, summed over its points): what a linear interpolant of one leaf misses,
+  // so a leaf where the field bends or oscillates is split first, a linear one never for its
+  // values alone.
+  double nonlinearity(uint32_t begin, uint32_t end, const Box3& cell) const {
+    if (channels_ == 0 || end - begin < 5) return 0;
+    double a[4][4] = {}, c[3], scale = 0;
+    for (int k = 0; k < 3; ++k) c[k] = 0.5 * (cell.lo[k] + cell.hi[k]), scale = std::max(scale, cell.hi[k] - cell.lo[k]);
+    scale = scale > 0 ? 1 / scale : 1;
+    b_.assign(4 * channels_, 0.0);
+    s_.assign(channels_, 0.0);
+    for (uint32_t i = begin; i < end; ++i) {
+      const uint32_t v = points_[i];
+      const double u[4] = {(positions_[v][0] - c[0]) * scale, (positions_[v][1] - c[1]) * scale, (positions_[v][2] - c[2]) * scale, 1};
+      for (int r = 0; r < 4; ++r)
+        for (int q = r; q < 4; ++q) a[r][q] += u[r] * u[q];
+      const float* f = &values_[size_t{v} * channels_];
+      for (size_t ch = 0; ch < channels_; ++ch) {
+        for (int r = 0; r < 4; ++r) b_[4 * ch + r] += f[ch] * u[r];
+        s_[ch] += double(f[ch]) * f[ch];
+      }
+    }
+    // Cholesky of the 4x4 moments (a small ridge for points in a plane or on a line)
+    double l[4][4] = {};
+    const double ridge = 1e-9 * (a[0][0] + a[1][1] + a[2][2] + a[3][3]);
+    for (int r = 0; r < 4; ++r)
+      for (int q = 0; q <= r; ++q) {
+        double sum = a[q][r] + (q == r ? ridge : 0);
+        for (int k = 0; k < q; ++k) sum -= l[r][k] * l[q][k];
+        if (q == r) l[r][r] = std::sqrt(std::max(sum, 1e-300));
+        else l[r][q] = sum / l[q][q];
+      }
+    double total = 0;
+    for (size_t ch = 0; ch < channels_; ++ch) {
+      double y[4];  // b^T A^-1 b = |L^-1 b|^2
+      double fitted = 0;
+      for (int r = 0; r < 4; ++r) {
+        double sum = b_[4 * ch + r];
+        for (int k = 0; k < r; ++k) sum -= l[r][k] * y[k];
+        y[r] = sum / l[r][r];
+        fitted += y[r] * y[r];
+      }
+      total += std::max(0.0, s_[ch] - fitted);
+    }
+    return total;
+  }
+
+  // the point closest to the leaf's centroid: samples spread evenly, so the tets between them
+  // are well shaped (the values follow by the least-squares fit; a point of mean value sat
+  // anywhere in a leaf with a gradient, measured worse on ONERA and an oscillatory cube)
   uint32_t representative(const Leaf& leaf) const {
-    const size_t dims = channels_ ? channels_ : 3;
-    std::vector<double> mean(dims, 0.0);
-    auto coordinate = [&](uint32_t v, size_t c) { return channels_ ? double(values_[size_t{v} * channels_ + c]) : positions_[v][c]; };
+    double mean[3] = {0, 0, 0};
     for (uint32_t i = leaf.begin; i < leaf.end; ++i)
-      for (size_t c = 0; c < dims; ++c) mean[c] += coordinate(points_[i], c);
+      for (int c = 0; c < 3; ++c) mean[c] += positions_[points_[i]][c];
     for (double& m : mean) m /= double(leaf.end - leaf.begin);
     uint32_t best = points_[leaf.begin];
     double best_distance = std::numeric_limits<double>::infinity();
     for (uint32_t i = leaf.begin; i < leaf.end; ++i) {
       double d = 0;
-      for (size_t c = 0; c < dims; ++c) d += (coordinate(points_[i], c) - mean[c]) * (coordinate(points_[i], c) - mean[c]);
+      for (int c = 0; c < 3; ++c) d += sq(positions_[points_[i]][c] - mean[c]);
       if (d < best_distance) best_distance = d, best = points_[i];
     }
     return best;
@@ -228,6 +285,7 @@ class PointSampler {
   size_t channels_;
   double extent_;
   std::vector<uint32_t> points_, scratch_;
+  mutable std::vector<double> b_, s_;
 };
 
 struct Tetrahedralization {
@@ -563,6 +621,28 @@ storage::TetMesh assemble_output(const storage::TetMesh& mesh, const std::vector
 
 }  // namespace
 
+SimplifyMethod choose_simplify_method(const storage::TetMesh& mesh, const SimplifyOptions& options, std::string* why) {
+  auto choose = [&](SimplifyMethod method, const std::string& reason) {
+    if (why) *why = reason;
+    return method;
+  };
+  if (options.target_tets == 0 || options.max_error > 0) return choose(SimplifyMethod::kQem, "an error bound: the quadric simplifier's criterion");
+  if (options.target_tets >= mesh.tet_count()) return choose(SimplifyMethod::kQem, "nothing to remove: the quadric simplifier returns the mesh as it is");
+  if (mesh.tet_count() < kAutoSampleMinTets)
+    return choose(SimplifyMethod::kQem, "fewer than " + std::to_string(kAutoSampleMinTets) + " tets: smaller than any mesh the sampler was measured on");
+  {
+    std::vector<uint8_t> on_border(mesh.vertex_count(), 0), used(mesh.vertex_count(), 0);
+    for (uint32_t v : mesh.tets) used[v] = 1;
+    for (const auto& f : border_triangles(mesh))
+      for (uint32_t v : f) on_border[v] = 1;
+    const double share = double(std::count(on_border.begin(), on_border.end(), 1)) / double(std::max<size_t>(1, std::count(used.begin(), used.end(), 1)));
+    if (share > kAutoSampleMaxBorderShare)
+      return choose(SimplifyMethod::kQem, "most vertices on the border (" + std::to_string(int(100 * share)) + "%): the sampler's border phase decides");
+  }
+  if (!border_self_intersections(mesh, 1).pairs.empty()) return choose(SimplifyMethod::kQem, "the border crosses itself: TetGen cannot mesh it");
+  return choose(SimplifyMethod::kSample, "the sampler: measured faster at comparable error on such meshes");
+}
+
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked) {
   const auto started = std::chrono::steady_clock::now();
   const size_t nv = mesh.vertex_count();
@@ -588,7 +668,7 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
   // 1. the border, simplified without self-intersections (§4.2.1)
   const std::vector<std::array<uint32_t, 3>> border = border_triangles(mesh);
   report.border_before = border.size();
-  const detail::BorderField field{values.data(), channels, kBorderFieldWeight * diagonal};
+  const detail::BorderField field{values.data(), channels, kBorderFieldWeight * diagonal, sq(kFreeBorderCost * diagonal)};
   const detail::BorderSimplifyResult simplified = simplify_mesh_border(mesh, options, locked, positions, border, field, diagonal, report);
   lap(report.border_seconds);
 
@@ -617,8 +697,15 @@ SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& o
   // TetGen fills a cavity that the border encloses (no hole point marks it): the output's
   // border then lacks those facets. The mesh is left to the quadric simplifier instead.
   if (border_triangles(out).size() != tet_points.facets.size()) return fall_back_to_qem(mesh, options, locked, report);
-  mesh = std::move(out);
   lap(report.output_seconds);
+  if (options.fit_values) {
+    std::vector<uint8_t> fixed(out.vertex_count(), 0);
+    for (size_t o = 0; o < fixed.size(); ++o)
+      fixed[o] = report.source_vertex[o] != kSteiner && !locked.empty() && locked[report.source_vertex[o]];
+    detail::fit_values(mesh, out, report.source_vertex, fixed);
+    lap(report.fit_seconds);
+  }
+  mesh = std::move(out);
   report.tets_after = mesh.tet_count();
   report.vertices_after = mesh.vertex_count();
   report.runs = report.tetrahedralizations;

@@ -138,7 +138,7 @@ class BorderSimplifier {
     const double max_cost = max_distance * max_distance;
     for (uint32_t v = 0; v < positions_.size(); ++v)
       if (used_[v]) push_edges(v, true, kNoVertex);
-    while (!queue_.empty() && alive_count_ > target) {
+    while (!queue_.empty() && (alive_count_ > target || queue_.top().cost <= field_.free_cost)) {
       const Entry e = queue_.top();
       queue_.pop();
       if (e.distance > max_cost) continue;

@@ -1,7 +1,7 @@
 // `tetrascope simplify --method sample`, `preprocess --simplifier` and `error`'s border check as
 // a user runs them: bad methods and thresholds get a message naming the option; the sampled
-// mesh is written and its border reported free of self-intersections; a mesh whose border
-// crosses itself is reported as such.
+// mesh is written and its border reported free of self-intersections; the default method
+// chooses by the mesh and says why; a mesh whose border crosses itself is reported as such.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -77,6 +77,33 @@ TEST(SimplifyCli, SampledMeshIsWrittenAndItsBorderChecked) {
   const auto error = nlohmann::json::parse(e.out);
   EXPECT_FALSE(error["border_self_intersects"].get<bool>());
   EXPECT_GT(error["border_triangles"].get<uint64_t>(), 0u);
+}
+
+TEST(SimplifyCli, TheDefaultMethodChoosesByTheMesh) {
+  // auto, the default: the quadric simplifier below 30K tets, for an error bound and for its
+  // own options, the sampler on a larger mesh; each run says why
+  struct Case {
+    std::string file, args, method, because;
+  };
+  const std::string big = (dir() / "big.vtk").string();
+  storage::write_vtk(big, kuhn_box(26, 0.2, [](float x, float y, float z) { return std::sin(6 * x) * y + z; }), "box");
+  for (const Case& c : std::vector<Case>{{box_file("box.vtk"), "--ratio 0.2", "qem", "fewer than 30000 tets"},
+                                         {box_file("box.vtk"), "--max-error 0.1", "qem", "an error bound"},
+                                         {big, "--ratio 0.1 --independent", "qem", "an option of the quadric simplifier"},
+                                         {big, "--ratio 0.1", "sample", "the sampler"}}) {
+    const std::string out = (dir() / "auto.vtk").string();
+    const CliResult r = run("simplify " + c.file + " -o " + out + " " + c.args + " --json");
+    ASSERT_EQ(r.status, 0) << c.args << ": " << r.out;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["method"], c.method) << c.args;
+    EXPECT_NE(j["method_chosen_because"].get<std::string>().find(c.because), std::string::npos) << j["method_chosen_because"];
+    EXPECT_LT(j["tets_after"].get<uint64_t>(), j["tets_before"].get<uint64_t>()) << c.args;
+    const CliResult e = run("error " + c.file + " " + out + " --json");
+    ASSERT_EQ(e.status, 0) << e.out;
+    if (c.method == "sample") {
+      EXPECT_FALSE(nlohmann::json::parse(e.out)["border_self_intersects"].get<bool>());
+    }
+  }
 }
 
 TEST(SimplifyCli, ErrorReportsABorderThatCrossesItself) {

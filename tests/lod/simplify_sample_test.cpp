@@ -122,11 +122,18 @@ TEST(SimplifySample, LockedBorderFacesStayBitIdentical) {
     after.insert(key);
   }
   for (const auto& face : locked_faces) EXPECT_TRUE(after.count(face)) << "a locked border face changed or vanished";
-  // every kept vertex continues its source vertex bit for bit
+  // every kept vertex keeps its position bit for bit, a locked one its value too; a free one's
+  // fitted value reproduces the linear field
   for (size_t v = 0; v < mesh.vertex_count(); ++v) {
     const uint32_t src = report.source_vertex[v];
     if (src == 0xFFFFFFFFu) continue;
-    EXPECT_EQ(corner(mesh, static_cast<uint32_t>(v)), corner(half, src));
+    const Corner kept = corner(mesh, static_cast<uint32_t>(v)), source = corner(half, src);
+    EXPECT_EQ((std::array<float, 3>{kept[0], kept[1], kept[2]}), (std::array<float, 3>{source[0], source[1], source[2]}));
+    if (locked[src]) {
+      EXPECT_EQ(kept[3], source[3]) << "locked vertex " << src;
+    } else {
+      EXPECT_NEAR(kept[3], source[3], 1e-5) << "free vertex " << src;
+    }
   }
   EXPECT_EQ(check_mesh(mesh).nonpositive, 0u);
   EXPECT_EQ(check_mesh(mesh).faces_shared_by_more_than_two, 0u);
@@ -242,6 +249,7 @@ TEST(SimplifySample, SteinerPointsCarryInterpolatedValues) {
   lod::SimplifyOptions options;
   options.target_tets = 8;
   options.border_error = 0;
+  options.fit_values = false;  // the values as sampled and interpolated, not fitted
   const storage::TetMesh original = mesh;
   const auto report = lod::simplify_sampled(mesh, options, locked);
   ASSERT_GT(report.steiner_points, 0u) << "Schönhardt's prism needs an added point";
@@ -306,6 +314,76 @@ TEST(SimplifySample, ABorderThatCrossesItselfFallsBackToQuadrics) {
   EXPECT_TRUE(report.fell_back_to_qem);
   EXPECT_GT(both.tet_count(), 0u);
   EXPECT_EQ(check_mesh(both).nonpositive, 0u);
+}
+
+TEST(SimplifySample, FittedValuesMissTheInputLessThanSampledOnes) {
+  // an oscillating field at a tenth of the tets: the least-squares values are closer to the
+  // input than the samples' own, a linear field stays exact, and locked vertices keep theirs
+  const storage::TetMesh original = kuhn_box(12, 0.2, [](float x, float y, float z) { return std::sin(9 * x) * std::cos(7 * y) + z; });
+  lod::SimplifyOptions options;
+  options.target_tets = original.tet_count() / 10;
+  storage::TetMesh sampled = original, fitted = original;
+  options.fit_values = false;
+  lod::simplify_sampled(sampled, options);
+  options.fit_values = true;
+  lod::simplify_sampled(fitted, options);
+  ASSERT_EQ(sampled.tet_count(), fitted.tet_count()) << "the fit changes values, not tets";
+  const double before = lod::measure_error(original, sampled, 500).mean_all, after = lod::measure_error(original, fitted, 500).mean_all;
+  EXPECT_GT(before, 0.01);
+  EXPECT_LT(after, 0.9 * before);
+  EXPECT_EQ(check_mesh(fitted).nonpositive, 0u);
+  EXPECT_TRUE(lod::border_self_intersections(fitted).pairs.empty());
+
+  const storage::TetMesh ramp = kuhn_box(8, 0.2, [](float x, float y, float z) { return x - 2 * y + 0.5f * z; });
+  storage::TetMesh linear = ramp;
+  std::vector<uint8_t> locked(ramp.vertex_count(), 0);
+  for (size_t v = 0; v < ramp.vertex_count(); v += 7) locked[v] = 1;
+  options.target_tets = ramp.tet_count() / 5;
+  const lod::SimplifyReport report = lod::simplify_sampled(linear, options, locked);
+  ASSERT_FALSE(report.fell_back_to_qem);
+  for (size_t v = 0; v < linear.vertex_count(); ++v) {
+    const float value = linear.attributes[0].values[v];
+    EXPECT_NEAR(value, linear.x[v] - 2 * linear.y[v] + 0.5f * linear.z[v], 2e-4) << "vertex " << v;
+    const uint32_t source = report.source_vertex[v];
+    if (source != 0xFFFFFFFFu && locked[source]) {
+      EXPECT_EQ(value, ramp.attributes[0].values[source]) << "locked vertex " << source;
+    }
+  }
+}
+
+TEST(SimplifySample, SamplesGatherWhereTheFieldBends) {
+  // a field linear on x < 0.5 and oscillating on x > 0.5: most samples fall where it
+  // oscillates (a linear field's own leaves are split for their size only)
+  const storage::TetMesh original = kuhn_box(14, 0.2, [](float x, float y, float z) {
+    return x < 0.5f ? x + y + z : x + y + z + 0.5f * std::sin(30 * (x - 0.5f)) * std::sin(20 * y) * std::sin(20 * z);
+  });
+  storage::TetMesh mesh = original;
+  lod::SimplifyOptions options;
+  options.target_tets = original.tet_count() / 10;
+  const lod::SimplifyReport report = lod::simplify_sampled(mesh, options);
+  size_t left = 0, right = 0;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    const uint32_t source = report.source_vertex[v];
+    if (source == 0xFFFFFFFFu || mesh.x[v] <= 0.01f || mesh.x[v] >= 0.99f || mesh.y[v] <= 0.01f || mesh.y[v] >= 0.99f || mesh.z[v] <= 0.01f ||
+        mesh.z[v] >= 0.99f)
+      continue;  // the border's vertices and Steiner points: not samples
+    (mesh.x[v] < 0.5f ? left : right) += 1;
+  }
+  EXPECT_GT(right, 2 * left) << left << " samples on the linear side, " << right << " where the field oscillates";
+}
+
+TEST(SimplifySample, AFlatBorderOfEvenValuesKeepsOnlyItsCorners) {
+  // a box whose field vanishes on its faces: collapses there cost nothing, so they go on past
+  // the border's share of the target and the freed tets go to interior samples
+  const storage::TetMesh original = kuhn_box(10, 0.2, [](float x, float y, float z) { return std::sin(3.14159265f * x) * std::sin(3.14159265f * y) * std::sin(3.14159265f * z); });
+  storage::TetMesh mesh = original;
+  lod::SimplifyOptions options;
+  options.target_tets = original.tet_count() / 10;
+  const lod::SimplifyReport report = lod::simplify_sampled(mesh, options);
+  EXPECT_LE(report.border_after, 24u) << "each face of the box needs two triangles";
+  EXPECT_EQ(open_border_edges(mesh), 0u);
+  EXPECT_NEAR(check_mesh(mesh).volume, 1.0, 1e-3);
+  EXPECT_TRUE(lod::border_self_intersections(mesh).pairs.empty());
 }
 
 TEST(SimplifySample, BadThresholdsAreRefused) {

@@ -62,6 +62,10 @@ struct SimplifyOptions {
   double field_error = 0;
   double space_error = 0;
   double border_error = 0.002;
+  // kSample: the free vertices' attribute values fitted by least squares to the input's vertex
+  // values (the output's linear interpolant against each input vertex) instead of kept as
+  // sampled; locked vertices and tensors keep theirs.
+  bool fit_values = true;
 };
 
 constexpr uint32_t kMaxSimplifyAttributeChannels = 16;
@@ -96,7 +100,7 @@ struct SimplifyReport {
   // failed (tetgen_failure says how), so the quadric simplifier did the work (simplify_sampled)
   bool fell_back_to_qem = false;
   std::string tetgen_failure;
-  double border_seconds = 0, sample_seconds = 0, tetrahedralize_seconds = 0, output_seconds = 0;  // kSample: the phases  // TetGen runs (a second one when the first missed the target by far)
+  double border_seconds = 0, sample_seconds = 0, tetrahedralize_seconds = 0, output_seconds = 0, fit_seconds = 0;  // kSample: the phases  // TetGen runs (a second one when the first missed the target by far)
   double seconds = 0;
   // With trace_costs: per collapse, in order, the tets alive after it and its quadric cost.
   // Re-running with target_tets = one of these counts stops at the same mesh (deterministic).
@@ -122,11 +126,24 @@ SimplifyReport simplify(storage::TetMesh& mesh, const SimplifyOptions& options, 
 // interior vertices are sampled by an octree (one representative a leaf), and TetGen builds a
 // constrained Delaunay tetrahedralization of the samples inside the simplified border,
 // adding no point on it; Steiner points get values by barycentric location in the input.
-// Every kept vertex keeps its position and values bit-identical. Where the border encloses a
+// Every kept vertex keeps its position; with options.fit_values (the default) the free
+// vertices' values are then fitted by least squares to the input's, locked ones keep theirs
+// bit-identical (without it every kept vertex does). Where the border encloses a
 // cavity (TetGen fills it: it gets no hole points) the mesh goes to the quadric simplifier
 // instead and the report says fell_back_to_qem; so does one where TetGen fails or crashes
 // (it runs in a child process; tetgen_failure says what happened). The input must be
 // conforming with an intersection-free border; throws std::invalid_argument for bad options.
 SimplifyReport simplify_sampled(storage::TetMesh& mesh, const SimplifyOptions& options, const std::vector<uint8_t>& locked = {});
+
+// The simplifier `tetrascope simplify --method auto` (its default) takes for this mesh, by the
+// rule measured on the shared data and the blades (bench/README.md, "The sampling
+// simplifier"): the sampler where the run stops at a tet count below the mesh's, the mesh has
+// at least kAutoSampleMinTets tets, at most kAutoSampleMaxBorderShare of its vertices lie on
+// its border (where more do, the border phase costs more than QEM saves: the FEM bracket) and
+// its border does not cross itself (TetGen could not mesh it: the sampler would fall back
+// anyway); the quadric simplifier otherwise. `why` gets the reason in words.
+constexpr uint64_t kAutoSampleMinTets = 30000;
+constexpr double kAutoSampleMaxBorderShare = 0.6;
+SimplifyMethod choose_simplify_method(const storage::TetMesh& mesh, const SimplifyOptions& options, std::string* why = nullptr);
 
 }  // namespace tetrascope::lod
