@@ -22,7 +22,7 @@ for mesh in "$@"; do
   for model in mt binary; do
     secs=() rss=()
     for ((r = 0; r < repeats; ++r)); do
-      store="$out/$name.$model"
+      store="$out/$name-$model.store"
       log=$(mktemp)
       /usr/bin/time -f "%M %e" -o "$log" "$bin" preprocess "$mesh" -o "$store" --model "$model" --vertices off --memory-mb "$memory" --force --progress none --json > "$log.json"
       read -r kb s < "$log"
