@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <set>
 
@@ -169,6 +170,34 @@ TEST(ZeroSegment, OverSharedFaceIsRefused) {
   EXPECT_FALSE(zero.docked(copy_patch));
   // nothing changed: the front's adjacency is still the rebuild's
   check_front(lod::assemble_cut(*store, cache, cut), zero, *dag, check_mesh(storage::load_mesh(sample_mesh())).volume, "after the refused dock");
+}
+
+// Under --memory-mb the levels' tets go to a spill file (read a segment at a time, the
+// adjacency graph too): the store is the same bytes as the build in memory.
+TEST(BinaryHierarchy, SpilledBuildWritesTheSameStore) {
+  std::vector<std::string> bytes;
+  for (uint64_t memory_mb : {uint64_t{0}, uint64_t{1}}) {
+    const std::filesystem::path store = run_scratch_dir("binary-spill-" + std::to_string(memory_mb)) / "store";
+    lod::PreprocessOptions options;
+    options.model = lod::MultiresModel::kBinary;
+    options.segment_tets = 2000;
+    options.base_tets = 3000;
+    options.memory_mb = memory_mb;
+    options.vertex_hierarchy_max_tets = 0;
+    options.replace = true;
+    const lod::PreprocessReport report = lod::preprocess(sample_mesh(), store, options);
+    if (memory_mb) {
+      EXPECT_GT(report.spilled_bytes, 0u) << "a 1 MB budget spills the levels";
+    }
+    std::string both;
+    for (const char* file : {"segments.bin", "dag.bin"}) {
+      std::ifstream in(store / file, std::ios::binary);
+      both += std::string(std::istreambuf_iterator<char>(in), {});
+    }
+    bytes.push_back(both);
+  }
+  ASSERT_FALSE(bytes[0].empty());
+  EXPECT_TRUE(bytes[0] == bytes[1]) << "the spilled build wrote other bytes";
 }
 
 TEST(BinaryHierarchy, DamagedHierarchyFileIsRefused) {
