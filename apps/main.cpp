@@ -27,7 +27,7 @@ constexpr const char* kUsage =
     "                                [--memory-mb M]  levels whose tets exceed M/4 go to a spill file beside the store (2048; 0: none)\n"
     "                                [--model mt|binary]  the multi-triangulation of §6.3 (mt), or the binary segment hierarchy\n"
     "                                of §6.2: segments merged a pair at a time, pairs whose boundary ratio is at least\n"
-    "                                --dependency-ratio (1) merged with the boundary between them simplified\n"
+    "                                --dependency-ratio (0) merged with the boundary between them simplified\n"
     "                                multiresolution store: segments, levels, DAG, error histograms (§6.3);\n"
     "                                the store passes verify's checks or is removed and the command fails\n"
     "                                under `mpirun -np N` (a build with Open MPI): the levels' segments shared among N ranks,\n"

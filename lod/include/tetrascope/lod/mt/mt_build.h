@@ -29,8 +29,10 @@ struct PreprocessOptions {
   // The binary hierarchy only: two new segments whose boundary ratio R = |B| / min(|S1|, |S2|)
   // (faces between them over the smaller one's tets, §6.2.1) is at least this are matched, and
   // the boundary between them is simplified with them (they are refined together from then
-  // on). Negative: boundaries between new segments stay locked.
-  double dependency_ratio = 1.0;
+  // on). 0 (the default): every matched pair, as §6.2.1 places them without a threshold (on
+  // the oxygen post higher than 1, which matched no pair, in 6 of 10 fidelity cells, with 16%
+  // fewer stored tets). Negative: boundaries between new segments stay locked.
+  double dependency_ratio = 0.0;
   // Target tets a segment, at every level; 0 (the default): chosen from the input's grading,
   // auto_segment_tets().
   uint32_t segment_tets = 0;
