@@ -104,6 +104,8 @@ int print_store_info(const std::string& path, bool json) {
   if (dag) {
     const auto& mr = m.json["multiresolution"];
     std::printf("store       %s (format %u, multiresolution)\n", path.c_str(), m.version);
+    const bool binary = mr.value("model", std::string("mt")) == "binary";
+    std::printf("model       %s\n", binary ? "binary segment hierarchy (segments merged a pair at a time, §6.2)" : "multi-triangulation (§6.3)");
     std::printf("source      %s (sha256 %.16s...)\n", m.source_file.c_str(), m.source_sha256.c_str());
     std::printf("input       %llu vertices, %llu tetrahedra\n", mr["input"]["vertices"].get<unsigned long long>(), mr["input"]["tetrahedra"].get<unsigned long long>());
     std::printf("levels      %u (0 = the input), %u segments, %u patches, histograms of %u bins\n", dag->level_count(), dag->node_count(), dag->patch_count(), dag->bins());
@@ -241,9 +243,9 @@ int run_segment(const Arguments& raw) {
 }
 
 int run_preprocess(const Arguments& raw) {
-  Args args(raw, {"--force", "--json", "--all-steps"}, {"--output", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants", "--vertices"});
+  Args args(raw, {"--force", "--json", "--all-steps"}, {"--output", "--model", "--dependency-ratio", "--base-tets", "--segment-tets", "--min-segments", "--level-ratio", "--level-targets", "--bins", "--threads", "--seed", "--progress", "--max-inflate-ratio", "--simplifier", "--compress-segments", "--memory-mb", "--variants", "--vertices"});
   if (args.positionals().empty() || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope preprocess MESH|SERIES.pvd|STEP_FILES...|'PATTERN' -o STORE [--all-steps] [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--vertices independent|queue|off] [--force] [--progress bar|json|none] [--json]\n");
+    std::fprintf(stderr, "usage: tetrascope preprocess MESH|SERIES.pvd|STEP_FILES...|'PATTERN' -o STORE [--all-steps] [--model mt|binary] [--dependency-ratio R|off] [--base-tets B] [--segment-tets auto|T] [--min-segments S] [--variants K] [--level-ratio auto|R] [--level-targets error|ratio] [--bins N] [--threads N] [--seed S] [--max-inflate-ratio R] [--simplifier qem|sample] [--compress-segments none|index16|cutborder] [--memory-mb M] [--vertices independent|queue|off] [--force] [--progress bar|json|none] [--json]\n");
     return 2;
   }
   lod::PreprocessOptions options;
@@ -277,6 +279,16 @@ int run_preprocess(const Arguments& raw) {
     options.common_error = t == "error";
   }
   options.histogram_bins = args.number("--bins", options.histogram_bins);
+  if (args.has("--model")) {
+    const std::string model = args.get("--model");
+    if (model != "mt" && model != "binary") throw std::invalid_argument("--model must be 'mt' (multi-triangulation) or 'binary' (binary segment hierarchy)");
+    options.model = model == "binary" ? lod::MultiresModel::kBinary : lod::MultiresModel::kMultiTriangulation;
+  }
+  if (args.has("--dependency-ratio")) {
+    if (options.model != lod::MultiresModel::kBinary) throw std::invalid_argument("--dependency-ratio applies to --model binary");
+    options.dependency_ratio = args.get("--dependency-ratio") == "off" ? -1.0 : args.real("--dependency-ratio");
+    if (!(options.dependency_ratio >= 0) && args.get("--dependency-ratio") != "off") throw std::invalid_argument("--dependency-ratio must be 'off' or a ratio of at least 0");
+  }
 
   options.seed = static_cast<int>(args.number("--seed", 1));
   options.replace = args.has("--force");

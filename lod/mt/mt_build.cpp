@@ -17,6 +17,7 @@
 #include "tetrascope/lod/mt/mt_build.h"
 
 #include <chrono>
+#include <cmath>
 #include <future>
 #include <optional>
 #include <stdexcept>
@@ -29,12 +30,14 @@
 
 namespace tetrascope::lod {
 
+const char* model_name(MultiresModel model) { return model == MultiresModel::kBinary ? "binary" : "mt"; }
+
 nlohmann::json PreprocessReport::to_json() const {
   nlohmann::json levels_json = nlohmann::json::array();
   for (const auto& l : levels) levels_json.push_back({{"level", l.level}, {"segments", l.segments}, {"patches", l.patches}, {"tets", l.tets}, {"vertices", l.vertices}});
   return {{"input_vertices", input_vertices}, {"input_tets", input_tets}, {"levels", levels_json}, {"segments", segments}, {"patches", patches},
           {"store_bytes", store_bytes}, {"dag_bytes", dag_bytes}, {"variants_bytes", variants_bytes}, {"variant_tets", variant_tets}, {"spilled_bytes", spilled_bytes}, {"tetgen_fallbacks", tetgen_fallbacks},
-          {"segment_tets", segment_tets}, {"level_ratio", level_ratio}, {"grading", grading}, {"seconds", seconds},
+          {"segment_tets", segment_tets}, {"level_ratio", level_ratio}, {"model", model_name(model)}, {"dependencies", dependencies}, {"grading", grading}, {"seconds", seconds},
           {"stage_seconds", {{"read", read_seconds}, {"partition", segment_seconds}, {"simplify", simplify_seconds}, {"vertices", vertex_seconds}, {"write", write_seconds}}},
           {"vertices", vertex_hierarchy_skipped.empty() ? nlohmann::json{{"bytes", vertices_bytes}, {"collapses", vertex_collapses}, {"base_tets", vertex_base_tets}, {"depth", vertex_depth}}
                                                         : nlohmann::json{{"skipped", vertex_hierarchy_skipped}}}};
@@ -51,6 +54,9 @@ void check_options(const PreprocessOptions& options, const std::filesystem::path
   if (options.threads < 1 || options.threads > 64) throw std::invalid_argument("--threads must be 1 to 64");
   if (options.variants > kMaxVariants) throw std::invalid_argument("--variants must be 0 to " + std::to_string(kMaxVariants));
   if (options.variants > 0 && options.simplifier != SimplifyMethod::kQem) throw std::invalid_argument("--variants needs --simplifier qem");
+  if (!std::isfinite(options.dependency_ratio)) throw std::invalid_argument("--dependency-ratio must be a number or 'off'");
+  if (options.model == MultiresModel::kBinary && options.ranks && options.ranks->size() > 1)
+    throw std::invalid_argument("--model binary runs on one process (its levels are not shared among MPI ranks)");
   if (options.max_levels < 1 || options.max_levels > dag::kMaxLevels) throw std::invalid_argument("--max-levels must be 1 to " + std::to_string(dag::kMaxLevels));
   if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
 }
@@ -111,7 +117,9 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   report.input_tets = mesh.input_tets;
   report.grading = mesh.grading;
   if (options.segment_tets == 0) options.segment_tets = auto_segment_tets(mesh.grading);
-  if (options.level_ratio == 0) options.level_ratio = auto_level_ratio(mesh.grading);
+  // the binary hierarchy: a merged pair simplified to the size of one segment
+  if (options.level_ratio == 0) options.level_ratio = options.model == MultiresModel::kBinary ? 0.5 : auto_level_ratio(mesh.grading);
+  report.model = options.model;
   report.segment_tets = options.segment_tets;
   report.level_ratio = options.level_ratio;
   report.read_seconds = seconds_since(start);
@@ -121,6 +129,7 @@ PreprocessReport preprocess(const std::filesystem::path& mesh_path, const std::f
   const std::vector<mt::PatchRange> arcs = mt::dag_arcs(hierarchy, static_cast<uint32_t>(mesh.channels.size()) * options.histogram_bins);
   report.segment_seconds = hierarchy.partition_seconds;
   report.tetgen_fallbacks = hierarchy.tetgen_fallbacks;
+  report.dependencies = hierarchy.dependencies;
   report.simplify_seconds = seconds_since(levels_start) - hierarchy.partition_seconds;
   report.spilled_bytes += hierarchy.nodes.spilled_bytes();
 

@@ -72,6 +72,7 @@ struct LevelPartition {
   std::vector<uint32_t> compact;     // partition segment -> region
   uint32_t regions = 0;
   std::vector<uint64_t> tets;        // per region
+  std::vector<uint32_t> floor_region;  // binary hierarchy: per floor of the level, its region (whole floors, no vertex partition)
   uint32_t region(const uint32_t* tet) const {
     uint32_t r = kNone;
     for (int k = 0; k < 4; ++k) r = std::min(r, segment_of[tet[k]]);
@@ -154,7 +155,7 @@ class LevelBuilder {
       // A level of one segment goes on: its ceiling is the whole mesh, with nothing locked
       // but what the simplifier keeps on the mesh boundary, until the base is met or it stalls.
       if (tets <= options_.base_tets || level + 1 >= options_.max_levels) break;
-      if (level > 0 && double(tets) > 0.9 * double(out_.level_tets(level - 1))) break;  // locked borders stop the simplification
+      if (level > 0 && double(tets) > 0.9 * double(out_.level_tets(level - 1)) && !binary_merges(level)) break;  // locked borders stop the simplification
       build_level(level, tets);
       out_.level_first.push_back(static_cast<uint32_t>(out_.nodes.size()));
     }
@@ -163,6 +164,31 @@ class LevelBuilder {
   }
 
  private:
+  // The binary hierarchy goes on while a level has segments left to merge, even where its
+  // locked borders kept a level from simplifying much (its copies at level 1 most of all).
+  bool binary_merges(uint32_t level) const {
+    if (options_.model != MultiresModel::kBinary) return false;
+    const uint32_t segments = out_.level_first[level + 1] - out_.level_first[level];
+    return segments > 1 && (level < 2 || segments < out_.level_first[level] - out_.level_first[level - 1]);
+  }
+
+  // Level `level` + 1 of the binary hierarchy (§6.2.1): whole floors merged a pair at a time
+  // (level 1: each floor copied alone), pairs matched by their boundary ratio merged further.
+  LevelPartition binary_level(uint32_t level) {
+    const uint32_t first = out_.level_first[level], last = out_.level_first[level + 1];
+    const BinaryGrouping grouping = binary_grouping(out_.nodes, first, last, level == 0, options_.dependency_ratio);
+    out_.dependencies += grouping.dependencies;
+    LevelPartition out;
+    out.regions = grouping.ceilings;
+    out.tets.assign(grouping.ceilings, 0);
+    out.floor_region.resize(last - first);
+    for (uint32_t n = 0; n < last - first; ++n) {
+      out.floor_region[n] = grouping.ceiling_of_pair[grouping.pair_of_floor[n]];
+      out.tets[out.floor_region[n]] += out_.nodes.tet_count(first + n);
+    }
+    return out;
+  }
+
   uint32_t channel_values() const { return static_cast<uint32_t>(mesh_.channels.size()) * options_.histogram_bins; }
 
   // Level 0: the input mesh, partitioned as `tetrascope segment` partitions it, its tets
@@ -231,8 +257,9 @@ class LevelBuilder {
     const double simplified = double(tets) * options_.level_ratio;
     const uint64_t parts = std::max<uint64_t>({1, static_cast<uint64_t>(std::llround(simplified / options_.segment_tets)),
                                                std::min<uint64_t>(options_.min_segments, static_cast<uint64_t>(simplified / std::max(1u, options_.min_segment_tets)))});
-    const LevelPartition partition =
-        partition_level(out_.nodes, first, last, mesh_.table, static_cast<uint32_t>(parts), level % 2 == 1, options_.seed + static_cast<int>(level) + 1);
+    const LevelPartition partition = options_.model == MultiresModel::kBinary
+        ? binary_level(level)
+        : partition_level(out_.nodes, first, last, mesh_.table, static_cast<uint32_t>(parts), level % 2 == 1, options_.seed + static_cast<int>(level) + 1);
     const uint32_t regions = partition.regions;
     std::vector<std::vector<uint32_t>> ceiling_vertices(regions);
     const std::vector<std::vector<CeilingPatch>> ceiling_patches = cut_into_patches(first, last, partition, ceiling_vertices);
@@ -285,7 +312,7 @@ class LevelBuilder {
       const std::span<const uint32_t> ids = out_.nodes.read(n, buffer);
       const uint32_t count = static_cast<uint32_t>(ids.size() / 4);
       region.resize(count);
-      for (uint32_t t = 0; t < count; ++t) region[t] = partition.region(&ids[4 * size_t{t}]);
+      for (uint32_t t = 0; t < count; ++t) region[t] = partition.floor_region.empty() ? partition.region(&ids[4 * size_t{t}]) : partition.floor_region[n - first];
       order.resize(count);
       std::iota(order.begin(), order.end(), 0u);
       std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return region[a] < region[b]; });

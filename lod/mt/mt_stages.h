@@ -186,6 +186,7 @@ struct Hierarchy {
   std::vector<uint32_t> level0_owner;     // the level-0 segment that owns each input vertex
   double partition_seconds = 0;           // of level 0
   uint32_t tetgen_fallbacks = 0;          // ceilings this rank simplified by collapses after TetGen failed
+  uint32_t dependencies = 0;              // binary hierarchy: pairs of new segments merged over a simplified boundary
   std::unique_ptr<VariantSpill> variants;  // --variants: the segments' variants, null when none
   uint32_t level_count() const { return static_cast<uint32_t>(level_first.size() - 1); }
   uint64_t level_tets(uint32_t level) const {
@@ -217,6 +218,34 @@ struct CeilingResult {
 // Level 0 and every coarser level, until the base budget, one segment or max_levels. Grows
 // mesh.table with the vertices simplification moves; consumes mesh.tets. Options are checked.
 Hierarchy build_levels(IngestedMesh& mesh, const PreprocessOptions& options, const StageProgress& stage);
+
+// ---- the binary segment hierarchy's pairs (binary_pairs.cpp, §6.2.1) ----
+
+// Two segments of a level that share `faces` tet faces (a < b, level-local indices).
+struct NodeEdge {
+  uint32_t a, b;
+  uint64_t faces;
+};
+
+// The face-adjacency graph of nodes [first, last): the faces each pair shares.
+std::vector<NodeEdge> node_adjacency(const NodeTets& nodes, uint32_t first, uint32_t last);
+
+// Greedy matching of `count` nodes over `edges` (heaviest `weight` first, ties to the smaller
+// `size` sum, then the lower edge) among edges of weight at least `min_weight`. Returns each
+// node's group (a matched pair, or a node alone); with `attach_single` a node left single
+// joins the group of the neighbour it shares its heaviest edge with. *groups: their count.
+std::vector<uint32_t> match_pairs(uint32_t count, std::span<const NodeEdge> edges, std::span<const double> weight, std::span<const uint64_t> size,
+                                  double min_weight, bool attach_single, uint32_t* groups);
+
+// How the floors of one binary level are merged: each floor into a pair (its new segment),
+// and pairs whose boundary ratio R is at least `dependency_ratio` (none when negative) into one
+// ceiling, the boundary between them simplified (a dependency). `copies`: the lowest level,
+// every floor its own ceiling.
+struct BinaryGrouping {
+  std::vector<uint32_t> pair_of_floor, ceiling_of_pair;
+  uint32_t pairs = 0, ceilings = 0, dependencies = 0;
+};
+BinaryGrouping binary_grouping(const NodeTets& nodes, uint32_t first, uint32_t last, bool copies, double dependency_ratio);
 
 // ---- sharing a level among the ranks of an MPI launch (mt_share.cpp) ----
 

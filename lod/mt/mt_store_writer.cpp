@@ -278,9 +278,11 @@ nlohmann::json manifest_json(const StoreInput& in, const StreamOrder& order, con
     level_list.push_back({{"level", lr.level}, {"first_segment", h.level_first[lr.level]}, {"segments", lr.segments}, {"tets", lr.tets}, {"vertices", lr.vertices},
                           {"patches", lr.patches}});
   const PreprocessOptions& options = in.options;
-  manifest["multiresolution"] = {{"dag", "dag.bin"}, {"input", {{"vertices", mesh.input_vertices}, {"tetrahedra", mesh.input_tets}}}, {"levels", level_list},
+  manifest["multiresolution"] = {{"dag", "dag.bin"}, {"model", model_name(options.model)}, {"input", {{"vertices", mesh.input_vertices}, {"tetrahedra", mesh.input_tets}}}, {"levels", level_list},
                                  {"patches", in.arcs.size()}, {"histogram_bins", options.histogram_bins},
                                  {"build", {{"segment_tets", options.segment_tets}, {"grading", mesh.grading}, {"min_segments", options.min_segments}, {"base_tets", options.base_tets}, {"level_ratio", options.level_ratio}, {"level_targets", options.common_error ? "error" : "ratio"}, {"variants", options.variants}, {"seed", options.seed}}}};
+  if (options.model == MultiresModel::kBinary)
+    manifest["multiresolution"]["build"]["binary"] = {{"dependency_ratio", options.dependency_ratio}, {"dependencies", h.dependencies}};
   if (h.variants && !h.variants->empty()) manifest["multiresolution"]["variants"] = {{"file", "variants.bin"}, {"tets", h.variants->tets()}};
   if (in.vertices)
     manifest["multiresolution"]["vertices"] = {{"file", kVertexHierarchyFile}, {"collapses", in.vertices->collapse_count()}, {"base_tets", in.vertices->base_tets()}};

@@ -176,6 +176,31 @@ TEST(PreprocessCli, UnknownLevelTargetsIsRefusedNamingTheChoices) {
   }
 }
 
+// --model binary builds the binary segment hierarchy: a store that verifies, whose manifest and
+// `info` name the model, and that `cut` adapts; an unknown model, and --dependency-ratio
+// without the binary model, are refused naming the choices and leave no store.
+TEST(PreprocessCli, ModelBinaryBuildsAStoreThatVerifiesAndUnknownModelIsRefused) {
+  auto dir = scratch_dir("pre_model");
+  write_file(dir / "grid.off", grid_off(12));  // 8,640 tets
+  const std::string mesh = (dir / "grid.off").string();
+  Result bad = run("preprocess " + mesh + " -o " + (dir / "bad").string() + " --progress none --model octree");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("--model must be 'mt'"), std::string::npos) << bad.out;
+  Result stray = run("preprocess " + mesh + " -o " + (dir / "bad").string() + " --progress none --dependency-ratio 2");
+  EXPECT_NE(stray.status, 0);
+  EXPECT_NE(stray.out.find("--dependency-ratio applies to --model binary"), std::string::npos) << stray.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+  Result ok = run("preprocess " + mesh + " -o " + (dir / "binary").string() + " --progress none --model binary --segment-tets 1000 --base-tets 500 --json");
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  EXPECT_EQ(manifest(dir / "binary")["multiresolution"]["model"], "binary");
+  EXPECT_EQ(run("verify " + (dir / "binary").string()).status, 0);
+  Result info = run("info " + (dir / "binary").string());
+  EXPECT_NE(info.out.find("binary segment hierarchy"), std::string::npos) << info.out;
+  Result cut = run("cut " + (dir / "binary").string() + " --budget 4000 -o " + (dir / "cut.vtk").string() + " --json");
+  EXPECT_EQ(cut.status, 0) << cut.out;
+  EXPECT_TRUE(std::filesystem::exists(dir / "cut.vtk"));
+}
+
 // --variants K: 0 to 8 segment variants; more is refused naming the range and
 // leaves no store. With some, the store holds variants.bin, which info lists and verify checks,
 // and `cut` exports a cut that uses the budget its refinements could not.

@@ -28,6 +28,24 @@ const Built& built(const std::string& name, uint32_t variants) {
   return cache[key] = b;
 }
 
+const Built& built_binary(const std::string& name, double dependency_ratio) {
+  static std::map<std::string, Built> cache;
+  const std::string key = name + "-binary" + std::to_string(dependency_ratio);
+  auto it = cache.find(key);
+  if (it != cache.end()) return it->second;
+  const std::filesystem::path mesh = name == "sample" ? sample_mesh() : shared_data() / name;
+  Built b;
+  b.store = run_scratch_dir("binary-" + std::filesystem::path(name).stem().string() + (dependency_ratio < 0 ? "-nodeps" : "-r" + std::to_string(int(dependency_ratio * 100)))) / "store";
+  lod::PreprocessOptions options;
+  options.model = lod::MultiresModel::kBinary;
+  options.dependency_ratio = dependency_ratio;
+  options.segment_tets = 2000;
+  options.base_tets = 3000;
+  options.replace = true;
+  b.report = lod::preprocess(mesh, b.store, options);
+  return cache[key] = b;
+}
+
 std::multiset<Tet> tets_by_global_id(const lod::CutMesh& m) {
   std::multiset<Tet> out;
   for (size_t t = 0; t < m.mesh.tet_count(); ++t) {

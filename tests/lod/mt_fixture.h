@@ -21,6 +21,10 @@ struct Built {
 // The store of `name` ("sample" or a file of ../shared/data) with 2000-tet segments and a
 // 3000-tet base (and `variants` variants a segment, variants.h), built on first use.
 const Built& built(const std::string& name, uint32_t variants = 0);
+// The same mesh as a binary segment hierarchy (preprocess --model binary, §6.2), 2000-tet
+// segments, a 3000-tet base, boundaries simplified between new segments whose ratio R is at
+// least `dependency_ratio` (negative: never).
+const Built& built_binary(const std::string& name, double dependency_ratio = 1.0);
 
 using Tet = std::array<uint32_t, 4>;
 

@@ -127,6 +127,28 @@ TEST_F(DamagedDatasetTest, ATruncatedVariantsFileNeverCrashesTheServer) {
   expect_still_serving("good");
 }
 
+// A binary segment hierarchy (preprocess --model binary) serves as the multi-triangulation
+// does: dataset.open names the model and frames arrive; the same store with a flipped byte in
+// its hierarchy file (dag.bin) is refused with dataset_damaged naming the file, and the server
+// goes on serving.
+TEST_F(DamagedDatasetTest, ADamagedBinaryHierarchyFileIsRefusedAndASoundOneServes) {
+  ASSERT_EQ(tetrascope("preprocess " + testing::sample_mesh().string() + " -o " + (data_dir() / "binary").string() +
+                       " --model binary --segment-tets 2000 --base-tets 3000 --vertices off --progress none"),
+            0);
+  fs::copy(data_dir() / "binary", data_dir() / "flipped", fs::copy_options::recursive);
+  std::vector<char> bytes = read_bytes(data_dir() / "flipped" / "dag.bin");
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x10);
+  write_bytes(data_dir() / "flipped" / "dag.bin", bytes);
+  EXPECT_NE(tetrascope("verify " + (data_dir() / "flipped").string() + " --progress none"), 0) << "verify passes a damaged dag.bin";
+  start();
+  auto c = session();
+  c->send("dataset.open", {{"name", "flipped"}});
+  const auto refused = next_text(*c, "error");
+  EXPECT_EQ(refused["code"], "dataset_damaged") << refused.dump();
+  EXPECT_NE(refused["message"].get<std::string>().find("dag.bin"), std::string::npos) << refused.dump();
+  expect_still_serving("binary");
+}
+
 // A store whose vertices.bin (the vertex hierarchy the cut refines by) was cut short, and one
 // with a flipped byte in it: dataset.open answers dataset_damaged naming the file, and the
 // server goes on serving the sample, whose frames come from its own vertex front.

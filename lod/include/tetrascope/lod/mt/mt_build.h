@@ -17,7 +17,22 @@
 
 namespace tetrascope::lod {
 
+// The multiresolution model a store holds: the multi-triangulation of §6.3 (segments of a level
+// cut into patches by the next level's partition), or the binary segment hierarchy of §6.2
+// (every segment copied and simplified with its border locked, then merged a pair at a time).
+// Both are written as dag.bin, so the cut, the renderer and the server take either.
+enum class MultiresModel { kMultiTriangulation, kBinary };
+const char* model_name(MultiresModel model);
+
 struct PreprocessOptions {
+  MultiresModel model = MultiresModel::kMultiTriangulation;
+  // The binary hierarchy only: two new segments whose boundary ratio R = |B| / min(|S1|, |S2|)
+  // (faces between them over the smaller one's tets, §6.2.1) is at least this are matched, and
+  // the boundary between them is simplified with them (they are refined together from then
+  // on). 0 (the default): every matched pair, as §6.2.1 places them without a threshold (on
+  // the oxygen post higher than 1, which matched no pair, in 6 of 10 fidelity cells, with 16%
+  // fewer stored tets). Negative: boundaries between new segments stay locked.
+  double dependency_ratio = 0.0;
   // Target tets a segment, at every level; 0 (the default): chosen from the input's grading,
   // auto_segment_tets().
   uint32_t segment_tets = 0;
@@ -113,6 +128,8 @@ struct PreprocessReport {
   uint32_t segment_tets = 0;  // the segment size built with (auto_segment_tets unless given)
   double grading = 1;         // the input's, as auto_segment_tets and auto_level_ratio read it
   double level_ratio = 0;     // the level ratio built with (auto_level_ratio unless given)
+  MultiresModel model = MultiresModel::kMultiTriangulation;
+  uint32_t dependencies = 0;  // binary hierarchy: pairs of new segments merged over a simplified boundary
   double seconds = 0, read_seconds = 0, segment_seconds = 0, simplify_seconds = 0, write_seconds = 0;
   nlohmann::json to_json() const;
 };
