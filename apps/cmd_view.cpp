@@ -464,6 +464,43 @@ int run_cut(const Arguments& all) {
   return 0;
 }
 
+namespace {
+
+// What the cut, the stream lines, the points and the tensor field of a render came to, in its
+// JSON report.
+void add_pipeline_report(nlohmann::json& j, r::ViewPipeline& p, const r::RenderSettings& settings, const r::FrameTimings& last, bool segment_cut) {
+  if (auto error = p.cut_estimated_error()) j["cut_estimated_error"] = *error;
+  if (const auto budget = p.cut_budget()) {
+    j["cut"] = {{"budget", budget->budget}, {"tets", budget->tets}, {"budget_used", budget->budget ? double(budget->tets) / double(budget->budget) : 0.0},
+                {"budget_limited", budget->budget_limited}, {"over_budget", budget->over_budget}, {"complete", budget->complete},
+                {"by", p.front() && !segment_cut ? "vertices" : "segments"}};
+    if (p.front() && !segment_cut) {
+      j["cut"]["forced_tets"] = budget->forced_tets;
+      j["cut"]["unseen_tets"] = budget->unseen_tets;
+      j["cut"]["refused_splits"] = budget->refused_splits;
+      j["cut"]["run_time_valid"] = budget->run_time_valid;
+    }
+    // below the coarsest level the cut cannot go: said, not drawn silently
+    if (budget->over_budget)
+      std::fprintf(stderr, "tetrascope render: the store's coarsest cut holds %llu tets, above the budget of %llu; drawn as it is\n",
+                   static_cast<unsigned long long>(budget->tets), static_cast<unsigned long long>(budget->budget));
+  }
+  if (const auto lines = p.lines()) {
+    j["lines"] = {{"field", lines->field}, {"count", lines->line_count()}, {"points", lines->point_count()}, {"selected", settings.selected_lines.size()},
+                  {"segments_opaque", last.line_segments_opaque}, {"segments_ghosted", last.line_segments_ghosted}};
+    if (auto error = p.lines_cut_error()) j["lines"]["cut_estimated_error"] = *error;
+  }
+  if (settings.points) j["points"] = last.points;
+  if (const auto t = settings.tensor_points) {
+    nlohmann::json legend = {{"by_class", t->by_class}, {"color", t->color}};
+    if (!t->by_class) legend["range"] = {t->value_min, t->value_max};
+    j["tensors"] = {{"field", t->field}, {"tubes", t->tubes}, {"surfaces", t->surfaces}, {"tube_points", t->tube_points}, {"surface_points", t->surface_points},
+                    {"surface_triangles", t->surface_triangles}, {"spacing", t->spacing}, {"trace_ms", t->trace_ms}, {"legend", legend}};
+  }
+}
+
+}  // namespace
+
 int run_render(const Arguments& all) {
   protocol::ClipSpec clip;
   protocol::SliceSpec slices;
@@ -551,34 +588,7 @@ int run_render(const Arguments& all) {
   const std::string description = cpu ? "tetrascope CPU ray caster (" + std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " threads)" : renderer->description();
   nlohmann::json j = render_report(o, settings, pipeline->scene(), description, frames, reference_db);
   j["backend"] = cpu ? "cpu" : "gl";
-  if (auto error = pipeline->cut_estimated_error()) j["cut_estimated_error"] = *error;
-  if (const auto budget = pipeline->cut_budget()) {
-    j["cut"] = {{"budget", budget->budget}, {"tets", budget->tets}, {"budget_used", budget->budget ? double(budget->tets) / double(budget->budget) : 0.0},
-                {"budget_limited", budget->budget_limited}, {"over_budget", budget->over_budget}, {"complete", budget->complete},
-                {"by", pipeline->front() && !o.view.segment_cut ? "vertices" : "segments"}};
-    if (pipeline->front() && !o.view.segment_cut) {
-      j["cut"]["forced_tets"] = budget->forced_tets;
-      j["cut"]["unseen_tets"] = budget->unseen_tets;
-      j["cut"]["refused_splits"] = budget->refused_splits;
-      j["cut"]["run_time_valid"] = budget->run_time_valid;
-    }
-    // below the coarsest level the cut cannot go: said, not drawn silently
-    if (budget->over_budget)
-      std::fprintf(stderr, "tetrascope render: the store's coarsest cut holds %llu tets, above the budget of %llu; drawn as it is\n",
-                   static_cast<unsigned long long>(budget->tets), static_cast<unsigned long long>(budget->budget));
-  }
-  if (const auto lines = pipeline->lines()) {
-    j["lines"] = {{"field", lines->field}, {"count", lines->line_count()}, {"points", lines->point_count()}, {"selected", settings.selected_lines.size()},
-                  {"segments_opaque", frames.back().line_segments_opaque}, {"segments_ghosted", frames.back().line_segments_ghosted}};
-    if (auto error = pipeline->lines_cut_error()) j["lines"]["cut_estimated_error"] = *error;
-  }
-  if (settings.points) j["points"] = frames.back().points;
-  if (const auto t = settings.tensor_points) {
-    nlohmann::json legend = {{"by_class", t->by_class}, {"color", t->color}};
-    if (!t->by_class) legend["range"] = {t->value_min, t->value_max};
-    j["tensors"] = {{"field", t->field}, {"tubes", t->tubes}, {"surfaces", t->surfaces}, {"tube_points", t->tube_points}, {"surface_points", t->surface_points},
-                    {"surface_triangles", t->surface_triangles}, {"spacing", t->spacing}, {"trace_ms", t->trace_ms}, {"legend", legend}};
-  }
+  add_pipeline_report(j, *pipeline, settings, frames.back(), o.view.segment_cut);
   if (regions) j["regions"] = regions_report(*regions, o.view);
   if (!o.compare.empty()) j["compare_psnr_db"] = r::psnr(image, r::read_png(o.compare));
   j["update"] = {{"cut_ms", update_timings.cut_ms}, {"assemble_ms", update_timings.assemble_ms}, {"clip_ms", update_timings.clip_ms}};
