@@ -320,7 +320,8 @@ TetFingerprint fingerprint_of(const std::vector<uint32_t>& tets) {
 bool leaves_match(const VertexHierarchy& h, const VertexTable& table) {
   const size_t V = h.input_vertices, F = h.value_floats;
   if (table.size() < V || table.floats != F) return false;
-  return std::memcmp(h.positions.data(), table.xyz.data(), 3 * V * sizeof(float)) == 0 && std::memcmp(h.values.data(), table.values.data(), F * V * sizeof(float)) == 0;
+  auto same = [](const float* a, const float* b, size_t floats) { return floats == 0 || std::memcmp(a, b, floats * sizeof(float)) == 0; };
+  return same(h.positions.data(), table.xyz.data(), 3 * V) && same(h.values.data(), table.values.data(), F * V);
 }
 
 }  // namespace
