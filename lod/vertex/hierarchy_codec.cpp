@@ -3,6 +3,8 @@
 // written as what remains after their prediction (a child of collapse i is below vertex V + i,
 // an `after` link above i), as LEB128, and deflated. The killer of each tet, the fans and the
 // `before` links are not written: derive_links finds them again from the tets and the children.
+// Nor, where the file's flags say so, the value ranges and the `after` links:
+// derive_star_links replays the collapses over the tets for them.
 #include "hierarchy_codec.h"
 
 #include <libdeflate.h>
@@ -232,6 +234,119 @@ void derive_links(VertexHierarchy& h) {
   std::vector<uint32_t> fill(h.before_offsets.begin(), h.before_offsets.end() - 1);
   for (uint32_t i = 0; i < C; ++i)
     for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) h.before[fill[h.after[k]]++] = i;
+}
+
+}  // namespace tetrascope::lod::vertex_codec
+
+namespace tetrascope::lod::vertex_codec {
+namespace {
+
+// Per vertex and attribute the least and greatest value of the leaves below it and of the
+// collapses' own values there (the build's subtree ranges): lo, hi interleaved.
+std::vector<float> subtree_ranges(const VertexHierarchy& h) {
+  const uint32_t V = h.input_vertices, C = h.collapse_count(), A = static_cast<uint32_t>(h.attributes.size());
+  std::vector<float> out(2 * size_t{A} * (size_t{V} + C));
+  for (uint32_t v = 0; v < V + C; ++v) {
+    uint32_t offset = 0;
+    for (uint32_t a = 0; a < A; ++a) {
+      float* r = &out[2 * (size_t{v} * A + a)];
+      r[0] = r[1] = attribute_scalar(&h.values[size_t{v} * h.value_floats + offset], h.attributes[a].components);
+      offset += h.attributes[a].components;
+      if (v < V) continue;
+      for (uint32_t child : h.nodes[v - V].child) {
+        r[0] = std::min(r[0], out[2 * (size_t{child} * A + a)]);
+        r[1] = std::max(r[1], out[2 * (size_t{child} * A + a) + 1]);
+      }
+    }
+  }
+  return out;
+}
+
+// Per collapse its `before` links from the (collapse, earlier collapse) pairs of the replay, each
+// list ascending without repeats; `after` their inverse, each list ascending.
+void links_from_pairs(uint32_t C, const std::vector<uint64_t>& pairs, StarLinks& out) {
+  std::vector<uint32_t> start(size_t{C} + 1, 0), items(pairs.size());
+  for (uint64_t p : pairs) ++start[(p >> 32) + 1];
+  for (uint32_t i = 0; i < C; ++i) start[i + 1] += start[i];
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  for (uint64_t p : pairs) items[fill[p >> 32]++] = static_cast<uint32_t>(p);
+  out.before_offsets.assign(size_t{C} + 1, 0);
+  out.before.clear();
+  for (uint32_t i = 0; i < C; ++i) {
+    auto first = items.begin() + start[i], last = items.begin() + start[i + 1];
+    std::sort(first, last);
+    out.before.insert(out.before.end(), first, std::unique(first, last));
+    out.before_offsets[i + 1] = static_cast<uint32_t>(out.before.size());
+  }
+  out.after_offsets.assign(size_t{C} + 1, 0);
+  for (uint32_t j : out.before) ++out.after_offsets[j + 1];
+  for (uint32_t i = 0; i < C; ++i) out.after_offsets[i + 1] += out.after_offsets[i];
+  out.after.assign(out.before.size(), 0);
+  std::vector<uint32_t> next(out.after_offsets.begin(), out.after_offsets.end() - 1);
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t k = out.before_offsets[i]; k < out.before_offsets[i + 1]; ++k) out.after[next[out.before[k]]++] = i;
+}
+
+}  // namespace
+
+StarLinks derive_star_links(const VertexHierarchy& h) {
+  const uint32_t V = h.input_vertices, C = h.collapse_count(), A = static_cast<uint32_t>(h.attributes.size());
+  std::vector<uint32_t> consumer(h.vertex_count(), kNoCollapse);  // the collapse that consumes a vertex
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t child : h.nodes[i].child) consumer[child] = i;
+  const std::vector<float> subtree = subtree_ranges(h);
+  StarLinks out;
+  out.ranges.assign(subtree.begin() + 2 * size_t{A} * V, subtree.end());  // the children's and the own value
+  const size_t T = h.tets.size() / 4;
+  out.killer.assign(T, kNoCollapse);
+  out.fans.assign(C, 0);
+  std::vector<uint64_t> pairs;  // (collapse << 32) | the collapse that last changed a tet of its star
+  pairs.reserve(8 * T);
+  for (size_t t = 0; t < T; ++t) {
+    uint32_t cur[4];
+    for (int k = 0; k < 4; ++k) cur[k] = h.tets[4 * t + k];
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        if (cur[a] == cur[b]) throw VertexHierarchyError("vertices.bin: tet " + std::to_string(t) + " names a vertex twice");
+    // the collapses that touch the tet come in the order they were made: each consumes the
+    // current vertex of one of its corners, and the one that consumes two removes it
+    for (uint32_t last = kNoCollapse;;) {
+      const uint32_t i = std::min({consumer[cur[0]], consumer[cur[1]], consumer[cur[2]], consumer[cur[3]]});
+      if (i == kNoCollapse) break;
+      float* range = &out.ranges[2 * size_t{i} * A];
+      for (int k = 0; k < 4; ++k)
+        for (uint32_t a = 0; a < A; ++a) {
+          range[2 * a] = std::min(range[2 * a], subtree[2 * (size_t{cur[k]} * A + a)]);
+          range[2 * a + 1] = std::max(range[2 * a + 1], subtree[2 * (size_t{cur[k]} * A + a) + 1]);
+        }
+      if (last != kNoCollapse) pairs.push_back(uint64_t{i} << 32 | last);
+      int consumed = 0;
+      for (int k = 0; k < 4; ++k)
+        if (consumer[cur[k]] == i) {
+          cur[k] = V + i;
+          ++consumed;
+        }
+      if (consumed > 1) {
+        out.killer[t] = i;
+        ++out.fans[i];
+        break;
+      }
+      last = i;
+    }
+  }
+  links_from_pairs(C, pairs, out);
+  return out;
+}
+
+bool star_links_match(const VertexHierarchy& h, const StarLinks& d) {
+  if (d.killer != h.killer || d.before_offsets != h.before_offsets || d.before != h.before || d.after_offsets != h.after_offsets || d.after != h.after) return false;
+  if (d.ranges.size() != h.ranges.size() || d.fans.size() != h.nodes.size()) return false;
+  for (size_t i = 0; i < d.fans.size(); ++i)
+    if (d.fans[i] != h.nodes[i].fan) return false;
+  // by value: the least of 0 and -0 is whichever came first
+  for (size_t k = 0; k < d.ranges.size(); ++k)
+    if (!(d.ranges[k] == h.ranges[k])) return false;
+  return true;
 }
 
 }  // namespace tetrascope::lod::vertex_codec

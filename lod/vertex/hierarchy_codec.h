@@ -61,4 +61,22 @@ void restore_ranges(const std::vector<uint32_t>& remainders, VertexHierarchy& h)
 void check_children(const VertexHierarchy& h);
 void derive_links(VertexHierarchy& h);
 
+// What a reader of a file with the star links left out derives by replaying the collapses over
+// the input's tets: per tet the collapses whose star holds it (those that consume one of its
+// corners' current vertices, up to the one that removes it). From them: each tet's removing
+// collapse and the fans (as derive_links), each collapse's value ranges (the subtree ranges of
+// every vertex of its star, its children's and its own value) and its `before` links (the
+// collapses that last changed a tet of its star) with `after` their inverse. Needs the children
+// checked and the values restored; throws VertexHierarchyError for a tet that names a vertex
+// twice.
+struct StarLinks {
+  std::vector<uint32_t> killer;
+  std::vector<uint32_t> fans;  // per collapse
+  std::vector<float> ranges;
+  std::vector<uint32_t> before_offsets, before, after_offsets, after;
+};
+StarLinks derive_star_links(const VertexHierarchy& h);
+// The hierarchy's own killer, fans, ranges and links are those derive_star_links gives.
+bool star_links_match(const VertexHierarchy& h, const StarLinks& derived);
+
 }  // namespace tetrascope::lod::vertex_codec

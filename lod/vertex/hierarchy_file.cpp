@@ -2,7 +2,9 @@
 //   header  "TSVERTH1", u32 version, u32 input vertices, u32 collapses, u32 attributes,
 //           u32 value floats, u32 sections, u64 input tets, (version 2) u32 flags (1: the
 //           input's vertices, 2: the input's tets are left to the store's finest segments and
-//           their sections hold the collapses' vertices alone, or nothing), then per section (version 2) u64
+//           their sections hold the collapses' vertices alone, or nothing; 4: the ranges, after
+//           counts and after sections are empty, derived from the tets and the children), then
+//           per section (version 2) u64
 //           offset, u64 stored bytes, u64 bytes before deflating, u32 codec, u32 CRC-32 of the
 //           stored bytes (version 1: u64 offset, u64 bytes, u32 CRC-32), and last the header's
 //           own CRC-32 (of every byte before it)
@@ -43,6 +45,8 @@ constexpr char kMagic[8] = {'T', 'S', 'V', 'E', 'R', 'T', 'H', '1'};
 constexpr size_t kHeaderFixed = 8 + 6 * 4 + 8;  // version 2 adds a u32 of flags after it
 // the flags: the input's vertices, or its tets, are read from the segments.bin beside the file
 constexpr uint32_t kLeavesInStore = 1, kTetsInStore = 2;
+// the value ranges and the after links are left out: a reader replays the collapses for them
+constexpr uint32_t kStarLinksDerived = 4;
 // per version: its sections and the bytes of a section's entry in the header
 constexpr uint32_t sections_of(uint32_t version) { return version == 1 ? 11 : 9; }
 constexpr size_t entry_bytes(uint32_t version) { return version == 1 ? 8 + 8 + 4 : 8 + 8 + 8 + 4 + 4; }
@@ -161,6 +165,12 @@ std::vector<vc::Coded> coded_sections(const VertexHierarchy& h, uint32_t version
   out.push_back(vc::shuffled(h.tets.data(), flags & kTetsInStore ? 0 : h.tets.size()));
   out.push_back(vc::varints(children));
   out.push_back(vc::shuffled(error_radius.data(), error_radius.size()));
+  if (flags & kStarLinksDerived) {
+    out.push_back(vc::shuffled(nullptr, 0));
+    out.push_back(vc::varints({}));
+    out.push_back(vc::varints({}));
+    return out;
+  }
   const std::vector<uint32_t> ranges = vc::predict_ranges(h);
   out.push_back(vc::shuffled(ranges.data(), ranges.size()));
   out.push_back(vc::varints(counts));
@@ -288,7 +298,7 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   h.values.resize(h.value_floats * input_words);
   if (!h.values.empty()) std::memcpy(h.values.data(), values.data(), h.values.size() * 4);
   h.tets = words_of<uint32_t>(s[3], flags & kTetsInStore ? 0 : 4 * input_tets, "tets");
-  if (flags) read_from_store(store, flags, input_tets, h);
+  if (flags & (kLeavesInStore | kTetsInStore)) read_from_store(store, flags, input_tets, h);
   for (uint32_t v : h.tets)
     if (v >= V) throw VertexHierarchyError("vertices.bin: a tet names a vertex out of range");
   const std::vector<uint64_t> children = numbers_of(s[4], 2ull * C, "children");
@@ -310,6 +320,18 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   h.values.resize(h.value_floats * (size_t{V} + C));
   vc::restore_collapses(h, positions, 3, h.positions);
   vc::restore_collapses(h, values, h.value_floats, h.values);
+  if (flags & kStarLinksDerived) {
+    if (s[6].raw_bytes || s[7].raw_bytes || s[8].raw_bytes) throw VertexHierarchyError("vertices.bin: the ranges and after sections hold bytes its flags leave out");
+    vc::StarLinks d = vc::derive_star_links(h);
+    h.killer = std::move(d.killer);
+    for (uint32_t i = 0; i < C; ++i) h.nodes[i].fan = d.fans[i];
+    h.ranges = std::move(d.ranges);
+    h.before_offsets = std::move(d.before_offsets);
+    h.before = std::move(d.before);
+    h.after_offsets = std::move(d.after_offsets);
+    h.after = std::move(d.after);
+    return;
+  }
   vc::restore_ranges(words_of<uint32_t>(s[6], 2ull * C * h.attributes.size(), "ranges"), h);
   const std::vector<uint64_t> counts = numbers_of(s[7], C, "after counts");
   h.after_offsets.assign(size_t{C} + 1, 0);
@@ -336,8 +358,10 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
 void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHierarchy& h, const VertexHierarchyWriteOptions& options) {
   const uint32_t version = options.version;
   if (version != 1 && version != kVertexHierarchyVersion) throw std::invalid_argument("vertices.bin: no version " + std::to_string(version));
-  const uint32_t flags = (options.leaves_in_store ? kLeavesInStore : 0) | (options.tets_in_store ? kTetsInStore : 0);
+  uint32_t flags = (options.leaves_in_store ? kLeavesInStore : 0) | (options.tets_in_store ? kTetsInStore : 0);
   if (version == 1 && flags) throw std::invalid_argument("vertices.bin: version 1 holds the input mesh itself");
+  // left out only where replaying the collapses gives them back as they are
+  if (version != 1 && options.derive_star_links && vc::star_links_match(h, vc::derive_star_links(h))) flags |= kStarLinksDerived;
   const std::vector<vc::Coded> sections = coded_sections(h, version, flags);
   std::string header(kMagic, 8);
   for (uint32_t v : {version, h.input_vertices, h.collapse_count(), static_cast<uint32_t>(h.attributes.size()), h.value_floats, sections_of(version)}) put(header, v);
@@ -388,7 +412,7 @@ VertexHierarchy read_vertex_hierarchy(const std::filesystem::path& path) {
   if (r.get<uint32_t>() != sections_of(version)) throw VertexHierarchyError("vertices.bin: unexpected section count");
   const uint64_t input_tets = r.get<uint64_t>();
   const uint32_t flags = version == 1 ? 0 : r.get<uint32_t>();
-  if (flags & ~(kLeavesInStore | kTetsInStore)) throw VertexHierarchyError("vertices.bin: unknown flags " + std::to_string(flags));
+  if (flags & ~(kLeavesInStore | kTetsInStore | kStarLinksDerived)) throw VertexHierarchyError("vertices.bin: unknown flags " + std::to_string(flags));
   std::vector<Section> sections(sections_of(version));
   for (uint32_t s = 0; s < sections.size(); ++s) {
     const uint64_t offset = r.get<uint64_t>(), bytes = r.get<uint64_t>();

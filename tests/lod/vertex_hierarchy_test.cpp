@@ -305,27 +305,46 @@ TEST(VertexHierarchyFile, RoundTripsExactly) {
   EXPECT_EQ(front_tets(a), front_tets(b));
 }
 
-TEST(VertexHierarchyFile, VersionTwoDerivesTheKillersFansAndBeforeLinksTheBuildRecorded) {
+// Version 2 writes neither the killers, the fans and the before links, nor (where replaying the
+// collapses gives them back, flag 4) the value ranges and the after links: each derived equal to
+// what the build recorded, from a file that leaves them out and from one that holds them.
+TEST(VertexHierarchyFile, VersionTwoDerivesTheKillersFansRangesAndLinksTheBuildRecorded) {
   const auto& h = hierarchy();
-  const auto path = scratch_dir("vertex_hierarchy_v2") / "vertices.bin";
-  lod::write_vertex_hierarchy(path, h);
-  const lod::VertexHierarchy back = lod::read_vertex_hierarchy(path);
-  ASSERT_EQ(back.nodes.size(), h.nodes.size());
-  for (size_t i = 0; i < h.nodes.size(); ++i) {
-    EXPECT_EQ(back.nodes[i].child, h.nodes[i].child) << "collapse " << i;
-    EXPECT_EQ(back.nodes[i].fan, h.nodes[i].fan) << "collapse " << i;
-    EXPECT_EQ(back.nodes[i].error, h.nodes[i].error) << "collapse " << i;
-    EXPECT_EQ(back.nodes[i].radius, h.nodes[i].radius) << "collapse " << i;
+  const auto derived = scratch_dir("vertex_hierarchy_v2") / "vertices.bin";
+  const auto held = scratch_dir("vertex_hierarchy_v2_links") / "vertices.bin";
+  lod::write_vertex_hierarchy(derived, h);
+  lod::write_vertex_hierarchy(held, h, {.derive_star_links = false});
+  auto flags_of = [](const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string header(44, '\0');
+    in.read(header.data(), 44);
+    uint32_t flags = 0;
+    std::memcpy(&flags, header.data() + 40, 4);
+    return flags;
+  };
+  EXPECT_EQ(flags_of(derived), 4u);
+  EXPECT_EQ(flags_of(held), 0u);
+  EXPECT_LT(std::filesystem::file_size(derived), std::filesystem::file_size(held));
+  for (const auto& path : {derived, held}) {
+    const lod::VertexHierarchy back = lod::read_vertex_hierarchy(path);
+    ASSERT_EQ(back.nodes.size(), h.nodes.size());
+    for (size_t i = 0; i < h.nodes.size(); ++i) {
+      EXPECT_EQ(back.nodes[i].child, h.nodes[i].child) << "collapse " << i;
+      EXPECT_EQ(back.nodes[i].fan, h.nodes[i].fan) << "collapse " << i;
+      EXPECT_EQ(back.nodes[i].error, h.nodes[i].error) << "collapse " << i;
+      EXPECT_EQ(back.nodes[i].radius, h.nodes[i].radius) << "collapse " << i;
+    }
+    EXPECT_EQ(back.killer, h.killer) << path;
+    EXPECT_EQ(back.before_offsets, h.before_offsets) << path;
+    EXPECT_EQ(back.before, h.before) << path;
+    EXPECT_EQ(back.after_offsets, h.after_offsets) << path;
+    EXPECT_EQ(back.after, h.after) << path;
+    EXPECT_EQ(back.ranges, h.ranges) << path;
   }
-  EXPECT_EQ(back.killer, h.killer);
-  EXPECT_EQ(back.before_offsets, h.before_offsets);
-  EXPECT_EQ(back.before, h.before);
-  EXPECT_EQ(back.after_offsets, h.after_offsets);
-  EXPECT_EQ(back.ranges, h.ranges);
   // and smaller than the arrays it holds
   const auto v1 = scratch_dir("vertex_hierarchy_v1") / "vertices.bin";
   lod::write_vertex_hierarchy(v1, h, {.version = 1});
-  EXPECT_LT(std::filesystem::file_size(path), std::filesystem::file_size(v1) * 3 / 4);
+  EXPECT_LT(std::filesystem::file_size(derived), std::filesystem::file_size(v1) * 3 / 4);
 }
 
 // preprocess leaves the input's vertices to segments.bin when they are the hierarchy's leaves:
@@ -341,7 +360,7 @@ TEST(VertexHierarchyFile, AStoresFileReadsItsInputVerticesFromTheSegments) {
   std::memcpy(&version, header.data() + 8, 4);
   std::memcpy(&flags, header.data() + 40, 4);
   EXPECT_EQ(version, 2u);
-  EXPECT_EQ(flags, 3u) << "the sample's vertices and tets are the store's: the file should leave them to it";
+  EXPECT_EQ(flags, 7u) << "the sample's vertices and tets are the store's, its ranges and after links derived: the file should leave them out";
   const lod::VertexHierarchy h = lod::read_vertex_hierarchy(file);
   const auto whole = scratch_dir("vertex_hierarchy_whole") / "vertices.bin";
   lod::write_vertex_hierarchy(whole, h);
@@ -398,7 +417,7 @@ TEST(VertexHierarchyFile, AVersionOneFileIsStillRead) {
 // to pass the checksums): each lie refused by name, nothing allocated beyond the counts.
 TEST(VertexHierarchyFile, AVersionTwoFileWithLyingSectionsIsRefused) {
   const auto path = scratch_dir("vertex_hierarchy_lies") / "vertices.bin";
-  lod::write_vertex_hierarchy(path, hierarchy());
+  lod::write_vertex_hierarchy(path, hierarchy(), {.derive_star_links = false});
   std::string good;
   {
     std::ifstream in(path, std::ios::binary);
@@ -433,6 +452,18 @@ TEST(VertexHierarchyFile, AVersionTwoFileWithLyingSectionsIsRefused) {
     std::memcpy(&raw, b.data() + raw_bytes_at(8), 8);
     --raw;
     std::memcpy(b.data() + raw_bytes_at(8), &raw, 8);
+  });
+  EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
+  // the flags say the ranges and after links are derived, but their sections hold bytes
+  rewrite([&](std::string& b) {
+    const uint32_t flags = 4;
+    std::memcpy(b.data() + 40, &flags, 4);
+  });
+  EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
+  // a flag this build does not know
+  rewrite([&](std::string& b) {
+    const uint32_t flags = 8;
+    std::memcpy(b.data() + 40, &flags, 4);
   });
   EXPECT_THROW(lod::read_vertex_hierarchy(path), lod::VertexHierarchyError);
   // a version this build does not know

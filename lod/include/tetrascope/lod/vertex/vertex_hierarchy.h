@@ -104,6 +104,9 @@ struct VertexHierarchyWriteOptions {
   // The input's tets left out, to be read from the finest level's segments (in their order and
   // orientation): for a store whose input tets are the hierarchy's (the same vertices each).
   bool tets_in_store = false;
+  // The value ranges and the `after` links left out, for a reader to find again by replaying
+  // the collapses over the input's tets (where that gives them back exactly; version 2).
+  bool derive_star_links = true;
 };
 void write_vertex_hierarchy(const std::filesystem::path& path, const VertexHierarchy& hierarchy, const VertexHierarchyWriteOptions& options = {});
 VertexHierarchy read_vertex_hierarchy(const std::filesystem::path& path);
