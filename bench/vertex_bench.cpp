@@ -2,6 +2,8 @@
 // single vertex splits and edge collapses a second on one core, and the vertex front's update
 // and mesh times for a camera orbit at a budget.
 //   vertex_bench STORE [--budget N] [--steps N] [--repeat N]   -> one JSON object
+// Reading: the median of 3 reads of the file, and of the same hierarchy written with its value
+// ranges and after links held rather than derived (its bytes too).
 // Splits: from the base mesh every collapse is split in reverse order (none forces another);
 // collapses: then every one collapsed again in order. Each pass is timed whole and the median
 // of --repeat passes reported.
@@ -48,9 +50,25 @@ int main(int argc, char** argv) {
   }
   try {
     const std::filesystem::path file = std::filesystem::path(argv[1]) / lod::kVertexHierarchyFile;
-    const auto read_start = clock_type::now();
-    const lod::VertexHierarchy h = lod::read_vertex_hierarchy(file);
-    const double read_s = seconds_since(read_start);
+    std::vector<double> read_s;
+    lod::VertexHierarchy h;
+    for (int r = 0; r < 3; ++r) {
+      const auto read_start = clock_type::now();
+      h = lod::read_vertex_hierarchy(file);
+      read_s.push_back(seconds_since(read_start));
+    }
+    // the same hierarchy with its value ranges and after links written, not derived: its size
+    // and reading time beside the file's
+    const std::filesystem::path held = std::filesystem::path(argv[1]) / "vertices.links-held.bench";
+    lod::write_vertex_hierarchy(held, h, {.leaves_in_store = true, .tets_in_store = true, .derive_star_links = false});
+    std::vector<double> read_held_s;
+    for (int r = 0; r < 3; ++r) {
+      const auto read_start = clock_type::now();
+      lod::read_vertex_hierarchy(held);
+      read_held_s.push_back(seconds_since(read_start));
+    }
+    const uint64_t held_bytes = std::filesystem::file_size(held);
+    std::filesystem::remove(held);
     const uint64_t C = h.collapse_count();
     if (C == 0) throw std::runtime_error("the hierarchy has no collapses");
     if (budget == 0) budget = h.input_tets() / 10;
@@ -104,7 +122,7 @@ int main(int argc, char** argv) {
         {"store", argv[1]}, {"input_tets", h.input_tets()}, {"input_vertices", h.input_vertices}, {"collapses", C}, {"base_tets", h.base_tets()}, {"depth", h.depth()},
         {"file_bytes", file_bytes}, {"file_bytes_per_update", double(file_bytes) / C}, {"node_bytes_per_update", double(update_bytes) / C},
         {"split_information_bytes_per_update", double(split_bytes) / C}, {"new_vertex_bytes_per_update", double(new_vertex_bytes) / C},
-        {"read_seconds", read_s}, {"repeat", repeat},
+        {"read_seconds", median(read_s)}, {"links_held", {{"file_bytes", held_bytes}, {"read_seconds", median(read_held_s)}}}, {"repeat", repeat},
         {"splits_per_second", double(C) / median(split_s)}, {"collapses_per_second", double(C) / median(collapse_s)},
         {"updates_per_second", 2.0 * double(C) / (median(split_s) + median(collapse_s))},
         {"orbit", {{"steps", steps}, {"budget", budget}, {"median_update_ms", median(update_ms)}, {"median_mesh_ms", median(mesh_ms)}, {"median_budget_used", median(used)},
