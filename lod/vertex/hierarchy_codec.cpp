@@ -3,13 +3,14 @@
 // written as what remains after their prediction (a child of collapse i is below vertex V + i,
 // an `after` link above i), as LEB128, and deflated. The killer of each tet, the fans and the
 // `before` links are not written: derive_links finds them again from the tets and the children.
-// Nor, where the file's flags say so, the value ranges and the `after` links:
+// Nor, where the file's flags say so, the value ranges, the radii and the `after` links:
 // derive_star_links replays the collapses over the tets for them.
 #include "hierarchy_codec.h"
 
 #include <libdeflate.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <memory>
 
@@ -300,6 +301,7 @@ StarLinks derive_star_links(const VertexHierarchy& h) {
   const size_t T = h.tets.size() / 4;
   out.killer.assign(T, kNoCollapse);
   out.fans.assign(C, 0);
+  std::vector<double> radius2(C, 0.0);  // as the build sums it: float differences, double squares
   std::vector<uint64_t> pairs;  // (collapse << 32) | the collapse that last changed a tet of its star
   pairs.reserve(8 * T);
   for (size_t t = 0; t < T; ++t) {
@@ -314,11 +316,15 @@ StarLinks derive_star_links(const VertexHierarchy& h) {
       const uint32_t i = std::min({consumer[cur[0]], consumer[cur[1]], consumer[cur[2]], consumer[cur[3]]});
       if (i == kNoCollapse) break;
       float* range = &out.ranges[2 * size_t{i} * A];
-      for (int k = 0; k < 4; ++k)
+      const float* centre = &h.positions[3 * (size_t{V} + i)];
+      for (int k = 0; k < 4; ++k) {
         for (uint32_t a = 0; a < A; ++a) {
           range[2 * a] = std::min(range[2 * a], subtree[2 * (size_t{cur[k]} * A + a)]);
           range[2 * a + 1] = std::max(range[2 * a + 1], subtree[2 * (size_t{cur[k]} * A + a) + 1]);
         }
+        const float* p = &h.positions[3 * size_t{cur[k]}];
+        radius2[i] = std::max(radius2[i], double(p[0] - centre[0]) * (p[0] - centre[0]) + double(p[1] - centre[1]) * (p[1] - centre[1]) + double(p[2] - centre[2]) * (p[2] - centre[2]));
+      }
       if (last != kNoCollapse) pairs.push_back(uint64_t{i} << 32 | last);
       int consumed = 0;
       for (int k = 0; k < 4; ++k)
@@ -334,6 +340,8 @@ StarLinks derive_star_links(const VertexHierarchy& h) {
       last = i;
     }
   }
+  out.radius.resize(C);
+  for (uint32_t i = 0; i < C; ++i) out.radius[i] = static_cast<float>(std::sqrt(radius2[i]));
   links_from_pairs(C, pairs, out);
   return out;
 }
@@ -342,7 +350,7 @@ bool star_links_match(const VertexHierarchy& h, const StarLinks& d) {
   if (d.killer != h.killer || d.before_offsets != h.before_offsets || d.before != h.before || d.after_offsets != h.after_offsets || d.after != h.after) return false;
   if (d.ranges.size() != h.ranges.size() || d.fans.size() != h.nodes.size()) return false;
   for (size_t i = 0; i < d.fans.size(); ++i)
-    if (d.fans[i] != h.nodes[i].fan) return false;
+    if (d.fans[i] != h.nodes[i].fan || d.radius[i] != h.nodes[i].radius) return false;
   // by value: the least of 0 and -0 is whichever came first
   for (size_t k = 0; k < d.ranges.size(); ++k)
     if (!(d.ranges[k] == h.ranges[k])) return false;

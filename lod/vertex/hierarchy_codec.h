@@ -65,14 +65,16 @@ void derive_links(VertexHierarchy& h);
 // the input's tets: per tet the collapses whose star holds it (those that consume one of its
 // corners' current vertices, up to the one that removes it). From them: each tet's removing
 // collapse and the fans (as derive_links), each collapse's value ranges (the subtree ranges of
-// every vertex of its star, its children's and its own value) and its `before` links (the
-// collapses that last changed a tet of its star) with `after` their inverse. Needs the children
-// checked and the values restored; throws VertexHierarchyError for a tet that names a vertex
+// every vertex of its star, its children's and its own value), its radius (the distance from its
+// vertex to the farthest vertex of its star) and its `before` links (the collapses that last
+// changed a tet of its star) with `after` their inverse. Needs the children checked and the
+// positions and values restored; throws VertexHierarchyError for a tet that names a vertex
 // twice.
 struct StarLinks {
   std::vector<uint32_t> killer;
   std::vector<uint32_t> fans;  // per collapse
   std::vector<float> ranges;
+  std::vector<float> radius;  // per collapse
   std::vector<uint32_t> before_offsets, before, after_offsets, after;
 };
 StarLinks derive_star_links(const VertexHierarchy& h);

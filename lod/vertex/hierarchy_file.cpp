@@ -3,7 +3,8 @@
 //           u32 value floats, u32 sections, u64 input tets, (version 2) u32 flags (1: the
 //           input's vertices, 2: the input's tets are left to the store's finest segments and
 //           their sections hold the collapses' vertices alone, or nothing; 4: the ranges, after
-//           counts and after sections are empty, derived from the tets and the children), then
+//           counts and after sections are empty and section 5 holds the errors alone, the
+//           radii, ranges and after links derived from the tets and the children), then
 //           per section (version 2) u64
 //           offset, u64 stored bytes, u64 bytes before deflating, u32 codec, u32 CRC-32 of the
 //           stored bytes (version 1: u64 offset, u64 bytes, u32 CRC-32), and last the header's
@@ -164,13 +165,16 @@ std::vector<vc::Coded> coded_sections(const VertexHierarchy& h, uint32_t version
   }
   out.push_back(vc::shuffled(h.tets.data(), flags & kTetsInStore ? 0 : h.tets.size()));
   out.push_back(vc::varints(children));
-  out.push_back(vc::shuffled(error_radius.data(), error_radius.size()));
-  if (flags & kStarLinksDerived) {
+  if (flags & kStarLinksDerived) {  // the errors alone, the radii derived
+    std::vector<float> errors(C);
+    for (uint32_t i = 0; i < C; ++i) errors[i] = h.nodes[i].error;
+    out.push_back(vc::shuffled(errors.data(), errors.size()));
     out.push_back(vc::shuffled(nullptr, 0));
     out.push_back(vc::varints({}));
     out.push_back(vc::varints({}));
     return out;
   }
+  out.push_back(vc::shuffled(error_radius.data(), error_radius.size()));
   const std::vector<uint32_t> ranges = vc::predict_ranges(h);
   out.push_back(vc::shuffled(ranges.data(), ranges.size()));
   out.push_back(vc::varints(counts));
@@ -302,7 +306,8 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   for (uint32_t v : h.tets)
     if (v >= V) throw VertexHierarchyError("vertices.bin: a tet names a vertex out of range");
   const std::vector<uint64_t> children = numbers_of(s[4], 2ull * C, "children");
-  const std::vector<float> error_radius = words_of<float>(s[5], 2ull * C, "error and radius");
+  const bool derived = flags & kStarLinksDerived;  // section 5 holds the errors alone
+  const std::vector<float> error_radius = words_of<float>(s[5], (derived ? 1ull : 2ull) * C, "error and radius");
   h.nodes.resize(C);
   for (uint32_t i = 0; i < C; ++i) {
     for (int k = 0; k < 2; ++k) {
@@ -310,8 +315,8 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
       if (below >= uint64_t{V} + i) throw VertexHierarchyError("vertices.bin: a collapse's child is out of order or merged twice");
       h.nodes[i].child[k] = static_cast<uint32_t>(uint64_t{V} + i - 1 - below);
     }
-    h.nodes[i].error = error_radius[2 * size_t{i}];
-    h.nodes[i].radius = error_radius[2 * size_t{i} + 1];
+    h.nodes[i].error = error_radius[(derived ? 1 : 2) * size_t{i}];
+    if (!derived) h.nodes[i].radius = error_radius[2 * size_t{i} + 1];
   }
   vc::check_children(h);
   positions.erase(positions.begin(), positions.begin() + static_cast<std::ptrdiff_t>(3 * input_words));
@@ -320,11 +325,14 @@ void read_version2(const std::vector<Section>& s, uint32_t collapses, uint64_t i
   h.values.resize(h.value_floats * (size_t{V} + C));
   vc::restore_collapses(h, positions, 3, h.positions);
   vc::restore_collapses(h, values, h.value_floats, h.values);
-  if (flags & kStarLinksDerived) {
+  if (derived) {
     if (s[6].raw_bytes || s[7].raw_bytes || s[8].raw_bytes) throw VertexHierarchyError("vertices.bin: the ranges and after sections hold bytes its flags leave out");
     vc::StarLinks d = vc::derive_star_links(h);
     h.killer = std::move(d.killer);
-    for (uint32_t i = 0; i < C; ++i) h.nodes[i].fan = d.fans[i];
+    for (uint32_t i = 0; i < C; ++i) {
+      h.nodes[i].fan = d.fans[i];
+      h.nodes[i].radius = d.radius[i];
+    }
     h.ranges = std::move(d.ranges);
     h.before_offsets = std::move(d.before_offsets);
     h.before = std::move(d.before);
