@@ -229,10 +229,7 @@ bool Simplifier::try_collapse(Worker& w, uint32_t p, uint32_t q) {
 bool Simplifier::collapse(Worker& w, uint32_t p, uint32_t q) {
   if (!best_candidates(p, q, w.candidates)) return false;
   if (options_.max_error > 0 && w.candidates.front().cost > options_.max_error) return false;
-  if (!link_condition(w, p, q)) {
-    ++w.counts.refused_topology;
-    return false;
-  }
+  // the placement first: it refuses more collapses than the link condition, for less work
   const Candidate* chosen = nullptr;
   for (const Candidate& c : w.candidates) {
     if (geometry_ok(p, q, c.position.data())) {
@@ -242,6 +239,10 @@ bool Simplifier::collapse(Worker& w, uint32_t p, uint32_t q) {
   }
   if (!chosen) {
     ++w.counts.refused_geometry;
+    return false;
+  }
+  if (!link_condition(w, p, q)) {
+    ++w.counts.refused_topology;
     return false;
   }
   if (chosen->cost > w.cost_limit) {  // the valid placement costs more than this edge was queued at
