@@ -64,6 +64,8 @@ test('a slice alone: nothing else checked again, the slice shows, refined, and a
   assert.deepEqual(await modes(), [], 'adding a slice checks nothing');
   const shown = await covered();
   assert.ok(shown > empty + 0.02, `the slice covers ${(100 * shown).toFixed(1)}% of the view, ${(100 * empty).toFixed(1)}% before`);
+  // the attribute's legend names what it colours: the slice, not a volume that is off
+  assert.equal(await page.textContent('#legend .legend[data-key=attribute] .legend-caption'), 'slice');
   const total = await page.evaluate(() => window.tetrascope.dataset.tets);
   const tets = await stillTets();
   assert.ok(tets > 0.5 * total, `the slice's still holds ${tets} of ${total} tets (the volume is off: its opacity ranks nothing)`);
