@@ -281,16 +281,18 @@ async function onFrame(buffer) {
 
 const stats = {
   times: [],
-  latency: 0,
+  latency: null,
   frame(header, bytes) {
     const now = performance.now();
     this.times.push(now);
     while (this.times.length && now - this.times[0] > 1000) this.times.shift();
+    // each frame's own: from the message it answers to this frame (a still's includes its
+    // refinement), never the last moving frame's
     const sent = sentAt.get(header.message_id);
-    if (sent !== undefined && !header.still) this.latency = now - sent;
+    this.latency = sent === undefined ? null : now - sent;
     $('stats').textContent =
       `${this.times.length} fps   ${header.still ? 'still' : header.refining ? 'refining' : 'moving'}\n` +
-      `latency ${this.latency.toFixed(0)} ms (input to frame)\n` +
+      `latency ${this.latency === null ? '–' : this.latency.toFixed(0)} ms (input to ${header.still ? 'still' : 'frame'})\n` +
       `${header.tets.toLocaleString()} tets, ${header.width}x${header.height}\n` +
       `estimated error ${header.estimated_error.toPrecision(3)}\n` +
       `${(bytes / 1024).toFixed(1)} KB/frame, render ${header.render_ms.toFixed(0)} ms, encode ${header.encode_ms.toFixed(1)} ms`;

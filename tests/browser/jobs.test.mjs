@@ -1,8 +1,8 @@
 // Failed jobs in the viewer, in headless Chromium: a job that fails on a truncated mesh shows
 // its error once on the page (the upload status points to the jobs panel; the log tail does
 // not repeat it), Dismiss removes it from the panel, and it stays dismissed after a reload; the
-// uploads panel lists that upload as failed and deletes it, and a dataset deleted in the viewer
-// takes its upload with it.
+// uploads panel lists that upload as failed and deletes it, a text file uploaded as a mesh
+// fails the same way, and a dataset deleted in the viewer takes its upload with it.
 //   node --test tests/browser/jobs.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -77,6 +77,27 @@ test('the uploads panel marks a failed upload and deletes it', async () => {
   assert.match(await page.textContent('#uploads-status'), /Deleted uploads\/truncated\.vtk/);
   assert.equal(existsSync(join(viewer.data, 'uploads', 'truncated.vtk')), false, 'gone from the server');
   assert.ok(!(await listedUploads()).includes('truncated.vtk'));
+});
+
+test('a text file that is no mesh: its job fails, its upload is listed as failed and deleted', async () => {
+  const notes = join(viewer.data, 'notes.txt');
+  writeFileSync(notes, 'pressure readings, not a mesh\n');
+  await page.setInputFiles('#upload-file', notes);
+  await page.fill('#job-name', 'notes-text');
+  await page.click('#upload-submit');
+  await page.waitForFunction(() => /notes-text: failed/.test(document.getElementById('job-status').textContent), null, { timeout: 60000 });
+  const { jobs } = await page.evaluate(() => fetch('/api/v1/jobs').then((r) => r.json()));
+  const error = jobs.find((j) => j.name === 'notes-text').error;
+  assert.match(error, /unknown mesh format '\.txt'/);
+  await page.locator('#jobs li[data-state="failed"]', { hasText: 'notes-text' }).waitFor({ timeout: 30000 });
+  assert.equal(await shown(error.split(': ').at(-1)), 1, 'the reason is on the page once');
+  const item = page.locator('#uploads li[data-upload="notes.txt"]');
+  await item.waitFor({ timeout: 30000 });
+  assert.equal(await item.getAttribute('data-state'), 'failed');
+  page.once('dialog', (dialog) => dialog.accept());
+  await item.locator('button.upload-delete').click();
+  await page.waitForFunction(() => !document.querySelector('#uploads li[data-upload="notes.txt"]'), null, { timeout: 10000 });
+  assert.equal(existsSync(join(viewer.data, 'uploads', 'notes.txt')), false, 'gone from the server');
 });
 
 test('a dataset deleted in the viewer takes its upload with it', async () => {

@@ -2,7 +2,8 @@
 // isosurface and boundary all off, nothing checked again behind the user's back), clip with
 // the boundary, boundary with stream lines; and each refines on its own: with the volume off or
 // at 0% opacity, the still of a slice or of the boundary holds as many tets as the boundary
-// alone gets, not the coarsest level's, whether the store refines by vertices or by segments.
+// alone gets, not the coarsest level's, whether the store refines by vertices or by segments,
+// and the stills of a clip with the boundary and of the boundary with lines are refined too.
 //   node --test tests/browser/modes.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -64,6 +65,8 @@ test('a slice alone: nothing else checked again, the slice shows, refined, and a
   assert.deepEqual(await modes(), [], 'adding a slice checks nothing');
   const shown = await covered();
   assert.ok(shown > empty + 0.02, `the slice covers ${(100 * shown).toFixed(1)}% of the view, ${(100 * empty).toFixed(1)}% before`);
+  // the attribute's legend names what it colours: the slice, not a volume that is off
+  assert.equal(await page.textContent('#legend .legend[data-key=attribute] .legend-caption'), 'slice');
   const total = await page.evaluate(() => window.tetrascope.dataset.tets);
   const tets = await stillTets();
   assert.ok(tets > 0.5 * total, `the slice's still holds ${tets} of ${total} tets (the volume is off: its opacity ranks nothing)`);
@@ -115,11 +118,17 @@ test('clip with the boundary, and the boundary with stream lines', async () => {
   await settled();
   assert.equal((await lastSent('mode.set')).mode, 'surface');
   assert.notEqual(await frameImage(), whole, 'the clip cut the boundary');
+  const total = await page.evaluate(() => window.tetrascope.dataset.tets);
+  // each refines on its own: the clip keeps half the box, and its still about half the tets
+  const clippedTets = await stillTets();
+  assert.ok(clippedTets > 0.4 * total, `clip with the boundary: the still holds ${clippedTets} of ${total} tets`);
   const clipped = await frameImage();
   await page.check('#lines-on');
   await settled();
   assert.equal((await lastSent('mode.set')).mode, 'surface+lines');
   assert.notEqual(await frameImage(), clipped, 'the lines show with the boundary');
+  const linesTets = await stillTets();
+  assert.ok(linesTets > 0.4 * total, `the boundary with stream lines: the still holds ${linesTets} of ${total} tets`);
   await page.uncheck('#mode-surface');
   await settled();
   assert.equal((await lastSent('mode.set')).mode, 'lines', 'the lines alone, no volume added');

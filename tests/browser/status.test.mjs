@@ -1,10 +1,11 @@
 // A page that says what it is doing, in headless Chromium: "Connecting…" then "Loading …" over
 // the view before the first image (not a black canvas), "Refining…" on the refinement bar with
-// the dataset's own tet count, a stats box that can be hidden (and stays hidden after a
-// reload), and a lost connection: the reconnect countdown counts down, and input made while
-// disconnected (a drag, a wheel, a key, a colormap) is dropped, not replayed after the
+// the dataset's own tet count, each frame's own latency in the stats (a still's from the input
+// it answers, not the last moving frame's), a stats box that can be hidden (and stays hidden
+// after a reload), and a lost connection: the reconnect countdown counts down, and input made
+// while disconnected (a drag, a wheel, a key, a colormap) is dropped, not replayed after the
 // reconnect. Reconnects are held off by pointing the page's WebSocket at a closed port.
-// Ordering only, no timed assertions.
+// Ordering only: no assertion on how long anything takes.
 //   node --test tests/browser/status.test.mjs   (TETRA_BINARY: the tetrascope executable)
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -28,9 +29,14 @@ const recordStatus = () => {
   });
   const Real = window.WebSocket;
   window.holdReconnects = false;
+  window.sentTimes = new Map();  // message id -> when it went out
   window.WebSocket = class extends Real {
     constructor(address, protocols) {
       super(window.holdReconnects ? address.replace(/\/\/[^/]+/, '//127.0.0.1:9') : address, protocols);
+    }
+    send(text) {
+      window.sentTimes.set(JSON.parse(text).id, performance.now());
+      super.send(text);
     }
   };
 };
@@ -81,6 +87,39 @@ test('refinement says "Refining…" with the tets of the dataset, not of the bud
     const of = Number(text.match(/of ([\d,]+) tets/)[1].replace(/,/g, ''));
     assert.ok(of <= tets, `"${text}": at most the dataset's ${tets} tets`);
   }
+});
+
+test('each frame shows its own latency: a still\'s, refinement included, not the last moving frame\'s', async () => {
+  await ready();
+  await page.evaluate(() => {
+    window.latencies = [];
+    window.tetrascope.onFrame = (h) => {
+      const line = document.getElementById('stats').textContent.split('\n')[1];
+      window.latencies.push({ id: h.message_id, still: h.still, refining: h.refining, line, shown: Number(line.match(/latency (\d+) ms/)?.[1] ?? NaN), at: performance.now(), sent: window.sentTimes.get(h.message_id) });
+    };
+  });
+  // a drag (moving frames, each answering its own message), then its refinement to a still
+  const box = await page.locator('#frame').boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width / 2 + 150, box.y + box.height / 2 + 30, { steps: 12 });
+  await page.mouse.up();
+  await settled();
+  const frames = await page.evaluate(() => window.latencies);
+  const still = frames.at(-1);
+  assert.ok(still.still && frames.some((f) => !f.still && !f.refining), `moving frames, then a still: ${JSON.stringify(frames)}`);
+  for (const f of frames) {
+    // what the page shows is its own from send to screen: never more than the test measures
+    // around it (the page reads its clock a moment before the send and after the frame)
+    assert.ok(f.shown <= f.at - f.sent + 20, `a frame shows ${f.line}, its own ${(f.at - f.sent).toFixed(0)} ms`);
+  }
+  // the still came after every frame before it that answers the same message: its latency is
+  // later than theirs, not a copy of the last one
+  const before = frames.slice(0, -1).filter((f) => f.id === still.id);
+  assert.ok(before.length >= 1, `refinement steps before the still: ${JSON.stringify(frames)}`);
+  assert.ok(still.shown >= Math.floor(before.at(-1).at - still.sent) - 1, `the still shows ${still.line}; the step before it came ${(before.at(-1).at - still.sent).toFixed(0)} ms after the input`);
+  assert.ok(still.shown > Math.max(...before.map((f) => f.shown)), `the still's ${still.shown} ms against its steps' ${before.map((f) => f.shown)}`);
+  assert.match(still.line, /\(input to still\)/);
 });
 
 test('the stats box can be hidden, stays hidden after a reload, and s shows it again', async () => {
