@@ -1,7 +1,8 @@
 #!/bin/sh
 # The vertex hierarchy's cost and speed, mesh by mesh: `tetrascope preprocess` with the
-# defaults (vertices.bin built) REPEAT times, the median total time and the time of its
-# vertices stage against the rest (the same build without it), the store's bytes with and
+# defaults (vertices.bin built) REPEAT times, each beside the same build with --vertices off:
+# the median total time and the time of its vertices stage against the rest, the whole
+# processes' CPU seconds (user + system) with and without it, the store's bytes with and
 # without vertices.bin, peak RSS; then bench/vertex_bench on the store (bytes an update,
 # splits and collapses a second on one core, front updates on an orbit).
 #   bench/vertex_bench.sh [MESH ...]   (REPEAT=3 by default; default meshes: the shared
@@ -23,8 +24,13 @@ for mesh in "$@"; do
   name=$(basename "$mesh" .vtk)
   i=0
   while [ "$i" -lt "$repeat" ]; do
-    /usr/bin/time -f '%M' -o "$out/$name.rss" "$bin" preprocess "$mesh" -o "$out/$name.store" --force --progress none --json > "$out/$name.$i.json"
-    echo "{\"run\": $i, \"rss_kb\": $(cat "$out/$name.rss"), \"report\": $(cat "$out/$name.$i.json")}" > "$out/$name.$i.run.json"
+    # with the hierarchy, then the same build without it (--vertices off), alternating: CPU
+    # seconds (user + system) of the whole process beside the wall time
+    /usr/bin/time -f '%M %U %S' -o "$out/$name.rss" "$bin" preprocess "$mesh" -o "$out/$name.store" --force --progress none --json > "$out/$name.$i.json"
+    /usr/bin/time -f '%e %U %S' -o "$out/$name.off.time" "$bin" preprocess "$mesh" -o "$out/$name.off.store" --vertices off --force --progress none --json > /dev/null
+    read -r rss user sys < "$out/$name.rss"
+    read -r off_wall off_user off_sys < "$out/$name.off.time"
+    echo "{\"run\": $i, \"rss_kb\": $rss, \"cpu_seconds\": $(awk "BEGIN{print $user + $sys}"), \"without\": {\"wall_seconds\": $off_wall, \"cpu_seconds\": $(awk "BEGIN{print $off_user + $off_sys}")}, \"report\": $(cat "$out/$name.$i.json")}" > "$out/$name.$i.run.json"
     i=$((i + 1))
   done
   "$bench" "$out/$name.store" > "$out/$name.bench.json"
@@ -41,6 +47,9 @@ vbytes = report["vertices"].get("bytes", 0)
 print(json.dumps({"mesh": name, "input_tets": report["input_tets"], "runs": repeat, "load": load,
                   "preprocess_seconds": total, "vertices_seconds": vertices, "time_over_without": total / (total - vertices) - 1,
                   "store_bytes": store, "vertices_bytes": vbytes, "size_over_without": store / (store - vbytes) - 1,
+                  "cpu_seconds": statistics.median(r["cpu_seconds"] for r in runs), "cpu_seconds_without": statistics.median(r["without"]["cpu_seconds"] for r in runs),
+                  "cpu_over_without": statistics.median(r["cpu_seconds"] / r["without"]["cpu_seconds"] for r in runs) - 1,
+                  "wall_over_without": statistics.median(r["report"]["seconds"] / r["without"]["wall_seconds"] for r in runs) - 1,
                   "peak_rss_kb": statistics.median(r["rss_kb"] for r in runs), "hierarchy": bench}))
 EOF
 done
