@@ -315,7 +315,7 @@ StarLinks derive_star_links(const VertexHierarchy& h) {
     for (uint32_t last = kNoCollapse;;) {
       const uint32_t i = std::min({consumer[cur[0]], consumer[cur[1]], consumer[cur[2]], consumer[cur[3]]});
       if (i == kNoCollapse) break;
-      float* range = &out.ranges[2 * size_t{i} * A];
+      float* range = out.ranges.data() + 2 * size_t{i} * A;  // no attributes: never read
       const float* centre = &h.positions[3 * (size_t{V} + i)];
       for (int k = 0; k < 4; ++k) {
         for (uint32_t a = 0; a < A; ++a) {
