@@ -190,8 +190,11 @@ nlohmann::json store_summary(const std::string& name, const storage::Store& stor
   }
   // a multiresolution store holds every level: its mesh is the input's
   const nlohmann::json input = m.json.contains("multiresolution") ? m.json["multiresolution"].value("input", nlohmann::json::object()) : nlohmann::json::object();
+  // the multiresolution model (preprocess --model): the segments' multi-triangulation or binary hierarchy
+  const std::string model = m.json.contains("multiresolution") ? m.json["multiresolution"].value("model", std::string("mt")) : std::string("none");
   return {{"name", name},
           {"state", "ready"},
+          {"model", model},
           {"tets", input.value("tetrahedra", m.tet_count)},
           {"vertices", input.value("vertices", m.vertex_count)},
           {"stored_tets", m.tet_count},
