@@ -582,7 +582,9 @@ TEST(HostileCgns, TruncatedAndFlippedFilesGetAnErrorOrReadNeverCrash) {
   const auto dir = scratch_dir("cgns_damaged");
   for (const bool adf : {false, true}) {
     const auto good_path = dir / (adf ? "good.adf" : "good.cgns");
-    write_cgns(good_path, {f.mesh}, {.adf = adf, .mixed = true});
+    // with boundary conditions by element and by vertex, so damage reaches their nodes too
+    write_cgns(good_path, {f.mesh}, {.adf = adf, .mixed = true, .bcs = {{"floor", CGNS_ENUMV(ElementList), {3}}, {"lid", CGNS_ENUMV(PointRange), {10, 18}}}});
+    ASSERT_EQ(storage::load_mesh(good_path).face_tags.names, (std::vector<std::string>{"floor", "lid"}));
     const std::string good = read_file(good_path);
     std::mt19937 random(20261127);
     int refused = 0;
