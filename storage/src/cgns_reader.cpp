@@ -9,8 +9,9 @@
 // ZoneIterativeData names for the last step), fields NAMEX NAMEY NAMEZ joined into a vector (vertex NAMEXX NAMEXY NAMEXZ NAMEYY NAMEYZ
 // NAMEZZ into a symmetric tensor)
 // NAME as ParaView does; the BC_t of a zone's ZoneBC as boundary face tags named by the BC
-// (face elements by number, or the boundary faces whose corners are all in a vertex set). Coordinates, connectivity and values are read in chunks (partial
-// reads of the arrays), so memory follows the chunk, not the file. The node layer rather than
+// (face elements by number, or the boundary faces whose corners are all in a vertex set).
+// Coordinates, connectivity and values are read in chunks (partial reads of the arrays), so
+// memory follows the chunk, not the file. The node layer rather than
 // the mid-level library: the mid-level library of Debian 12 (CGNS 3.4) refuses every file
 // written by CGNS 4 (ParaView's writer, current solvers) although the layout it reads is the
 // same, and its partial read of MIXED sections trusts stored offsets. The library keeps global
