@@ -8,8 +8,10 @@
 // and one at CellCenter as cell data (the last of each location, or the one the zone's
 // ZoneIterativeData names for the last step), fields NAMEX NAMEY NAMEZ joined into a vector (vertex NAMEXX NAMEXY NAMEXZ NAMEYY NAMEYZ
 // NAMEZZ into a symmetric tensor)
-// NAME as ParaView does. Coordinates, connectivity and values are read in chunks (partial
-// reads of the arrays), so memory follows the chunk, not the file. The node layer rather than
+// NAME as ParaView does; the BC_t of a zone's ZoneBC as boundary face tags named by the BC
+// (face elements by number, or the boundary faces whose corners are all in a vertex set).
+// Coordinates, connectivity and values are read in chunks (partial reads of the arrays), so
+// memory follows the chunk, not the file. The node layer rather than
 // the mid-level library: the mid-level library of Debian 12 (CGNS 3.4) refuses every file
 // written by CGNS 4 (ParaView's writer, current solvers) although the layout it reads is the
 // same, and its partial read of MIXED sections trusts stored offsets. The library keeps global
@@ -21,6 +23,7 @@
 #include <cgnslib.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -63,6 +66,49 @@ std::pair<int, int> element_kind(CGNS_ENUMT(ElementType_t) type) {
   if (starts("HEXA_")) return {kVtkHexahedron, 8};
   if (starts("NGON_n") || starts("NFACE_n") || !*name) return {0, -1};
   return {kVtkVertex, 0};  // NODE, BAR_*, TRI_*, QUAD_*
+}
+
+// The corner count of a face element (TRI_* 3, QUAD_* 4; higher-order ones list their corners
+// first), 0 for any other.
+int face_corners(CGNS_ENUMT(ElementType_t) type) {
+  const char* name = type >= 0 && type < NofValidElementTypes ? ElementTypeName[type] : "";
+  if (std::strncmp(name, "TRI_", 4) == 0) return 3;
+  if (std::strncmp(name, "QUAD_", 5) == 0) return 4;
+  return 0;
+}
+
+// The faces of a linear volume cell, VTK (and CGNS) corner order: corner indices, a triangle's
+// fourth -1.
+struct CellFaces {
+  int count;
+  int corners[6][4];
+};
+const CellFaces& cell_faces(int vtk_type) {
+  static const CellFaces tet{4, {{0, 1, 2, -1}, {0, 1, 3, -1}, {1, 2, 3, -1}, {0, 2, 3, -1}}};
+  static const CellFaces pyramid{5, {{0, 1, 2, 3}, {0, 1, 4, -1}, {1, 2, 4, -1}, {2, 3, 4, -1}, {3, 0, 4, -1}}};
+  static const CellFaces wedge{5, {{0, 1, 2, -1}, {3, 4, 5, -1}, {0, 1, 4, 3}, {1, 2, 5, 4}, {2, 0, 3, 5}}};
+  static const CellFaces hex{6, {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}}};
+  return vtk_type == kVtkTetra ? tet : vtk_type == kVtkPyramid ? pyramid : vtk_type == kVtkWedge ? wedge : hex;
+}
+
+using Triangle = std::array<uint32_t, 3>;
+
+// FaceTags::tag, here too: the module links none of tetrascope's code.
+uint32_t tag_named(FaceTags& tags, const std::string& name) {
+  const auto it = std::find(tags.names.begin(), tags.names.end(), name);
+  if (it != tags.names.end()) return static_cast<uint32_t>(it - tags.names.begin());
+  tags.names.push_back(name);
+  return static_cast<uint32_t>(tags.names.size() - 1);
+}
+
+// A face's triangles: a quad split by the diagonal through its vertex of smallest id, as the
+// hexahedra are split (cell_split.cpp).
+template <typename Add>
+void face_triangles(const uint32_t* c, int corners, Add&& add) {
+  if (corners == 3) return add(Triangle{c[0], c[1], c[2]});
+  const int k = static_cast<int>(std::min_element(c, c + 4) - c);
+  add(Triangle{c[k], c[(k + 1) % 4], c[(k + 2) % 4]});
+  add(Triangle{c[k], c[(k + 2) % 4], c[(k + 3) % 4]});
 }
 
 // A variable of the file: one field, three joined into a vector, or six into a symmetric tensor.
@@ -190,8 +236,21 @@ struct Solution {
   }
 };
 
+// A BC_t of a zone's ZoneBC: its point set, face elements by number or vertices (1-based, the
+// zone's own), as a range or a sorted list.
+struct Boundary {
+  std::string name;
+  bool faces = false;
+  bool range = false;
+  int64_t low = 0, high = -1;  // the range
+  std::vector<int64_t> list;
+  bool holds(int64_t index) const { return range ? index >= low && index <= high : std::binary_search(list.begin(), list.end(), index); }
+};
+
 struct Zone {
   std::string name;
+  std::vector<Boundary> boundaries;
+  bool face_boundaries = false, vertex_boundaries = false;
   int64_t vertices = 0, cells = 0;
   uint64_t first_vertex = 0;
   Array coordinates[3];
@@ -217,7 +276,10 @@ class CgnsReader final : public FormatReader {
   void read_vertices(size_t count, float* xyz, std::span<float* const> attributes, ReadStats& stats) override;
   bool read_cells(CellBatch& batch, size_t max_cells) override;
   void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
+  FaceTags take_face_tags() override;
   void rewind_cells() override {
+    surface_faces_.clear();
+    candidates_.clear();
     zone_ = section_ = 0;
     in_section_ = 0;
     mixed_position_ = 0;
@@ -242,11 +304,15 @@ class CgnsReader final : public FormatReader {
   Zone read_zone(const Node& node, uint64_t& declared_bytes, uint64_t& cells);
   Section read_section(const Zone& zone, const Node& node, uint64_t& declared_bytes);
   void read_solutions(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats);
+  void read_boundaries(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats);
+  std::vector<int64_t> index_values(const Node& node, const std::string& what) const;
+  void note_faces(const Zone& zone, int64_t element, int vtk_type, int corners, int face);
   std::string last_step(const std::vector<Node>& iterative, const char* pointers);
   void read_field(const Zone& zone, const Solution& solution, const std::string& field, int64_t first, size_t count, std::vector<double>& out);
   void read_section_cells(const Zone& zone, const Section& s, int64_t n, CellBatch& batch);
   void read_mixed_cells(const Zone& zone, const Section& s, int64_t low, int64_t n, CellBatch& batch);
-  void append_element(const Zone& zone, const Section& s, int64_t element, int vtk_type, int corners, std::span<const int64_t> nodes, CellBatch& batch);
+  void append_element(const Zone& zone, const Section& s, int64_t element, int vtk_type, int corners, int face, std::span<const int64_t> nodes,
+                      CellBatch& batch);
 
   std::filesystem::path path_;
   std::string name_;
@@ -276,6 +342,17 @@ class CgnsReader final : public FormatReader {
   std::vector<uint8_t> raw_;
   std::vector<double> scratch_[3];
   std::vector<uint32_t> nodes_scratch_;
+  // boundary conditions: the face elements of zones with face BCs, and the faces of volume
+  // elements whose corners are all in some vertex BC (a face met once is a boundary face)
+  struct SurfaceFace {
+    size_t zone;
+    int64_t element;
+    uint32_t corners[4];
+    int count;
+  };
+  std::vector<SurfaceFace> surface_faces_;
+  std::vector<bool> on_vertex_boundary_;  // per vertex, empty when no zone has a vertex BC
+  std::vector<Triangle> candidates_;      // sorted corners
 };
 
 std::string cgio_message() {
@@ -454,9 +531,23 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
     zones_.back().first_vertex = vertex_total_;
     vertex_total_ += static_cast<uint64_t>(zones_.back().vertices);
     if (vertex_total_ >= std::numeric_limits<uint32_t>::max()) fail("CGNS: more than 4294967294 vertices");
-    read_solutions(zones_.back(), children(n.id, "zone '" + n.name + "'"), stats);
+    const std::vector<Node> parts = children(n.id, "zone '" + n.name + "'");
+    read_solutions(zones_.back(), parts, stats);
+    read_boundaries(zones_.back(), parts, stats);
   }
   if (zones_.empty()) fail("CGNS base '" + base.name + "' has no zone");
+  for (const Zone& zone : zones_) {
+    if (!zone.vertex_boundaries) continue;
+    on_vertex_boundary_.resize(vertex_total_, false);
+    for (const Boundary& b : zone.boundaries) {
+      if (b.faces) continue;
+      auto mark = [&](int64_t v) { on_vertex_boundary_[zone.first_vertex + static_cast<uint64_t>(v - 1)] = true; };
+      if (b.range)
+        for (int64_t v = b.low; v <= b.high; ++v) mark(v);
+      else
+        for (int64_t v : b.list) mark(v);
+    }
+  }
   const uint64_t limit = inflate_limit(limits_, file_bytes_);
   if (declared > limit) {
     fail("CGNS: its zones declare " + std::to_string(declared) + " bytes of coordinates and connectivity, more than " + std::to_string(limit) +
@@ -658,6 +749,84 @@ void CgnsReader::read_solutions(Zone& zone, const std::vector<Node>& nodes, Read
   }
 }
 
+// The values of a BC's point set (an IndexArray_t or IndexRange_t: integers, in an array of
+// any shape), bounded by what the file can hold.
+std::vector<int64_t> CgnsReader::index_values(const Node& node, const std::string& what) const {
+  std::lock_guard<std::mutex> hold(library_lock());
+  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
+  int dimensions = 0;
+  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+  if (!stored_type(node.id, type) || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
+    fail("CGNS: cannot read " + what + cgio_message());
+  }
+  const bool wide = std::strcmp(type, "I8") == 0;
+  if (!wide && std::strcmp(type, "I4") != 0) fail("CGNS: " + what + " holds " + type + " values, not integers");
+  const uint64_t most = inflate_limit(limits_, file_bytes_) / 4;
+  uint64_t values = dimensions > 0 ? 1 : 0;
+  for (int d = 0; d < std::min(dimensions, CGIO_MAX_DIMENSIONS); ++d) {
+    if (extent[d] < 0 || (extent[d] > 0 && values > most / static_cast<uint64_t>(extent[d]))) fail("CGNS: " + what + " declares more values than the file can hold");
+    values *= static_cast<uint64_t>(extent[d]);
+  }
+  std::vector<int64_t> out(values);
+  if (values == 0) return out;
+  std::vector<int32_t> narrow(wide ? 0 : values);
+  if (cgio_read_all_data(cgio_, node.id, wide ? static_cast<void*>(out.data()) : static_cast<void*>(narrow.data())) != CGIO_ERR_NONE) {
+    fail("CGNS: cannot read " + what + cgio_message());
+  }
+  if (!wide) std::copy(narrow.begin(), narrow.end(), out.begin());
+  return out;
+}
+
+// Each BC_t of the zone's ZoneBC: a point set of face elements (ElementList or ElementRange, or
+// PointList or PointRange at FaceCenter) or of vertices (PointList or PointRange at Vertex);
+// BCs of other locations are left out with a warning.
+void CgnsReader::read_boundaries(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats) {
+  for (const Node& n : nodes) {
+    if (n.label != "ZoneBC_t") continue;
+    for (const Node& bc : children(n.id, "the ZoneBC of zone '" + zone.name + "'")) {
+      if (bc.label != "BC_t") continue;
+      const std::string label = "CGNS BC '" + bc.name + "' of zone '" + zone.name + "'";
+      Boundary b;
+      b.name = bc.name;
+      std::string location = "Vertex";
+      bool found = false, elements = false;
+      for (const Node& p : children(bc.id, label)) {
+        if (p.label == "GridLocation_t") location = text(p.id, "the GridLocation of " + label);
+        const bool is_range = p.name == "PointRange" || p.name == "ElementRange", is_list = p.name == "PointList" || p.name == "ElementList";
+        if (!is_range && !is_list) continue;
+        std::vector<int64_t> values = index_values(p, "the " + p.name + " of " + label);
+        if (is_range && values.size() != 2) fail(label + ": its " + p.name + " holds " + std::to_string(values.size()) + " values, not 2");
+        found = true;
+        elements = p.name[0] == 'E';
+        b.range = is_range;
+        if (is_range) {
+          b.low = values[0];
+          b.high = values[1];
+        } else {
+          std::sort(values.begin(), values.end());
+          values.erase(std::unique(values.begin(), values.end()), values.end());
+          b.list = std::move(values);
+        }
+      }
+      if (!found) continue;
+      b.faces = elements || location == "FaceCenter";
+      if (!b.faces && location != "Vertex") {
+        stats.warnings.push_back(label + ": a point set at " + location + " is not read as boundary faces");
+        continue;
+      }
+      if (!b.faces) {
+        const int64_t first = b.range ? b.low : b.list.empty() ? 1 : b.list.front(), last = b.range ? b.high : b.list.empty() ? 0 : b.list.back();
+        if (first <= last && (first < 1 || last > zone.vertices)) {
+          fail(label + " names vertex " + std::to_string(first < 1 ? first : last) + " of a zone of " + std::to_string(zone.vertices) + " vertices");
+        }
+      }
+      zone.face_boundaries |= b.faces;
+      zone.vertex_boundaries |= !b.faces;
+      zone.boundaries.push_back(std::move(b));
+    }
+  }
+}
+
 void CgnsReader::read_field(const Zone& zone, const Solution& solution, const std::string& field, int64_t first, size_t count, std::vector<double>& out) {
   out.resize(count);
   const Array* values = solution.find(field);
@@ -707,8 +876,10 @@ void CgnsReader::read_vertices(size_t count, float* xyz, std::span<float* const>
   }
 }
 
-void CgnsReader::append_element(const Zone& zone, const Section& s, int64_t element, int vtk_type, int corners, std::span<const int64_t> nodes, CellBatch& batch) {
-  const size_t used = corners > 0 ? static_cast<size_t>(corners) : std::min<size_t>(1, nodes.size());
+void CgnsReader::append_element(const Zone& zone, const Section& s, int64_t element, int vtk_type, int corners, int face, std::span<const int64_t> nodes,
+                                CellBatch& batch) {
+  if (!zone.face_boundaries || nodes.size() < static_cast<size_t>(face)) face = 0;  // a face element's corners matter to face BCs only
+  const size_t used = corners > 0 ? static_cast<size_t>(corners) : face > 0 ? static_cast<size_t>(face) : std::min<size_t>(1, nodes.size());
   nodes_scratch_.resize(used);
   for (size_t k = 0; k < used; ++k) {
     const int64_t node = nodes[k];
@@ -729,7 +900,84 @@ void CgnsReader::append_element(const Zone& zone, const Section& s, int64_t elem
     ++volume_in_zone_;
   }
   volume_cell_.push_back(volume ? 1 : 0);
+  note_faces(zone, element, vtk_type, corners, face);
+  if (!volume) nodes_scratch_.resize(std::min<size_t>(1, used));
   batch.push(static_cast<uint8_t>(volume ? vtk_type : kVtkVertex), nodes_scratch_);
+}
+
+// What the zone's BCs need of the element just read (its corners in nodes_scratch_): a face
+// element of a zone with face BCs, the faces of a volume element whose corners all lie in a
+// vertex BC.
+void CgnsReader::note_faces(const Zone& zone, int64_t element, int vtk_type, int corners, int face) {
+  if (face > 0 && zone.face_boundaries) {
+    SurfaceFace f{zone_, element, {0, 0, 0, 0}, face};
+    std::copy_n(nodes_scratch_.begin(), face, f.corners);
+    surface_faces_.push_back(f);
+  }
+  if (corners <= 0 || !zone.vertex_boundaries) return;
+  const CellFaces& faces = cell_faces(vtk_type);
+  for (int f = 0; f < faces.count; ++f) {
+    const int n = faces.corners[f][3] < 0 ? 3 : 4;
+    uint32_t c[4] = {0, 0, 0, 0};
+    bool all = true;
+    for (int k = 0; k < n; ++k) {
+      c[k] = nodes_scratch_[static_cast<size_t>(faces.corners[f][k])];
+      all = all && on_vertex_boundary_[c[k]];
+    }
+    if (!all) continue;
+    face_triangles(c, n, [&](Triangle t) {
+      std::sort(t.begin(), t.end());
+      candidates_.push_back(t);
+    });
+  }
+}
+
+// The BCs' faces, zone by zone and BC by BC in file order (a face two BCs hold goes to the
+// first): face elements by number; for a vertex set, the boundary faces (faces of one volume
+// element only) whose corners are all in it.
+FaceTags CgnsReader::take_face_tags() {
+  FaceTags tags;
+  std::sort(candidates_.begin(), candidates_.end());
+  std::vector<Triangle> boundary;
+  for (size_t i = 0, j = 0; i < candidates_.size(); i = j) {
+    for (j = i + 1; j < candidates_.size() && candidates_[j] == candidates_[i];) ++j;
+    if (j == i + 1) boundary.push_back(candidates_[i]);
+  }
+  std::vector<bool> face_taken(surface_faces_.size(), false), boundary_taken(boundary.size(), false);
+  for (size_t z = 0; z < zones_.size(); ++z) {
+    const Zone& zone = zones_[z];
+    for (const Boundary& b : zone.boundaries) {
+      const uint32_t tag = tag_named(tags, b.name);
+      auto add = [&](Triangle t) { tags.add(tag, t[0], t[1], t[2]); };
+      for (size_t f = 0; f < surface_faces_.size() && b.faces; ++f) {
+        const SurfaceFace& face = surface_faces_[f];
+        if (face_taken[f] || face.zone != z || !b.holds(face.element)) continue;
+        face_taken[f] = true;
+        face_triangles(face.corners, face.count, add);
+      }
+      const auto local = [&](uint32_t v) { return static_cast<int64_t>(v - zone.first_vertex) + 1; };
+      for (size_t f = 0; f < boundary.size() && !b.faces; ++f) {
+        const Triangle& t = boundary[f];
+        if (boundary_taken[f] || t[0] < zone.first_vertex || !b.holds(local(t[0])) || !b.holds(local(t[1])) || !b.holds(local(t[2]))) continue;
+        boundary_taken[f] = true;
+        add(t);
+      }
+    }
+  }
+  // a BC none of whose faces was found keeps no name
+  std::vector<uint64_t> used(tags.names.size(), 0);
+  for (uint32_t t : tags.tags) ++used[t];
+  if (std::find(used.begin(), used.end(), 0) != used.end()) {
+    FaceTags kept;
+    std::vector<uint32_t> renamed(tags.names.size());
+    for (size_t t = 0; t < tags.names.size(); ++t)
+      if (used[t] > 0) renamed[t] = tag_named(kept, tags.names[t]);
+    for (size_t i = 0; i < tags.tags.size(); ++i) kept.add(renamed[tags.tags[i]], tags.triangles[i][0], tags.triangles[i][1], tags.triangles[i][2]);
+    tags = std::move(kept);
+  }
+  surface_faces_.clear();
+  candidates_.clear();
+  return tags;
 }
 
 void CgnsReader::read_section_cells(const Zone& zone, const Section& s, int64_t n, CellBatch& batch) {
@@ -740,7 +988,7 @@ void CgnsReader::read_section_cells(const Zone& zone, const Section& s, int64_t 
   read_values(s.connectivity, in_section_ * s.nodes, values, "the elements of section '" + s.name + "' in zone '" + zone.name + "'", connectivity_.data(), nullptr);
   for (int64_t e = 0; e < n; ++e) {
     const std::span<const int64_t> nodes(connectivity_.data() + static_cast<size_t>(e) * static_cast<size_t>(s.nodes), static_cast<size_t>(s.nodes));
-    append_element(zone, s, low + e, s.vtk_type, s.corners, nodes, batch);
+    append_element(zone, s, low + e, s.vtk_type, s.corners, face_corners(s.type), nodes, batch);
   }
 }
 
@@ -767,7 +1015,7 @@ void CgnsReader::read_mixed_cells(const Zone& zone, const Section& s, int64_t lo
       fail(element() + ": element type " + std::to_string(type_value) + " cannot be read in a MIXED section");
     }
     if (connectivity_.size() - at - 1 < static_cast<size_t>(nodes)) fail(element() + ": the connectivity ends inside it");
-    append_element(zone, s, low + e, vtk, corners, std::span<const int64_t>(connectivity_.data() + at + 1, static_cast<size_t>(nodes)), batch);
+    append_element(zone, s, low + e, vtk, corners, face_corners(type), std::span<const int64_t>(connectivity_.data() + at + 1, static_cast<size_t>(nodes)), batch);
     at += 1 + static_cast<size_t>(nodes);
   }
   mixed_position_ += static_cast<int64_t>(at);

@@ -161,8 +161,9 @@ class Base64Bytes final : public ByteStream {
 class ZlibBlocks final : public ByteStream {
  public:
   static constexpr uint64_t kGroupBytes = 1 << 20;  // inflate about this much output at once
+  // `what` names the data in errors
   ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bool little_endian,
-             uint64_t expected_bytes, uint64_t file_size);
+             uint64_t expected_bytes, uint64_t file_size, std::string_view what = "compressed data");
   ~ZlibBlocks() override;
   void read(void* dst, size_t n, std::string_view what) override;
   [[noreturn]] void fail(std::string_view what) const override {

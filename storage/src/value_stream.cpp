@@ -191,7 +191,7 @@ uint64_t load_header_item(const uint8_t* p, bool uint64, bool little_endian) {
 }  // namespace
 
 ZlibBlocks::ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bool little_endian,
-                       uint64_t expected_bytes, uint64_t file_size)
+                       uint64_t expected_bytes, uint64_t file_size, std::string_view what)
     : inner_(std::move(inner)) {
   const size_t item = header_uint64 ? 8 : 4;
   uint8_t head[24];
@@ -211,7 +211,7 @@ ZlibBlocks::ZlibBlocks(std::unique_ptr<ByteStream> inner, bool header_uint64, bo
     total = (blocks - 1) * block_size_ + (last_block_size_ == 0 ? block_size_ : last_block_size_);
   }
   if (total != expected_bytes) {
-    inner_->fail("compressed data holds " + std::to_string(total) + " bytes, expected " +
+    inner_->fail(std::string(what) + " holds " + std::to_string(total) + " bytes, expected " +
                  std::to_string(expected_bytes));
   }
   compressed_sizes_.resize(static_cast<size_t>(blocks));

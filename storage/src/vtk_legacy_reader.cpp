@@ -1,11 +1,14 @@
 // VTK legacy unstructured grids (.vtk), ASCII and BINARY (big-endian), file versions up to
-// 5.1 (OFFSETS/CONNECTIVITY cells). Format: "VTK File Formats", VTK User's Guide ch. 19.
+// 5.1 (OFFSETS/CONNECTIVITY cells); triangles and quads beside the volume cells tagged by a
+// region-id CELL_DATA array become boundary face tags (region_tags.h). Format: "VTK File
+// Formats", VTK User's Guide ch. 19.
 #include <algorithm>
 #include <cctype>
 #include <functional>
 #include <optional>
 
 #include "format_reader.h"
+#include "region_tags.h"
 
 namespace tetrascope::storage::detail {
 namespace {
@@ -45,6 +48,7 @@ class VtkLegacyReader final : public FormatReader {
   bool read_cells(CellBatch& batch, size_t max_cells) override;
   void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
   void rewind_cells() override;
+  FaceTags take_face_tags() override;
 
  private:
   std::optional<ScalarType> parse_type(std::string_view name) const;
@@ -80,6 +84,8 @@ class VtkLegacyReader final : public FormatReader {
   size_t slow_cells_ = 0;  // cells left to read one by one after a run that was not plain tets
   std::vector<uint32_t> cell_nodes_;
   std::vector<std::unique_ptr<ValueStream>> cell_values_;
+  std::optional<size_t> region_array_;  // the cell array of region ids, if any
+  SurfaceRegions surfaces_;
 };
 
 std::optional<ScalarType> VtkLegacyReader::parse_type(std::string_view name) const {
@@ -339,6 +345,13 @@ MeshHeader VtkLegacyReader::index(ReadStats& stats) {
   header_.cell_count = cell_count_;
   for (const PointArray& a : point_arrays_) header_.attributes.push_back(a.info);
   for (const PointArray& a : cell_arrays_) header_.cell_attributes.push_back(a.info);
+  std::vector<std::string> names;
+  std::vector<uint32_t> components;
+  for (const PointArray& a : cell_arrays_) {
+    names.push_back(a.info.name);
+    components.push_back(a.info.kind == AttributeKind::kTensor ? 0 : a.info.components);
+  }
+  region_array_ = find_region_array(names, components);
   return header_;
 }
 
@@ -421,6 +434,7 @@ bool VtkLegacyReader::read_cells(CellBatch& batch, size_t max_cells) {
     }
     int64_t type = type_ints_.next("CELL_TYPES");
     append_cell(batch, cell_ints_, n, type, cells_read_, vertex_count, *type_stream_, cell_nodes_);
+    if (region_array_) surfaces_.note(batch, cells_read_);
     ++cells_read_;
     ++added;
   }
@@ -450,6 +464,17 @@ void VtkLegacyReader::rewind_cells() {
   offset_ints_ = {};
   type_ints_ = {};
   cell_values_.clear();
+  surfaces_.clear();
+}
+
+FaceTags VtkLegacyReader::take_face_tags() {
+  if (!region_array_ || surfaces_.empty()) return {};
+  const ArrayLocation& location = cell_arrays_[*region_array_].location;
+  const bool integral = location.type != ScalarType::kFloat32 && location.type != ScalarType::kFloat64;
+  const std::unique_ptr<ValueStream> values = stream_at(location);
+  FaceTags tags = surfaces_.resolve(*values, integral, cell_arrays_[*region_array_].info.name);
+  surfaces_.clear();
+  return tags;
 }
 
 }  // namespace

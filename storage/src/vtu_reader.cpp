@@ -1,11 +1,14 @@
 // VTK XML unstructured grids (.vtu): inline ascii and base64 binary, appended raw and
 // base64, optional vtkZLibDataCompressor framing, UInt32 or UInt64 block headers, either
-// byte order. Format: "VTK File Formats", XML section, and vtkXMLDataParser.
+// byte order; triangles and quads beside the volume cells tagged by a region-id CellData
+// array become boundary face tags (region_tags.h). Format: "VTK File Formats", XML section,
+// and vtkXMLDataParser.
 #include <cstdio>
 #include <map>
 #include <optional>
 
 #include "format_reader.h"
+#include "region_tags.h"
 
 namespace tetrascope::storage::detail {
 namespace {
@@ -90,6 +93,7 @@ class VtuReader final : public FormatReader {
   bool read_cells(CellBatch& batch, size_t max_cells) override;
   void read_cell_values(size_t count, std::span<float* const> values, ReadStats& stats) override;
   void rewind_cells() override;
+  FaceTags take_face_tags() override;
 
  private:
   bool next_tag(Tag& tag);
@@ -128,6 +132,8 @@ class VtuReader final : public FormatReader {
   BufferedInts connectivity_ints_, offset_ints_, type_ints_;
   std::vector<uint32_t> cell_nodes_;
   std::vector<std::unique_ptr<ValueStream>> cell_values_;
+  std::optional<size_t> region_array_;  // the cell array of region ids, if any
+  SurfaceRegions surfaces_;
 };
 
 bool VtuReader::next_tag(Tag& tag) {
@@ -342,6 +348,13 @@ MeshHeader VtuReader::index(ReadStats& stats) {
     header_.cell_attributes.push_back({a.name, a.components, a.tensor ? AttributeKind::kTensor : AttributeKind::kValue});
   }
   if (compressed_) check_inflated_size();
+  std::vector<std::string> names;
+  std::vector<uint32_t> components;
+  for (const DataArray& a : cell_arrays_) {
+    names.push_back(a.name);
+    components.push_back(a.tensor ? 0 : a.components);
+  }
+  region_array_ = find_region_array(names, components);
   return header_;
 }
 
@@ -393,7 +406,7 @@ std::unique_ptr<ValueStream> VtuReader::open_values(const DataArray& a, uint64_t
     stream = std::make_unique<RawBytes>(file_, offset, file_->size() - offset);
   }
   if (compressed_) {
-    stream = std::make_unique<ZlibBlocks>(std::move(stream), header_uint64_, little_endian_, bytes, file_->size());
+    stream = std::make_unique<ZlibBlocks>(std::move(stream), header_uint64_, little_endian_, bytes, file_->size(), "compressed DataArray '" + a.name + "'");
   } else {
     uint8_t head[8] = {};
     size_t item = header_uint64_ ? 8 : 4;
@@ -495,6 +508,7 @@ bool VtuReader::read_cells(CellBatch& batch, size_t max_cells) {
     previous_end_ = end;
     int64_t type = type_ints_.next("types");
     append_cell(batch, connectivity_ints_, n, type, cells_read_, vertex_count, *type_stream_, cell_nodes_);
+    if (region_array_) surfaces_.note(batch, cells_read_);
     ++cells_read_;
     ++added;
   }
@@ -521,6 +535,17 @@ void VtuReader::rewind_cells() {
   offset_ints_ = {};
   type_ints_ = {};
   cell_values_.clear();
+  surfaces_.clear();
+}
+
+FaceTags VtuReader::take_face_tags() {
+  if (!region_array_ || surfaces_.empty()) return {};
+  const DataArray& a = cell_arrays_[*region_array_];
+  const bool integral = a.type != ScalarType::kFloat32 && a.type != ScalarType::kFloat64;
+  const std::unique_ptr<ValueStream> values = open_values(a, header_.cell_count);
+  FaceTags tags = surfaces_.resolve(*values, integral, a.name);
+  surfaces_.clear();
+  return tags;
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // CGNS files written by the CGNS mid-level library itself (HDF5, and ADF): a zone of hexahedra
 // with a vertex and a cell-centred solution, a MIXED zone of every volume type and a surface
 // element, two zones joined, several solutions with ZoneIterativeData; `info` and
-// `preprocess` on a CGNS file through the command line; and damaged or hostile files refused
+// `preprocess` on a CGNS file through the command line; boundary conditions (BC_t) as
+// boundary face tags named by the BCs; and damaged or hostile files refused
 // with a message that names the threat, never a crash.
 #include <cgns_io.h>
 #include <cgnslib.h>
@@ -9,11 +10,14 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <random>
+#include <set>
 
 #include "cli_run.h"
 #include "fixture_writers.h"
 #include "test_paths.h"
+#include "tetrascope/core/tet_topology.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/mesh_stream.h"
 
@@ -42,6 +46,13 @@ struct CgnsOptions {
   std::vector<std::string> extra_cell_solutions{};  // written before the real one, values -1
   bool pointers = false;          // ZoneIterativeData naming the real cell solution for the last step, written first
   const char* pointers_name = "FlowSolutionPointers";  // or VTK's FlowSolutionCellPointers
+  struct Bc {
+    const char* name;
+    CGNS_ENUMT(PointSetType_t) set;
+    std::vector<cgsize_t> points;  // 1-based element or vertex numbers (a range: first and last)
+    CGNS_ENUMT(GridLocation_t) location = CGNS_ENUMV(GridLocationNull);  // written when not null
+  };
+  std::vector<Bc> bcs{};  // of the first zone
 };
 
 void check(int status) {
@@ -141,6 +152,11 @@ void write_cgns(const std::filesystem::path& path, const std::vector<CellMesh>& 
     check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateY", y.data(), &C));
     check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateZ", zs.data(), &C));
     const std::vector<size_t> order = write_sections(fn, B, Z, m, options);
+    for (const CgnsOptions::Bc& bc : z == 0 ? options.bcs : std::vector<CgnsOptions::Bc>{}) {
+      int BC = 0;
+      check(cg_boco_write(fn, B, Z, bc.name, CGNS_ENUMV(BCWall), bc.set, static_cast<cgsize_t>(bc.points.size()), bc.points.data(), &BC));
+      if (bc.location != CGNS_ENUMV(GridLocationNull)) check(cg_boco_gridlocation_write(fn, B, Z, BC, bc.location));
+    }
     if (options.pointers) write_pointers(fn, B, Z, {"Early", "FlowSolutionCells"}, options.pointers_name);
     int S = 0;
     if (!m.attributes.empty()) {
@@ -419,6 +435,56 @@ TEST(Cgns, InfoAndPreprocessReadItThroughTheCommandLine) {
   EXPECT_EQ(verify.status, 0) << verify.out;
 }
 
+// The hex zone's boundary conditions as face tags named by the BCs: "floor" the four quads
+// under the hexahedra by their element numbers (5 to 8), "lid" the vertices of the top (z = 2)
+// as a range, "inlet" those of the side x = 0 as a list, and "outlet" two of the floor's
+// quads by a PointList at FaceCenter; each face as two boundary triangles of the tets.
+TEST(Cgns, BoundaryConditionsArriveAsFaceTagsNamedByTheBcs) {
+  Fixture f = hex_zone();
+  const auto path = scratch_dir("cgns_bcs") / "m.cgns";
+  std::vector<cgsize_t> side;
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 3; ++j) side.push_back(1 + 3 * j + 9 * k);  // i = 0
+  write_cgns(path, {f.mesh},
+             {.bcs = {{"floor", CGNS_ENUMV(ElementRange), {5, 8}},
+                      {"lid", CGNS_ENUMV(PointRange), {10, 18}},
+                      {"inlet", CGNS_ENUMV(PointList), side},
+                      {"outlet", CGNS_ENUMV(PointList), {6, 8}, CGNS_ENUMV(FaceCenter)}}});
+  auto stream = storage::MeshStream::open(path);
+  const TetMesh mesh = storage::load_stream(*stream);
+  ASSERT_EQ(mesh.tet_count(), 4u * 6);
+  // "outlet" names quads "floor" took first: a face goes to the first BC that holds it
+  EXPECT_EQ(mesh.face_tags.names, (std::vector<std::string>{"floor", "lid", "inlet"}));
+  std::map<std::string, size_t> triangles;
+  std::set<std::array<uint32_t, 3>> boundary;
+  for (auto face : boundary_faces(mesh.tets)) {
+    std::sort(face.begin(), face.end());
+    boundary.insert(face);
+  }
+  for (size_t t = 0; t < mesh.face_tags.triangles.size(); ++t) {
+    ++triangles[mesh.face_tags.names[mesh.face_tags.tags[t]]];
+    auto key = mesh.face_tags.triangles[t];
+    std::sort(key.begin(), key.end());
+    EXPECT_TRUE(boundary.count(key)) << "a tagged triangle that is no boundary face of the tets";
+  }
+  EXPECT_EQ(triangles, (std::map<std::string, size_t>{{"floor", 8}, {"lid", 8}, {"inlet", 4}}));
+  const nlohmann::json j = storage::summary_json(storage::summarize_mesh(path));
+  EXPECT_EQ(j["regions_source"], "input tags");
+  EXPECT_EQ(j["face_tags"][1]["name"], "lid");
+}
+
+TEST(Cgns, AFaceCenterListNamesItsFaceElementsAndAZoneWithoutBcsHasNoTags) {
+  Fixture f = hex_zone();
+  const auto dir = scratch_dir("cgns_bcs_faces");
+  write_cgns(dir / "m.cgns", {f.mesh},
+             {.bcs = {{"west", CGNS_ENUMV(PointList), {5, 7}, CGNS_ENUMV(FaceCenter)}, {"east", CGNS_ENUMV(ElementList), {6, 8}}}});
+  const TetMesh mesh = storage::load_mesh(dir / "m.cgns");
+  EXPECT_EQ(mesh.face_tags.names, (std::vector<std::string>{"west", "east"}));
+  EXPECT_EQ(mesh.face_tags.triangles.size(), 8u);
+  write_cgns(dir / "none.cgns", {f.mesh});
+  EXPECT_TRUE(storage::load_mesh(dir / "none.cgns").face_tags.empty());
+}
+
 // ---- hostile files -------------------------------------------------------------------
 
 // Overwrites the zone's size array (vertices, cells, boundary vertices) in the file.
@@ -471,6 +537,14 @@ TEST(HostileCgns, AVertexIndexPastTheZoneIsRefusedNamingTheElement) {
   EXPECT_NE(error.find("element 6"), std::string::npos) << error;
 }
 
+TEST(HostileCgns, ABcVertexPastTheZoneIsRefusedNamingTheBc) {
+  const Fixture f = hex_zone();
+  const auto path = scratch_dir("cgns_bc_past") / "m.cgns";
+  write_cgns(path, {f.mesh}, {.bcs = {{"lid", CGNS_ENUMV(PointList), {10, 11, 99}}}});
+  const std::string error = mesh_read_error(path);
+  EXPECT_NE(error.find("CGNS BC 'lid' of zone 'Zone1' names vertex 99 of a zone of 18 vertices"), std::string::npos) << error;
+}
+
 TEST(HostileCgns, AStructuredZoneIsRefusedNamingIt) {
   const auto path = scratch_dir("cgns_structured") / "m.cgns";
   write_cgns(path, {hex_zone().mesh, hex_zone().mesh}, {.structured = true});
@@ -508,7 +582,9 @@ TEST(HostileCgns, TruncatedAndFlippedFilesGetAnErrorOrReadNeverCrash) {
   const auto dir = scratch_dir("cgns_damaged");
   for (const bool adf : {false, true}) {
     const auto good_path = dir / (adf ? "good.adf" : "good.cgns");
-    write_cgns(good_path, {f.mesh}, {.adf = adf, .mixed = true});
+    // with boundary conditions by element and by vertex, so damage reaches their nodes too
+    write_cgns(good_path, {f.mesh}, {.adf = adf, .mixed = true, .bcs = {{"floor", CGNS_ENUMV(ElementList), {3}}, {"lid", CGNS_ENUMV(PointRange), {10, 18}}}});
+    ASSERT_EQ(storage::load_mesh(good_path).face_tags.names, (std::vector<std::string>{"floor", "lid"}));
     const std::string good = read_file(good_path);
     std::mt19937 random(20261127);
     int refused = 0;

@@ -2,7 +2,8 @@
 // $PhysicalNames) read as tagged triangles that are exactly boundary faces of the tets; the
 // shared ONERA M6 file's wing, symmetry plane and far field; a store keeping them in
 // boundary_tags.bin (the spilled build as the build in memory), checked by verify; a damaged
-// file a clear error, never a crash.
+// file a clear error, never a crash. VTK legacy and VTU triangles and quads tagged by a
+// region-id cell array: a tag per id, named "region ID", through `info` and into a store.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <fstream>
 #include <map>
 
+#include "cli_run.h"
 #include "fixture_writers.h"
 #include "test_paths.h"
 #include "tetrascope/core/tet_topology.h"
@@ -111,6 +113,202 @@ TEST(GmshFaceTagsInfo, ThePhysicalNamesOfTheOneraM6FileNameItsBoundary) {
     EXPECT_EQ(c.on_boundary.at(name), c.triangles.at(name)) << name << ": every tagged triangle is a boundary face";
   }
   EXPECT_EQ(c.untagged_boundary, 0u);
+}
+
+// ---- VTK region-id arrays --------------------------------------------------------------------
+
+// The cube [0,1]^3 as 2x2x2 cubes of six tets each (all about the cube's main diagonal, so
+// every boundary quad is cut through its vertex of smallest id) with surface cells beside them:
+// x = 0 four quads (region 1, before the tets), x = 1 eight triangles (region 2), y = 0, y = 1
+// and z = 0 twelve quads (region 3); z = 1 has none. The tets carry region 7 in the array (not
+// a tag). `array` names the region array ("" for none); `other` adds a first array of that
+// name, all 4, before it.
+CellMesh region_cube(const std::string& array, const std::string& other = "") {
+  CellMesh m;
+  auto node = [](int i, int j, int k) { return static_cast<uint32_t>(i + 3 * j + 9 * k); };
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) {
+        m.x.push_back(0.5f * float(i));
+        m.y.push_back(0.5f * float(j));
+        m.z.push_back(0.5f * float(k));
+      }
+  std::vector<float> region;
+  auto plane = [&](int axis, int level, float id, bool triangles) {
+    for (int u = 0; u < 2; ++u)
+      for (int w = 0; w < 2; ++w) {
+        uint32_t q[4];
+        for (int c = 0; c < 4; ++c) {
+          int at[3];
+          at[axis] = level;
+          at[(axis + 1) % 3] = u + (c == 1 || c == 2);
+          at[(axis + 2) % 3] = w + (c >= 2);
+          q[c] = node(at[0], at[1], at[2]);
+        }
+        if (!triangles) {
+          m.add_cell(9, {q[0], q[1], q[2], q[3]});
+          region.push_back(id);
+          continue;
+        }
+        const int s = static_cast<int>(std::min_element(q, q + 4) - q);
+        m.add_cell(5, {q[s], q[(s + 1) % 4], q[(s + 2) % 4]});
+        m.add_cell(5, {q[s], q[(s + 2) % 4], q[(s + 3) % 4]});
+        region.insert(region.end(), {id, id});
+      }
+  };
+  plane(0, 0, 1, false);
+  static const int kOrders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i)
+        for (const auto& order : kOrders) {
+          int at[3] = {i, j, k};
+          uint32_t tet[4];
+          tet[0] = node(at[0], at[1], at[2]);
+          for (int step = 0; step < 3; ++step) {
+            ++at[order[step]];
+            tet[step + 1] = node(at[0], at[1], at[2]);
+          }
+          m.add_cell(10, {tet[0], tet[1], tet[2], tet[3]});
+          region.push_back(7);
+        }
+  plane(0, 2, 2, true);
+  plane(1, 0, 3, false);
+  plane(1, 2, 3, false);
+  plane(2, 0, 3, false);
+  if (!other.empty()) m.cell_attributes.push_back({{other, 1}, std::vector<float>(region.size(), 4.0f)});
+  if (!array.empty()) m.cell_attributes.push_back({{array, 1}, region});
+  return m;
+}
+
+const std::map<std::string, size_t> kRegionTriangles{{"region 1", 8}, {"region 2", 8}, {"region 3", 24}};
+
+void expect_region_cube_tags(const storage::TetMesh& mesh) {
+  ASSERT_EQ(mesh.tet_count(), 48u);
+  EXPECT_EQ(mesh.face_tags.names, (std::vector<std::string>{"region 1", "region 2", "region 3"}));
+  const TagCounts c = count_tags(mesh);
+  EXPECT_EQ(c.triangles, kRegionTriangles);
+  EXPECT_EQ(c.on_boundary, kRegionTriangles) << "every tagged triangle is a boundary face of the tets";
+  EXPECT_EQ(c.untagged_boundary, 8u) << "z = 1 has no surface cells";
+}
+
+class VtkLegacyRegionTags : public ::testing::TestWithParam<std::tuple<bool, bool>> {};
+
+TEST_P(VtkLegacyRegionTags, TrianglesAndQuadsTaggedByARegionArrayArriveAsRegions) {
+  const auto [binary, version5] = GetParam();
+  const fs::path path = scratch_dir(std::string("vtk_region_") + (binary ? "bin" : "ascii") + (version5 ? "_51" : "_30")) / "cube.vtk";
+  write_vtk_legacy(path, region_cube("gmsh:physical"), {.binary = binary, .version5 = version5});
+  expect_region_cube_tags(storage::load_mesh(path));
+}
+
+INSTANTIATE_TEST_SUITE_P(Encodings, VtkLegacyRegionTags, ::testing::Combine(::testing::Bool(), ::testing::Bool()));
+
+TEST(VtkLegacyRegionTagsNames, ANameMatchesWhateverItsCaseAndTheFirstMatchingArrayWins) {
+  const fs::path dir = scratch_dir("vtk_region_names");
+  write_vtk_legacy(dir / "field.vtk", region_cube("regionID"), {.field = true});
+  expect_region_cube_tags(storage::load_mesh(dir / "field.vtk"));
+  write_vtk_legacy(dir / "first.vtk", region_cube("RegionId", "zone"));  // zone (all 4) comes first
+  const storage::TetMesh mesh = storage::load_mesh(dir / "first.vtk");
+  EXPECT_EQ(mesh.face_tags.names, (std::vector<std::string>{"region 4"}));
+  EXPECT_EQ(mesh.face_tags.triangles.size(), 40u);
+  write_vtk_legacy(dir / "other.vtk", region_cube("", "Pressure"));  // a cell array of no region name
+  EXPECT_TRUE(storage::load_mesh(dir / "other.vtk").face_tags.empty());
+  EXPECT_EQ(storage::summary_json(storage::summarize_mesh(dir / "other.vtk"))["regions_source"], "sharp edges");
+}
+
+class VtuRegionTags : public ::testing::TestWithParam<VtuEncoding> {};
+
+TEST_P(VtuRegionTags, TrianglesAndQuadsTaggedByARegionArrayArriveAsRegions) {
+  const fs::path path = scratch_dir("vtu_region_" + std::to_string(static_cast<int>(GetParam()))) / "cube.vtu";
+  write_vtu(path, region_cube("CellEntityIds"), {.encoding = GetParam(), .zlib = GetParam() == VtuEncoding::kAppendedBase64});
+  expect_region_cube_tags(storage::load_mesh(path));
+}
+
+INSTANTIATE_TEST_SUITE_P(Encodings, VtuRegionTags,
+                         ::testing::Values(VtuEncoding::kAscii, VtuEncoding::kInlineBase64, VtuEncoding::kAppendedRaw, VtuEncoding::kAppendedBase64));
+
+// An integer array (Int32) reads as the floats do; a float array with a fraction on a
+// surface cell is refused, naming the array and the cell.
+TEST(VtuRegionTagsTypes, AnIntegerArrayTagsAndAFractionalIdIsRefused) {
+  const fs::path dir = scratch_dir("vtu_region_types");
+  write_vtu(dir / "ints.vtu", region_cube("boundary_id"), {.encoding = VtuEncoding::kAscii});
+  std::string text = read_file(dir / "ints.vtu");
+  const std::string float_array = "type=\"Float32\" Name=\"boundary_id\"";
+  ASSERT_NE(text.find(float_array), std::string::npos);
+  text.replace(text.find(float_array), float_array.size(), "type=\"Int32\" Name=\"boundary_id\"");
+  write_file(dir / "ints.vtu", text);
+  expect_region_cube_tags(storage::load_mesh(dir / "ints.vtu"));
+  CellMesh m = region_cube("BoundaryId");
+  m.cell_attributes[0].values[2] = 1.5f;  // a quad of x = 0
+  write_vtu(dir / "fraction.vtu", m);
+  const std::string error = mesh_read_error(dir / "fraction.vtu");
+  EXPECT_NE(error.find("cell array 'BoundaryId' (region ids): surface cell 2 has the value 1.5"), std::string::npos) << error;
+}
+
+TEST(VtkRegionTagsVolumeOnly, ARegionArrayOnVolumeCellsOnlyGivesNoTags) {
+  CellMesh m = region_cube("region");
+  CellMesh tets;
+  tets.x = m.x, tets.y = m.y, tets.z = m.z;
+  storage::Attribute region{{"region", 1}, {}};
+  for (size_t c = 0; c < m.cell_count(); ++c) {
+    if (m.types[c] != 10) continue;
+    tets.add_cell(10, {m.connectivity[m.offsets[c]], m.connectivity[m.offsets[c] + 1], m.connectivity[m.offsets[c] + 2], m.connectivity[m.offsets[c] + 3]});
+    region.values.push_back(float(c % 3));
+  }
+  tets.cell_attributes = {region};
+  const fs::path dir = scratch_dir("vtk_region_volume_only");
+  write_vtk_legacy(dir / "tets.vtk", tets);
+  write_vtu(dir / "tets.vtu", tets);
+  for (const char* name : {"tets.vtk", "tets.vtu"}) {
+    const storage::TetMesh mesh = storage::load_mesh(dir / name);
+    EXPECT_EQ(mesh.tet_count(), 48u) << name;
+    EXPECT_TRUE(mesh.face_tags.empty()) << name;
+    ASSERT_EQ(mesh.attributes.size(), 1u) << name << ": the array stays cell data";
+    EXPECT_EQ(storage::summary_json(storage::summarize_mesh(dir / name))["regions_source"], "sharp edges") << name;
+  }
+}
+
+// Hostile: a region array with fewer values than the file has cells is an error that names the
+// array, in every encoding, never a read past its end.
+TEST(HostileRegionTags, ARegionArrayShorterThanTheCellsIsAnErrorNamingIt) {
+  const fs::path dir = scratch_dir("vtk_region_short");
+  CellMesh m = region_cube("RegionId");
+  m.cell_attributes[0].values.resize(m.cell_count() - 5);
+  write_vtk_legacy(dir / "short_ascii.vtk", m, {.binary = false});
+  write_vtk_legacy(dir / "short_bin.vtk", m, {.binary = true});
+  write_vtu(dir / "short_ascii.vtu", m, {.encoding = VtuEncoding::kAscii});
+  write_vtu(dir / "short_raw.vtu", m, {.encoding = VtuEncoding::kAppendedRaw});
+  write_vtu(dir / "short_zlib.vtu", m, {.encoding = VtuEncoding::kInlineBase64, .zlib = true});
+  for (const char* name : {"short_ascii.vtk", "short_bin.vtk", "short_ascii.vtu", "short_raw.vtu", "short_zlib.vtu"}) {
+    const std::string error = mesh_read_error(dir / name);
+    EXPECT_NE(error.find("'RegionId'"), std::string::npos) << name << ": " << error;
+    EXPECT_NE(error.find(name), std::string::npos) << name << ": " << error;
+  }
+}
+
+// End to end: `info --json` lists the regions with their source, and `preprocess` keeps them in
+// the store's boundary_tags.bin.
+TEST(VtkRegionTagsEndToEnd, InfoListsTheRegionsAndAStoreKeepsThem) {
+  const fs::path dir = scratch_dir("vtk_region_cli");
+  write_vtk_legacy(dir / "cube.vtk", region_cube("RegionId"));
+  const CliResult info = run_cli("info --json " + (dir / "cube.vtk").string(), 120);
+  ASSERT_EQ(info.status, 0) << info.out;
+  const nlohmann::json j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["regions_source"], "input tags");
+  ASSERT_EQ(j["face_tags"].size(), 3u);
+  for (size_t t = 0; t < 3; ++t) {
+    const std::string name = j["face_tags"][t]["name"];
+    EXPECT_EQ(name, "region " + std::to_string(t + 1));
+    EXPECT_EQ(j["face_tags"][t]["triangles"], kRegionTriangles.at(name));
+  }
+  const CliResult preprocess = run_cli("preprocess " + (dir / "cube.vtk").string() + " -o " + (dir / "store").string() + " --progress none", 300);
+  ASSERT_EQ(preprocess.status, 0) << preprocess.out;
+  const auto store = storage::Store::open(dir / "store");
+  const std::optional<storage::FaceTags> tags = storage::open_boundary_tags(*store);
+  ASSERT_TRUE(tags);
+  EXPECT_EQ(tags->names, (std::vector<std::string>{"region 1", "region 2", "region 3"}));
+  EXPECT_EQ(tags->triangles.size(), 40u);
+  EXPECT_TRUE(storage::verify_store(dir / "store").ok);
 }
 
 // ---- boundary_tags.bin in a store --------------------------------------------------------------
