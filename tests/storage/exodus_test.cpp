@@ -432,7 +432,7 @@ void write_exodus_steps(const std::filesystem::path& path, const std::vector<dou
 
 const std::string kSmallBuild = " --base-tets 300 --segment-tets 512 --progress none --threads 1";
 
-TEST(ExodusSteps, WithoutAllStepsTheLastStepIsReadAndTheWarningNamesAllSteps) {
+TEST(ExodusSteps, WithoutAllStepsTheLastStepIsReadAndInfoAndTheWarningNameAllSteps) {
   const auto path = scratch_dir("exodus_steps_last") / "m.exo";
   write_exodus_steps(path, {0, 0.5, 1.25}, {0, 1, 2});
   auto stream = storage::MeshStream::open(path);
@@ -440,6 +440,10 @@ TEST(ExodusSteps, WithoutAllStepsTheLastStepIsReadAndTheWarningNamesAllSteps) {
   ASSERT_FALSE(stream->stats().warnings.empty());
   EXPECT_NE(stream->stats().warnings[0].find("3 time steps: the last (step 3 of 3, t = 1.25) is read (preprocess --all-steps reads them all)"), std::string::npos)
       << stream->stats().warnings[0];
+  const storage::MeshSummary summary = storage::summarize_mesh(path);
+  EXPECT_EQ(storage::summary_json(summary)["step_times"], nlohmann::json::parse("[0, 0.5, 1.25]"));
+  const std::string text = storage::summary_text(summary);
+  EXPECT_NE(text.find("time steps  3, t = 0 .. 1.25 (one read; preprocess --all-steps makes a series of them all)"), std::string::npos) << text;
   const TetMesh last = storage::load_stream(*stream);
   const storage::Attribute* temp = last.find_attribute("temp");
   ASSERT_NE(temp, nullptr);
