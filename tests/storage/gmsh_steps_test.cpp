@@ -1,7 +1,8 @@
 // Gmsh files holding several time steps ($NodeData and $ElementData sections of several time
-// step numbers): read at each field's last section alone, at any one step by ReadLimits,
-// and preprocessed with --all-steps into one store of every step; steps that give values for
-// other nodes, non-finite values and a step past the last get a clear error.
+// step numbers): read at each field's last section alone, at any one step by ReadLimits, and
+// preprocessed with --all-steps into one store of every step (rendered step by step); steps
+// that give values for other nodes, non-finite values and a step past the last get a clear
+// error.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -149,6 +150,18 @@ TEST(GmshSteps, AllStepsMakesOneStoreOfEveryStepWithItsTimesAndValues) {
     EXPECT_EQ(listed[s]["name"], "m.msh step " + std::to_string(s));
   }
   EXPECT_EQ(run_cli("verify " + (dir / "s.store").string(), 120).status, 0);
+  // render draws each step's own field, and refuses a step past the last
+  std::string images[2];
+  for (int s : {0, 2}) {
+    const fs::path out = dir / ("step_" + std::to_string(s) + ".png");
+    const CliResult drawn = run_cli("render " + (dir / "s.store").string() + " --step " + std::to_string(s) + " --size 64x48 --backend cpu -o " + out.string(), 120);
+    ASSERT_EQ(drawn.status, 0) << drawn.out;
+    images[s / 2] = read_file(out);
+  }
+  EXPECT_NE(images[0], images[1]) << "steps 0 and 2 drew the same image";
+  const CliResult past = run_cli("render " + (dir / "s.store").string() + " --step 3 --size 64x48 --backend cpu -o " + (dir / "past.png").string(), 60);
+  EXPECT_EQ(past.status, 2) << past.out;
+  EXPECT_NE(past.out.find("steps 0..2"), std::string::npos) << past.out;
   // steps 1 and 2 at the input's vertices: the nodal fields as written, the element field as
   // the file read at that step converts it
   const TetMesh& m = box();
