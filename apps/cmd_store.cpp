@@ -305,8 +305,9 @@ int run_preprocess(const Arguments& raw) {
   if (args.has("--compress-segments")) options.compression = storage::parse_compression(args.get("--compress-segments"));
   // each stage's share of the time, measured on disk_out_ref, nasa_bluntfin and nasa_oxygen_post
   // (bench/job_progress.py, bench/results/job_progress.json); the job's bar and ETA follow them
-  // a time series: a .pvd, several step files, a pattern, or an OpenFOAM case with --all-steps
-  const std::vector<storage::SeriesInput> series = storage::series_inputs(args.positionals(), args.has("--all-steps"));
+  // a time series: a .pvd, several step files, a pattern, or with --all-steps an OpenFOAM
+  // case's time folders or the time steps of an Exodus II, Gmsh or CGNS file
+  const std::vector<storage::SeriesInput> series = storage::series_inputs(args.positionals(), args.has("--all-steps"), options.read_limits);
   if (series.empty() && args.positionals().size() != 1) throw std::invalid_argument("preprocess takes one mesh, or the steps of a time series");
   if (!series.empty()) return preprocess_series(args, series, options);
   storage::Progress progress(lead ? progress_mode(args) : storage::Progress::Mode::kNone,

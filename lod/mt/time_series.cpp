@@ -29,8 +29,14 @@ struct StepData {
   std::vector<storage::AttributeInfo> attributes;
 };
 
+// The limits a step is read with: a step of a file holding several names its time step.
+storage::ReadLimits step_limits(const storage::SeriesInput& step, storage::ReadLimits limits) {
+  limits.time_step = step.file_step;
+  return limits;
+}
+
 StepData read_step(const storage::SeriesInput& step, uint32_t floats, const storage::ReadLimits& limits) {
-  auto stream = storage::MeshStream::open(step.path, limits);
+  auto stream = storage::MeshStream::open(step.path, step_limits(step, limits));
   StepData d;
   d.attributes = stream->header().attributes;
   uint32_t delivered = 0;
@@ -191,8 +197,13 @@ uint64_t locate(const storage::Store& store, const std::vector<float>& positions
   return outside;
 }
 
+// "step 2 (flow_2.vtu)", "step 2 (case.exo, time step 2)"
+std::string step_where(size_t index, const storage::SeriesInput& step) {
+  return "step " + std::to_string(index) + " (" + step.path.string() + (step.file_step >= 0 ? ", time step " + std::to_string(step.file_step) : "") + ")";
+}
+
 [[noreturn]] void mismatch(size_t index, const storage::SeriesInput& step, const std::string& what) {
-  throw storage::MeshError("step " + std::to_string(index) + " (" + step.path.string() + "): " + what + ": every step of a series must have the first step's mesh");
+  throw storage::MeshError(step_where(index, step) + ": " + what + ": every step of a series must have the first step's mesh");
 }
 
 // Step `index` against the first step: counts, tets, attributes, coordinates.
@@ -206,6 +217,18 @@ void check_same_mesh(size_t index, const storage::SeriesInput& step, const StepD
   if (have != want) mismatch(index, step, "attributes " + (have.empty() ? std::string("none") : have) + " where the first step has " + want);
   for (size_t i = 0; i < d.xyz.size(); ++i)
     if (!(std::abs(double(d.xyz[i]) - first.xyz[i]) <= tolerance)) mismatch(index, step, "vertex " + std::to_string(i / 3) + " is elsewhere than in the first step");
+}
+
+// Every value of a step is finite: steps.bin holds finite values only, and a vertex of no
+// value (NaN: a node a field leaves out) would have none to show at that step.
+void check_finite(size_t index, const storage::SeriesInput& step, const StepData& d, const storage::StoreManifest& manifest, uint32_t floats) {
+  for (size_t i = 0; i < d.values.size(); ++i) {
+    if (std::isfinite(d.values[i])) continue;
+    size_t column = i % floats, a = 0;
+    while (column >= manifest.attributes[a].components) column -= manifest.attributes[a++].components;
+    throw storage::MeshError(step_where(index, step) + ": attribute '" + manifest.attributes[a].name + "' at vertex " + std::to_string(i / floats) + " is " + std::to_string(d.values[i]) +
+                             ": every value of every step of a series must be finite");
+  }
 }
 
 // The block of one step, and each attribute's range over the input's vertices.
@@ -259,6 +282,7 @@ SeriesReport add_steps(const std::vector<storage::SeriesInput>& steps, const fs:
   positions = {};
   const StepData first = read_step(steps[0], layout.floats, options.read_limits);
   if (first.xyz.size() / 3 != layout.input_vertices) mismatch(0, steps[0], "it changed while the store was built");
+  check_finite(0, steps[0], first, manifest, layout.floats);
   const auto& b = manifest.bounds;
   const double tolerance = 1e-6 * std::sqrt(std::pow(b.max[0] - b.min[0], 2) + std::pow(b.max[1] - b.min[1], 2) + std::pow(b.max[2] - b.min[2], 2));
   std::vector<storage::TimeStep> listed;
@@ -272,6 +296,7 @@ SeriesReport add_steps(const std::vector<storage::SeriesInput>& steps, const fs:
     if (progress) progress->update(double(i) / double(steps.size()));
     const StepData d = read_step(steps[i], layout.floats, options.read_limits);
     check_same_mesh(i, steps[i], d, first, manifest, tolerance);
+    check_finite(i, steps[i], d, manifest, layout.floats);
     std::vector<std::array<double, 2>> ranges;
     writer.add(step_block(d, layout, stencils, manifest, ranges));
     listed.push_back({static_cast<uint32_t>(i), steps[i].time, steps[i].name, ranges});
@@ -300,6 +325,7 @@ SeriesReport preprocess_series(const std::vector<storage::SeriesInput>& steps, c
   fs::remove_all(building, ec);
   PreprocessOptions first = options;
   first.replace = true;
+  first.read_limits = step_limits(steps[0], options.read_limits);
   PreprocessReport report = preprocess(steps[0].path, building, first, progress);
   if (build) *build = report;
   SeriesReport series;

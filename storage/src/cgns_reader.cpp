@@ -6,7 +6,8 @@
 // pyramids, wedges and hexahedra (higher-order ones by their corners), MIXED sections, and
 // surface, line and point sections counted and skipped; a FlowSolution at Vertex as point data
 // and one at CellCenter as cell data (the last of each location, or the one the zone's
-// ZoneIterativeData names for the last step), fields NAMEX NAMEY NAMEZ joined into a vector (vertex NAMEXX NAMEXY NAMEXZ NAMEYY NAMEYZ
+// ZoneIterativeData names for the last step, or for the step ReadLimits::time_step names:
+// BaseIterativeData's TimeValues give the steps' times), fields NAMEX NAMEY NAMEZ joined into a vector (vertex NAMEXX NAMEXY NAMEXZ NAMEYY NAMEYZ
 // NAMEZZ into a symmetric tensor)
 // NAME as ParaView does; the BC_t of a zone's ZoneBC as boundary face tags named by the BC
 // (face elements by number, or the boundary faces whose corners are all in a vertex set).
@@ -307,7 +308,15 @@ class CgnsReader final : public FormatReader {
   void read_boundaries(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats);
   std::vector<int64_t> index_values(const Node& node, const std::string& what) const;
   void note_faces(const Zone& zone, int64_t element, int vtk_type, int corners, int face);
-  std::string last_step(const std::vector<Node>& iterative, const char* pointers);
+  // The solution names a ZoneIterativeData array `pointers` gives each time step ("" for
+  // "Null"); empty without one.
+  std::vector<std::string> step_solutions(const std::vector<Node>& iterative, const char* pointers);
+  // The name of the step read among `pointers` (the last named one, or ReadLimits::time_step's).
+  std::string step_solution(const Zone& zone, const std::vector<std::string>& pointers);
+  // BaseIterativeData's TimeValues, when the base has them.
+  void read_time_values(const std::vector<Node>& base_children);
+  // MeshHeader::step_times from the zones' steps and the base's times.
+  void set_step_times(ReadStats& stats);
   void read_field(const Zone& zone, const Solution& solution, const std::string& field, int64_t first, size_t count, std::vector<double>& out);
   void read_section_cells(const Zone& zone, const Section& s, int64_t n, CellBatch& batch);
   void read_mixed_cells(const Zone& zone, const Section& s, int64_t low, int64_t n, CellBatch& batch);
@@ -324,6 +333,8 @@ class CgnsReader final : public FormatReader {
   std::vector<Zone> zones_;
   std::vector<Variable> point_variables_, cell_variables_;
   uint64_t vertex_total_ = 0;
+  size_t steps_ = 0;                  // the time steps ZoneIterativeData lists (0: none)
+  std::vector<double> time_values_;  // BaseIterativeData's TimeValues
   // vertices
   size_t vertex_zone_ = 0;
   int64_t in_vertex_zone_ = 0;
@@ -548,6 +559,8 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
         for (int64_t v : b.list) mark(v);
     }
   }
+  read_time_values(base_children);
+  set_step_times(stats);
   const uint64_t limit = inflate_limit(limits_, file_bytes_);
   if (declared > limit) {
     fail("CGNS: its zones declare " + std::to_string(declared) + " bytes of coordinates and connectivity, more than " + std::to_string(limit) +
@@ -666,26 +679,70 @@ Section CgnsReader::read_section(const Zone& zone, const Node& node, uint64_t& d
   return s;
 }
 
-// The name the zone's ZoneIterativeData array `pointers` gives the last time step, or "".
-std::string CgnsReader::last_step(const std::vector<Node>& iterative, const char* pointers) {
+// The names a ZoneIterativeData array gives each time step (32 characters each, blank
+// padded; "Null" or blank: no solution that step); empty when the array is absent or is no
+// such list.
+std::vector<std::string> CgnsReader::step_solutions(const std::vector<Node>& iterative, const char* pointers) {
   for (const Node& n : iterative) {
     if (n.name != pointers) continue;
     std::lock_guard<std::mutex> hold(library_lock());
     char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
     int dimensions = 0;
     cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-    if (!stored_type(n.id, type) || cgio_get_dimensions(cgio_, n.id, &dimensions, extent) != CGIO_ERR_NONE) return "";
-    if (std::strcmp(type, "C1") != 0 || dimensions != 2 || extent[0] != 32 || extent[1] < 1 || extent[1] > kMaxTimeSteps) return "";
+    if (!stored_type(n.id, type) || cgio_get_dimensions(cgio_, n.id, &dimensions, extent) != CGIO_ERR_NONE) return {};
+    if (std::strcmp(type, "C1") != 0 || dimensions != 2 || extent[0] != 32 || extent[1] < 1 || extent[1] > kMaxTimeSteps) return {};
     std::vector<char> names(static_cast<size_t>(32 * extent[1]));
-    if (cgio_read_all_data(cgio_, n.id, names.data()) != CGIO_ERR_NONE) return "";
-    for (cgsize_t step = extent[1]; step-- > 0;) {
+    if (cgio_read_all_data(cgio_, n.id, names.data()) != CGIO_ERR_NONE) return {};
+    std::vector<std::string> out;
+    for (cgsize_t step = 0; step < extent[1]; ++step) {
       std::string chosen(names.data() + 32 * step, 32);
       chosen = chosen.substr(0, chosen.find('\0'));
       while (!chosen.empty() && chosen.back() == ' ') chosen.pop_back();
-      if (!chosen.empty() && chosen != "Null") return chosen;
+      out.push_back(chosen == "Null" ? std::string() : chosen);
+    }
+    return out;
+  }
+  return {};
+}
+
+std::string CgnsReader::step_solution(const Zone& zone, const std::vector<std::string>& pointers) {
+  if (limits_.time_step < 0) {
+    for (size_t step = pointers.size(); step-- > 0;)
+      if (!pointers[step].empty()) return pointers[step];
+    return "";
+  }
+  if (pointers.empty()) return "";
+  if (static_cast<size_t>(limits_.time_step) >= pointers.size()) {
+    fail("CGNS zone '" + zone.name + "': its ZoneIterativeData names " + std::to_string(pointers.size()) + " time steps, time step " + std::to_string(limits_.time_step) +
+         " asked for");
+  }
+  return pointers[static_cast<size_t>(limits_.time_step)];
+}
+
+void CgnsReader::read_time_values(const std::vector<Node>& base_children) {
+  for (const Node& n : base_children) {
+    if (n.label != "BaseIterativeData_t") continue;
+    for (const Node& c : children(n.id, "the base's BaseIterativeData")) {
+      if (c.name != "TimeValues" || c.label != "DataArray_t") continue;
+      const Array a = array(c, "BaseIterativeData's TimeValues");
+      if (a.type[0] != 'R' || a.length < 1 || a.length > kMaxTimeSteps) fail("CGNS: BaseIterativeData's TimeValues is not a list of at most " + std::to_string(kMaxTimeSteps) + " reals");
+      time_values_.resize(static_cast<size_t>(a.length));
+      read_values(a, 0, time_values_.size(), "BaseIterativeData's TimeValues", nullptr, time_values_.data());
     }
   }
-  return "";
+}
+
+void CgnsReader::set_step_times(ReadStats& stats) {
+  if (limits_.time_step >= 0 && static_cast<size_t>(limits_.time_step) >= std::max<size_t>(steps_, 1))
+    fail("CGNS: time step " + std::to_string(limits_.time_step) + " asked for, the file holds " + std::to_string(std::max<size_t>(steps_, 1)));
+  if (steps_ < 2) return;
+  if (time_values_.size() == steps_) {
+    header_.step_times = time_values_;
+    return;
+  }
+  if (!time_values_.empty())
+    stats.warnings.push_back("CGNS: BaseIterativeData's TimeValues holds " + std::to_string(time_values_.size()) + " times for " + std::to_string(steps_) + " steps: the steps' times are their numbers");
+  for (size_t k = 0; k < steps_; ++k) header_.step_times.push_back(static_cast<double>(k));
 }
 
 // Per location (Vertex, CellCenter) the last FlowSolution over the whole zone, or the one of
@@ -694,14 +751,19 @@ std::string CgnsReader::last_step(const std::vector<Node>& iterative, const char
 // with rind layers or at other locations are left out with a warning, and so are fields
 // whose length is not the zone's.
 void CgnsReader::read_solutions(Zone& zone, const std::vector<Node>& nodes, ReadStats& stats) {
-  std::string pointed[2];
+  std::vector<std::string> pointers[2];
   for (const Node& n : nodes) {
     if (n.label != "ZoneIterativeData_t") continue;
     const std::vector<Node> iterative = children(n.id, "the ZoneIterativeData of zone '" + zone.name + "'");
-    pointed[0] = pointed[1] = last_step(iterative, "FlowSolutionPointers");
-    if (std::string p = last_step(iterative, "FlowSolutionVertexPointers"); !p.empty()) pointed[0] = p;
-    if (std::string p = last_step(iterative, "FlowSolutionCellPointers"); !p.empty()) pointed[1] = p;
+    pointers[0] = pointers[1] = step_solutions(iterative, "FlowSolutionPointers");
+    if (std::vector<std::string> p = step_solutions(iterative, "FlowSolutionVertexPointers"); !p.empty()) pointers[0] = p;
+    if (std::vector<std::string> p = step_solutions(iterative, "FlowSolutionCellPointers"); !p.empty()) pointers[1] = p;
   }
+  const size_t zone_steps = std::max(pointers[0].size(), pointers[1].size());
+  if (zone_steps > 0 && steps_ > 0 && zone_steps != steps_ && limits_.time_step >= 0)
+    fail("CGNS zone '" + zone.name + "': its ZoneIterativeData names " + std::to_string(zone_steps) + " time steps where the zone before names " + std::to_string(steps_));
+  steps_ = std::max(steps_, zone_steps);
+  const std::string pointed[2] = {step_solution(zone, pointers[0]), step_solution(zone, pointers[1])};
   std::vector<Solution> usable[2];  // at vertices, at cell centres
   for (const Node& n : nodes) {
     if (n.label != "FlowSolution_t") continue;
@@ -739,11 +801,17 @@ void CgnsReader::read_solutions(Zone& zone, const std::vector<Node>& nodes, Read
   for (int l = 0; l < 2; ++l) {
     if (usable[l].empty()) continue;
     Solution chosen = usable[l].back();
+    bool named = false;
     for (const Solution& s : usable[l])
-      if (s.name == pointed[l]) chosen = s;
-    if (usable[l].size() > 1) {
-      stats.warnings.push_back("CGNS zone '" + zone.name + "' has " + std::to_string(usable[l].size()) + " solutions at " + (l == 0 ? "vertices" : "cell centres") +
-                               ": the last step's ('" + chosen.name + "') is read");
+      if (s.name == pointed[l]) chosen = s, named = true;
+    const char* where = l == 0 ? "vertices" : "cell centres";
+    if (limits_.time_step >= 0 && !named && usable[l].size() > 1) {  // one solution alone holds for every step
+      fail("CGNS zone '" + zone.name + "': time step " + std::to_string(limits_.time_step) + " names " + (pointed[l].empty() ? std::string("no solution") : "solution '" + pointed[l] + "'") +
+           ", none of its " + std::to_string(usable[l].size()) + " solutions at " + where);
+    }
+    if (usable[l].size() > 1 && limits_.time_step < 0) {
+      stats.warnings.push_back("CGNS zone '" + zone.name + "' has " + std::to_string(usable[l].size()) + " solutions at " + where + ": the last step's ('" + chosen.name + "') is read" +
+                               (zone_steps > 1 ? " (preprocess --all-steps reads every step)" : ""));
     }
     (l == 0 ? zone.vertex_solution : zone.cell_solution) = chosen;
   }

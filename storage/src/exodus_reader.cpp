@@ -3,7 +3,8 @@
 // file, so that no other process maps NetCDF, HDF5 and their libraries:
 // element blocks of tets, hexahedra, wedges and pyramids (higher-order ones by their
 // corners; shells, bars and other lower-dimensional blocks counted and skipped), nodal
-// variables as point data and element variables as cell data at one time step (the last),
+// variables as point data and element variables as cell data at one time step (the last, or
+// the one ReadLimits::time_step names; MeshHeader::step_times lists them),
 // components named NAME_x, NAME_y, NAME_z (or NAMEx, ...) joined into a vector as ParaView
 // does, and nodal NAME_XX NAME_YY NAME_ZZ NAME_XY NAME_YZ NAME_ZX (in a row, any order) into a
 // symmetric tensor. Coordinates, connectivity and values are read in chunks (the library's partial
@@ -203,6 +204,8 @@ std::string check_classic_header(const std::filesystem::path& path, uint64_t lim
   return short_header ? "a NetCDF header cut short" : "";
 }
 
+constexpr int64_t kMaxSteps = 100000;  // as a time series holds at most (storage::kMaxTimeSteps)
+
 struct Block {
   int64_t id = 0;
   std::string type;
@@ -338,14 +341,20 @@ MeshHeader ExodusReader::index(ReadStats& stats) {
   const size_t element_variables = element_names.size();
   element_ = join_components(element_names, false);  // element tensors stay six scalars (cell data is averaged per component)
   std::string when = "no time step";
+  if (limits_.time_step >= 0 && limits_.time_step >= steps) {
+    fail("Exodus II: time step " + std::to_string(limits_.time_step) + " asked for, the file holds " +
+         (steps > 0 ? std::to_string(steps) + " (0.." + std::to_string(steps - 1) + ")" : std::string("none")));
+  }
   if (steps > 0) {
-    step_ = static_cast<int>(std::min<int64_t>(steps, std::numeric_limits<int>::max()));
-    double time = 0;
-    call("the time of step " + std::to_string(step_), [&] { return ex_get_time(exoid_, step_, &time); });
-    char text[64];
-    std::snprintf(text, sizeof text, "step %d of %lld, t = %g", step_, static_cast<long long>(steps), time);
+    if (steps > kMaxSteps) fail("Exodus II: " + std::to_string(steps) + " time steps, more than " + std::to_string(kMaxSteps) + " are not read");
+    std::vector<double> times(static_cast<size_t>(steps));
+    call("the time values", [&] { return ex_get_all_times(exoid_, times.data()); });
+    if (steps > 1) header_.step_times = times;
+    step_ = limits_.time_step >= 0 ? static_cast<int>(limits_.time_step) + 1 : static_cast<int>(steps);
+    char text[80];
+    std::snprintf(text, sizeof text, "step %d of %lld, t = %g", step_, static_cast<long long>(steps), times[static_cast<size_t>(step_ - 1)]);
     when = text;
-    if (steps > 1) stats.warnings.push_back(std::to_string(steps) + " time steps: the last (" + when + ") is read");
+    if (steps > 1 && limits_.time_step < 0) stats.warnings.push_back(std::to_string(steps) + " time steps: the last (" + when + ") is read (preprocess --all-steps reads them all)");
   } else if (!nodal_.empty() || !element_.empty()) {
     stats.warnings.push_back("variables without a time step: none is read");
     nodal_.clear();

@@ -96,7 +96,8 @@ class FormatReader {
 
 std::unique_ptr<FormatReader> make_vtk_legacy_reader(std::shared_ptr<InputFile> file);
 std::unique_ptr<FormatReader> make_vtu_reader(std::shared_ptr<InputFile> file);
-std::unique_ptr<FormatReader> make_gmsh_reader(std::shared_ptr<InputFile> file);
+// `time_step`: ReadLimits::time_step (-1: each field's last section)
+std::unique_ptr<FormatReader> make_gmsh_reader(std::shared_ptr<InputFile> file, int64_t time_step = -1);
 std::unique_ptr<FormatReader> make_tetgen_reader(std::shared_ptr<InputFile> node_file,
                                                  std::shared_ptr<InputFile> ele_file);
 std::unique_ptr<FormatReader> make_off_reader(std::shared_ptr<InputFile> file);

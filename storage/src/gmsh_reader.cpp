@@ -1,11 +1,16 @@
 // Gmsh MSH 2.2 and 4.1 meshes, ASCII and binary, with $NodeData and $ElementData fields.
 // Format: Gmsh reference manual, "MSH file format" (versions 4.1 and 2.2).
+// A data section's first integer tag numbers its time step and its first real tag is the
+// step's time: the steps are the distinct numbers in the order they first appear. A field is
+// read at the last section of its name, or, with ReadLimits::time_step, at that step, every
+// step of a field then giving values for the same nodes (elements).
 // Nodes and fields are read while indexing (memory in proportion to the vertices: tags
 // may be sparse and fields come last); elements are streamed.
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <unordered_map>
 
 #include "format_reader.h"
@@ -59,9 +64,12 @@ GmshType gmsh_type(int type) {
   }
 }
 
+constexpr size_t kMaxSteps = 100000;  // as a time series holds at most (storage::kMaxTimeSteps)
+
 struct Field {
   AttributeInfo info;
   std::vector<float> values;
+  size_t step = 0;  // the time step it is of (GmshReader::steps_)
 };
 
 // $ElementData: values by element tag, sorted by tag.
@@ -69,17 +77,20 @@ struct ElementField {
   AttributeInfo info;
   std::vector<int64_t> tags;
   std::vector<float> values;  // components per tag, in the order of `tags`
+  size_t step = 0;
 };
 
 // The header of a $NodeData or $ElementData section.
 struct DataHeader {
   std::string name;
   int64_t components = 1, count = 0;
+  int64_t step = 0;  // the time step's number (the first integer tag)
+  double time = 0;   // its time (the first real tag), else the step's number
 };
 
 class GmshReader final : public FormatReader {
  public:
-  explicit GmshReader(std::shared_ptr<InputFile> file) : file_(std::move(file)), cursor_(file_) {}
+  GmshReader(std::shared_ptr<InputFile> file, int64_t time_step) : file_(std::move(file)), cursor_(file_), time_step_(time_step) {}
   MeshHeader index(ReadStats& stats) override;
   void read_vertices(size_t count, float* xyz, std::span<float* const> attributes, ReadStats& stats) override;
   bool read_cells(CellBatch& batch, size_t max_cells) override;
@@ -119,6 +130,12 @@ class GmshReader final : public FormatReader {
   }
   void read_node_data(ReadStats& stats);
   void read_element_data(ReadStats& stats);
+  // The place of a data section's time step among the file's (a new number joins the end).
+  size_t step_of(const DataHeader& h);
+  std::string step_text(size_t step) const;
+  // With a time step chosen: a field's entities (nodes or elements, as `covered` lists them)
+  // are those of its first section; fails naming both steps otherwise.
+  void check_same_entities(const std::string& section, const std::string& name, size_t step, std::vector<uint64_t> covered);
   void skip_elements();
   bool next_element(CellBatch& batch);
   void read_physical_names();
@@ -158,6 +175,11 @@ class GmshReader final : public FormatReader {
   FaceTags face_tags_;
   std::vector<int64_t> element_ints_;
   std::vector<uint8_t> element_bytes_;
+  // time steps: each number's time, in order of appearance; the step read (-1: each field's last)
+  std::vector<std::pair<int64_t, double>> steps_;
+  int64_t time_step_ = -1;
+  // with a step chosen: each field's first step and the entities it covers ("NodeData name")
+  std::unordered_map<std::string, std::pair<size_t, std::vector<uint64_t>>> covered_;
 };
 
 uint64_t GmshReader::count_value(std::string_view what) {
@@ -303,11 +325,16 @@ DataHeader GmshReader::read_data_header(const std::string& section, uint64_t mos
   }
   uint32_t reals = cursor_.parse_int<uint32_t>("number of real tags");
   if (reals > 64) cursor_.fail("too many real tags");
-  for (uint32_t r = 0; r < reals; ++r) cursor_.parse_double("real tag");
+  for (uint32_t r = 0; r < reals; ++r) {
+    const double v = cursor_.parse_double("real tag");
+    if (r == 0) h.time = v;
+  }
   uint32_t ints = cursor_.parse_int<uint32_t>("number of integer tags");
   if (ints < 3 || ints > 64) cursor_.fail("$" + section + " needs 3 integer tags (time step, components, count)");
   int64_t int_tags[64];
   for (uint32_t i = 0; i < ints; ++i) int_tags[i] = cursor_.parse_int<int64_t>("integer tag");
+  h.step = int_tags[0];
+  if (reals == 0) h.time = static_cast<double>(h.step);
   h.components = int_tags[1];
   h.count = int_tags[2];
   if (h.components != 1 && h.components != 3 && h.components != 9) cursor_.fail("$" + section + " '" + h.name + "' has " + std::to_string(h.components) + " components, expected 1 (scalar), 3 (vector) or 9 (tensor)");
@@ -354,6 +381,15 @@ void GmshReader::read_node_data(ReadStats& stats) {
     }
   }
   expect_end("NodeData");
+  const size_t step = step_of(h);
+  if (time_step_ >= 0) {
+    std::vector<uint64_t> unseen;  // the nodes it leaves out: few, most often none
+    for (size_t i = 0; i < seen.size(); ++i)
+      if (!seen[i]) unseen.push_back(i);
+    check_same_entities("NodeData", name, step, std::move(unseen));
+    if (step != static_cast<size_t>(time_step_)) return;  // another step's values
+  }
+  field.step = step;
   size_t missing = 0;
   for (uint8_t s : seen) missing += s == 0;
   if (missing > 0) {
@@ -362,7 +398,7 @@ void GmshReader::read_node_data(ReadStats& stats) {
   }
   for (Field& f : fields_) {
     if (f.info.name == name) {  // a later time step replaces an earlier one
-      stats.warnings.push_back("$NodeData '" + name + "' appears more than once; using the last one");
+      if (f.step == step) stats.warnings.push_back("$NodeData '" + name + "' appears more than once at " + step_text(step) + "; using the last one");
       f = std::move(field);
       return;
     }
@@ -392,7 +428,7 @@ void GmshReader::read_element_data(ReadStats& stats) {
   }
   expect_end("ElementData");
   std::sort(order.begin(), order.end());
-  ElementField field{{h.name, static_cast<uint32_t>(components), components == 9 ? AttributeKind::kTensor : AttributeKind::kValue}, {}, {}};
+  ElementField field{{h.name, static_cast<uint32_t>(components), components == 9 ? AttributeKind::kTensor : AttributeKind::kValue}, {}, {}, step_of(h)};
   field.tags.reserve(count);
   field.values.reserve(count * components);
   for (size_t i = 0; i < count; ++i) {
@@ -400,14 +436,44 @@ void GmshReader::read_element_data(ReadStats& stats) {
     field.tags.push_back(order[i].first);
     field.values.insert(field.values.end(), raw.begin() + static_cast<std::ptrdiff_t>(order[i].second * components), raw.begin() + static_cast<std::ptrdiff_t>((order[i].second + 1) * components));
   }
+  if (time_step_ >= 0) {
+    check_same_entities("ElementData", h.name, field.step, std::vector<uint64_t>(field.tags.begin(), field.tags.end()));
+    if (field.step != static_cast<size_t>(time_step_)) return;  // another step's values
+  }
   for (ElementField& f : element_fields_) {
     if (f.info.name == h.name) {  // a later time step replaces an earlier one
-      stats.warnings.push_back("$ElementData '" + h.name + "' appears more than once; using the last one");
+      if (f.step == field.step) stats.warnings.push_back("$ElementData '" + h.name + "' appears more than once at " + step_text(field.step) + "; using the last one");
       f = std::move(field);
       return;
     }
   }
   element_fields_.push_back(std::move(field));
+}
+
+size_t GmshReader::step_of(const DataHeader& h) {
+  for (size_t i = 0; i < steps_.size(); ++i)
+    if (steps_[i].first == h.step) return i;
+  if (steps_.size() >= kMaxSteps) cursor_.fail("more than " + std::to_string(kMaxSteps) + " time steps");
+  steps_.emplace_back(h.step, h.time);
+  return steps_.size() - 1;
+}
+
+std::string GmshReader::step_text(size_t step) const {
+  char text[96];
+  std::snprintf(text, sizeof text, "time step %zu (number %lld, t = %g)", step, static_cast<long long>(steps_[step].first), steps_[step].second);
+  return text;
+}
+
+void GmshReader::check_same_entities(const std::string& section, const std::string& name, size_t step, std::vector<uint64_t> listed) {
+  const auto found = covered_.find(section + " " + name);
+  if (found == covered_.end()) {
+    covered_.emplace(section + " " + name, std::make_pair(step, std::move(listed)));
+    return;
+  }
+  if (found->second.second == listed) return;
+  const char* what = section == "NodeData" ? "nodes" : "elements";
+  cursor_.fail("$" + section + " '" + name + "' at " + step_text(step) + " gives values for other " + what + " than at " + step_text(found->second.first) +
+               ": every time step of a series has values for the same " + what);
 }
 
 void GmshReader::skip_elements() {
@@ -501,6 +567,12 @@ MeshHeader GmshReader::index(ReadStats& stats) {
     }
   }
   if (xyz_.empty() && header_.vertex_count == 0) throw MeshError(file_->name() + ": no $Nodes section");
+  if (time_step_ >= 0 && static_cast<size_t>(time_step_) >= std::max<size_t>(steps_.size(), 1))
+    throw MeshError(file_->name() + ": time step " + std::to_string(time_step_) + " asked for, the file holds " + std::to_string(std::max<size_t>(steps_.size(), 1)));
+  if (steps_.size() > 1) {
+    for (const auto& [number, time] : steps_) header_.step_times.push_back(time);
+    if (time_step_ < 0) stats.warnings.push_back(std::to_string(steps_.size()) + " time steps: each field's last is read (preprocess --all-steps reads them all)");
+  }
   if (!have_elements_) throw MeshError(file_->name() + ": no $Elements section");
   for (const Field& f : fields_) header_.attributes.push_back(f.info);
   for (const ElementField& f : element_fields_) header_.cell_attributes.push_back(f.info);
@@ -713,8 +785,8 @@ void GmshReader::rewind_cells() {
 
 }  // namespace
 
-std::unique_ptr<FormatReader> make_gmsh_reader(std::shared_ptr<InputFile> file) {
-  return std::make_unique<GmshReader>(std::move(file));
+std::unique_ptr<FormatReader> make_gmsh_reader(std::shared_ptr<InputFile> file, int64_t time_step) {
+  return std::make_unique<GmshReader>(std::move(file), time_step);
 }
 
 }  // namespace tetrascope::storage::detail

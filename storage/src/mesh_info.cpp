@@ -125,6 +125,7 @@ nlohmann::json summary_json(const MeshSummary& s) {
   for (size_t t = 0; t < s.face_tags.size(); ++t) tags.push_back({{"tag", t}, {"name", s.face_tags[t].first}, {"triangles", s.face_tags[t].second}});
   j["face_tags"] = tags;
   j["regions_source"] = s.face_tags.empty() ? "sharp edges" : "input tags";
+  j["step_times"] = s.header.step_times;
   j["warnings"] = s.stats.warnings;
   j["read_seconds"] = s.read_seconds;
   return j;
@@ -168,6 +169,10 @@ std::string summary_text(const MeshSummary& s) {
   else appendf(out, "regions     from the input's %zu face tags:\n", s.face_tags.size());
   for (size_t t = 0; t < s.face_tags.size(); ++t)
     appendf(out, "  tag %-4zu %-24s %llu triangles\n", t, s.face_tags[t].first.c_str(), static_cast<unsigned long long>(s.face_tags[t].second));
+  if (s.header.step_times.size() > 1) {
+    appendf(out, "time steps  %zu, t = %g .. %g (one read; preprocess --all-steps makes a series of them all)\n", s.header.step_times.size(), s.header.step_times.front(),
+            s.header.step_times.back());
+  }
   for (const std::string& w : s.stats.warnings) appendf(out, "warning     %s\n", w.c_str());
   appendf(out, "read time   %.3f s\n", s.read_seconds);
   return out;

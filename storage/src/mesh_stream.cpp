@@ -81,7 +81,7 @@ std::unique_ptr<MeshStream> MeshStream::open(const std::filesystem::path& path, 
   switch (format) {
     case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(open_file(path)); break;
     case MeshFormat::kVtu: reader = detail::make_vtu_reader(open_file(path)); break;
-    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(open_file(path)); break;
+    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(open_file(path), limits.time_step); break;
     case MeshFormat::kOff: reader = detail::make_off_reader(open_file(path)); break;
     case MeshFormat::kExodus: reader = detail::make_exodus_reader(path, limits); break;  // refuses when built without the library
     case MeshFormat::kOpenFoam: reader = detail::make_openfoam_reader(path, limits); break;
@@ -104,7 +104,7 @@ std::unique_ptr<MeshStream> MeshStream::open_memory(MeshFormat format, std::stri
   switch (format) {
     case MeshFormat::kVtkLegacy: reader = detail::make_vtk_legacy_reader(file); break;
     case MeshFormat::kVtu: reader = detail::make_vtu_reader(file); break;
-    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(file); break;
+    case MeshFormat::kGmsh: reader = detail::make_gmsh_reader(file, limits.time_step); break;
     case MeshFormat::kOff: reader = detail::make_off_reader(file); break;
     case MeshFormat::kExodus: throw MeshError(name + ": Exodus II is read from files, not from memory");
     case MeshFormat::kOpenFoam: throw MeshError(name + ": an OpenFOAM case is read from its folder, not from memory");

@@ -88,6 +88,28 @@ std::vector<SeriesInput> openfoam_times(const fs::path& input) {
   return out;
 }
 
+// The time steps one file holds (Exodus II, Gmsh, CGNS), each a step of the series.
+std::vector<SeriesInput> file_steps(const fs::path& file, const ReadLimits& limits) {
+  const MeshFormat format = format_from_path(file);
+  if (format != MeshFormat::kExodus && format != MeshFormat::kGmsh && format != MeshFormat::kCgns) {
+    throw MeshError(file.string() + ": --all-steps reads the time steps of an Exodus II, Gmsh or CGNS file or an OpenFOAM case's time folders; give the steps of " +
+                    format_name(format) + " files as files (a list, a pattern or a .pvd)");
+  }
+  const std::vector<double> times = MeshStream::open(file, limits)->header().step_times;
+  if (times.size() < 2) throw MeshError(file.string() + ": holds fewer than two time steps: --all-steps needs two or more");
+  if (times.size() > kMaxSteps) throw MeshError(file.string() + ": more than " + std::to_string(kMaxSteps) + " steps");
+  std::vector<SeriesInput> out;
+  for (size_t k = 0; k < times.size(); ++k) {
+    const std::string name = file.filename().string() + " step " + std::to_string(k);
+    if (!std::isfinite(times[k])) throw MeshError(file.string() + ": time step " + std::to_string(k) + ": its time is not finite");
+    if (k > 0 && !(times[k] > times[k - 1]))
+      throw MeshError(file.string() + ": time step " + std::to_string(k) + " (t = " + std::to_string(times[k]) + ") is not after step " + std::to_string(k - 1) + " (t = " + std::to_string(times[k - 1]) +
+                      "): a series' times increase");
+    out.push_back({file, times[k], name, static_cast<int64_t>(k)});
+  }
+  return out;
+}
+
 std::vector<std::string> expand_pattern(const std::string& pattern) {
   glob_t g{};
   const int r = ::glob(pattern.c_str(), GLOB_NOSORT, nullptr, &g);
@@ -124,7 +146,7 @@ bool natural_less(const std::string& a, const std::string& b) {
   return a.size() - i < b.size() - j;
 }
 
-std::vector<SeriesInput> series_inputs(const std::vector<std::string>& inputs, bool all_times) {
+std::vector<SeriesInput> series_inputs(const std::vector<std::string>& inputs, bool all_times, const ReadLimits& limits) {
   if (inputs.empty()) throw MeshError("no input");
   std::vector<SeriesInput> out;
   if (inputs.size() == 1) {
@@ -133,7 +155,7 @@ std::vector<SeriesInput> series_inputs(const std::vector<std::string>& inputs, b
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     if (ext == ".pvd") out = read_pvd(p);
     else if (all_times && format_from_path(p) == MeshFormat::kOpenFoam) out = openfoam_times(p);
-    else if (all_times) throw MeshError(p.string() + ": --all-steps reads an OpenFOAM case's time folders; give the steps of other formats as files (a list, a pattern or a .pvd)");
+    else if (all_times) out = file_steps(p, limits);
     else if (inputs[0].find_first_of("*?") == std::string::npos) return {};
   }
   if (out.empty()) {

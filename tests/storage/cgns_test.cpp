@@ -1,8 +1,9 @@
 // CGNS files written by the CGNS mid-level library itself (HDF5, and ADF): a zone of hexahedra
 // with a vertex and a cell-centred solution, a MIXED zone of every volume type and a surface
-// element, two zones joined, several solutions with ZoneIterativeData; `info` and
-// `preprocess` on a CGNS file through the command line; boundary conditions (BC_t) as
-// boundary face tags named by the BCs; and damaged or hostile files refused
+// element, two zones joined, several solutions with ZoneIterativeData (the last step read, or
+// every step with preprocess --all-steps); `info` and `preprocess` on a CGNS file through the
+// command line; boundary conditions (BC_t) as boundary face tags named by the BCs; and damaged
+// or hostile files refused
 // with a message that names the threat, never a crash.
 #include <cgns_io.h>
 #include <cgnslib.h>
@@ -16,10 +17,13 @@
 
 #include "cli_run.h"
 #include "fixture_writers.h"
+#include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/storage/mesh_info.h"
 #include "tetrascope/storage/mesh_stream.h"
+#include "tetrascope/storage/store.h"
+#include "tetrascope/storage/time_steps.h"
 
 namespace tetrascope::testing {
 namespace {
@@ -647,6 +651,162 @@ TEST(HostileCgns, ANonFiniteTensorComponentIsRefusedNamingTheTensorAndVertex) {
   write_cgns(path, {f.mesh});
   const std::string error = mesh_read_error(path);
   EXPECT_NE(error.find("tensor 'ReynoldsStress' (field ReynoldsStressXY), vertex 4"), std::string::npos) << error;
+}
+
+// ---- time steps: ZoneIterativeData and BaseIterativeData ------------------------------
+
+double temp_at(int step, double x, double y, double z) { return (step + 2) * x - y + z * step; }
+double heat_at(int step, size_t tet) { return 7.0 * step + double(tet % 4); }
+
+const TetMesh& steps_box() {
+  static const TetMesh m = kuhn_box(4, 0.0, [](double, double, double) { return 0.0; });  // tets of one volume
+  return m;
+}
+
+// The box as one TETRA_4 zone with vertex solutions Flow0.. (Temp, VelocityX/Y/Z) and cell
+// solutions Cells0.. (Heat) for `times`, named by FlowSolutionVertexPointers and
+// FlowSolutionCellPointers (`vertex_names` in their place when given), the times in
+// BaseIterativeData's TimeValues.
+void write_cgns_steps(const std::filesystem::path& path, const std::vector<double>& times, std::vector<std::string> vertex_names = {}) {
+  const TetMesh& m = steps_box();
+  std::filesystem::remove(path);
+  check(cg_set_file_type(CG_FILE_HDF5));
+  int fn = 0, B = 0, Z = 0, C = 0, S = 0, F = 0;
+  check(cg_open(path.c_str(), CG_MODE_WRITE, &fn));
+  check(cg_base_write(fn, "Base", 3, 3, &B));
+  const cgsize_t size[3] = {static_cast<cgsize_t>(m.vertex_count()), static_cast<cgsize_t>(m.tet_count()), 0};
+  check(cg_zone_write(fn, B, "Box", size, CGNS_ENUMV(Unstructured), &Z));
+  std::vector<double> x(m.x.begin(), m.x.end()), y(m.y.begin(), m.y.end()), z(m.z.begin(), m.z.end());
+  check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateX", x.data(), &C));
+  check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateY", y.data(), &C));
+  check(cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), "CoordinateZ", z.data(), &C));
+  std::vector<cgsize_t> elements;
+  for (uint32_t v : m.tets) elements.push_back(static_cast<cgsize_t>(v) + 1);
+  check(cg_section_write(fn, B, Z, "Tets", CGNS_ENUMV(TETRA_4), 1, static_cast<cgsize_t>(m.tet_count()), 0, elements.data(), &S));
+  std::vector<std::string> cell_names;
+  for (int s = 0; s < int(times.size()); ++s) {
+    const std::string flow = "Flow" + std::to_string(s), cells = "Cells" + std::to_string(s);
+    if (vertex_names.size() < times.size()) vertex_names.push_back(flow);
+    cell_names.push_back(cells);
+    check(cg_sol_write(fn, B, Z, flow.c_str(), CGNS_ENUMV(Vertex), &S));
+    std::vector<double> temp, vx, vy, vz;
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      temp.push_back(temp_at(s, x[v], y[v], z[v]));
+      vx.push_back(x[v] * s), vy.push_back(-y[v]), vz.push_back(z[v] + s);
+    }
+    check(cg_field_write(fn, B, Z, S, CGNS_ENUMV(RealDouble), "Temp", temp.data(), &F));
+    check(cg_field_write(fn, B, Z, S, CGNS_ENUMV(RealDouble), "VelocityX", vx.data(), &F));
+    check(cg_field_write(fn, B, Z, S, CGNS_ENUMV(RealDouble), "VelocityY", vy.data(), &F));
+    check(cg_field_write(fn, B, Z, S, CGNS_ENUMV(RealDouble), "VelocityZ", vz.data(), &F));
+    check(cg_sol_write(fn, B, Z, cells.c_str(), CGNS_ENUMV(CellCenter), &S));
+    std::vector<double> heat;
+    for (size_t t = 0; t < m.tet_count(); ++t) heat.push_back(heat_at(s, t));
+    check(cg_field_write(fn, B, Z, S, CGNS_ENUMV(RealDouble), "Heat", heat.data(), &F));
+  }
+  check(cg_biter_write(fn, B, "BaseIterativeData", static_cast<int>(times.size())));
+  check(cg_goto(fn, B, "BaseIterativeData_t", 1, "end"));
+  const cgsize_t count = static_cast<cgsize_t>(times.size());
+  check(cg_array_write("TimeValues", CGNS_ENUMV(RealDouble), 1, &count, times.data()));
+  check(cg_ziter_write(fn, B, Z, "ZoneIterativeData"));
+  check(cg_goto(fn, B, "Zone_t", Z, "ZoneIterativeData_t", 1, "end"));
+  for (const auto& [array, names] : {std::pair{"FlowSolutionVertexPointers", vertex_names}, std::pair{"FlowSolutionCellPointers", cell_names}}) {
+    std::string text;
+    for (const std::string& n : names) text += n + std::string(32 - n.size(), ' ');
+    const cgsize_t dims[2] = {32, count};
+    check(cg_array_write(array, CGNS_ENUMV(Character), 2, dims, text.data()));
+  }
+  check(cg_close(fn));
+}
+
+// Heat at each vertex as read: the mean of the step's values over the tets around it (they
+// have one volume).
+std::vector<double> heat_at_vertices(int step) {
+  const TetMesh& m = steps_box();
+  std::vector<double> sum(m.vertex_count(), 0), count(m.vertex_count(), 0);
+  for (size_t t = 0; t < m.tet_count(); ++t)
+    for (int k = 0; k < 4; ++k) sum[m.tets[4 * t + size_t(k)]] += heat_at(step, t), count[m.tets[4 * t + size_t(k)]] += 1;
+  for (size_t v = 0; v < sum.size(); ++v) sum[v] /= count[v];
+  return sum;
+}
+
+TEST(CgnsSteps, TheLastStepIsReadAloneAndTheWarningNamesAllSteps) {
+  const auto path = scratch_dir("cgns_steps_last") / "m.cgns";
+  write_cgns_steps(path, {0, 0.5, 1.25});
+  auto stream = storage::MeshStream::open(path);
+  EXPECT_EQ(stream->header().step_times, (std::vector<double>{0, 0.5, 1.25}));
+  bool warned = false;
+  for (const std::string& w : stream->stats().warnings) warned |= w == "CGNS zone 'Box' has 3 solutions at vertices: the last step's ('Flow2') is read (preprocess --all-steps reads every step)";
+  EXPECT_TRUE(warned);
+  const TetMesh last = storage::load_stream(*stream);
+  storage::ReadLimits limits;
+  limits.time_step = 1;
+  const TetMesh second = storage::load_mesh(path, nullptr, limits);
+  for (const auto& [mesh, step] : {std::pair<const TetMesh*, int>{&last, 2}, {&second, 1}}) {
+    const storage::Attribute* temp = mesh->find_attribute("Temp");
+    const storage::Attribute* heat = mesh->find_attribute("Heat");
+    ASSERT_TRUE(temp && heat && mesh->find_attribute("Velocity"));
+    const std::vector<double> want = heat_at_vertices(step);
+    size_t wrong = 0;
+    for (size_t v = 0; v < mesh->vertex_count(); ++v) {
+      wrong += std::abs(temp->values[v] - temp_at(step, mesh->x[v], mesh->y[v], mesh->z[v])) > 1e-5;
+      wrong += std::abs(heat->values[v] - want[v]) > 1e-5;
+    }
+    EXPECT_EQ(wrong, 0u) << "step " << step;
+  }
+  limits.time_step = 3;
+  try {
+    storage::load_mesh(path, nullptr, limits);
+    ADD_FAILURE() << "a step past the last was read";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("m.cgns: CGNS zone 'Box': its ZoneIterativeData names 3 time steps, time step 3 asked for"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CgnsSteps, AllStepsMakesOneStoreOfEveryStepWithItsTimesAndValues) {
+  const auto dir = scratch_dir("cgns_steps_store");
+  std::filesystem::remove_all(dir / "s.store");
+  const std::vector<double> times{0, 0.5, 1.25};
+  write_cgns_steps(dir / "m.cgns", times);
+  const CliResult r = run_cli("preprocess " + (dir / "m.cgns").string() + " -o " + (dir / "s.store").string() + " --all-steps --base-tets 100 --segment-tets 256 --progress none --threads 1", 300);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const CliResult info = run_cli("info " + (dir / "s.store").string() + " --json", 60);
+  ASSERT_EQ(info.status, 0) << info.out;
+  const auto j = nlohmann::json::parse(info.out.substr(info.out.find('{')));
+  const auto& listed = j["time_steps"]["steps"];
+  ASSERT_EQ(listed.size(), 3u) << info.out;
+  for (int s = 0; s < 3; ++s) {
+    EXPECT_DOUBLE_EQ(listed[s]["time"].get<double>(), times[size_t(s)]);
+    EXPECT_EQ(listed[s]["name"], "m.cgns step " + std::to_string(s));
+  }
+  EXPECT_EQ(run_cli("verify " + (dir / "s.store").string(), 120).status, 0);
+  const TetMesh& m = steps_box();
+  const auto store = storage::Store::open(dir / "s.store");
+  const auto steps = storage::TimeSteps::open(*store);
+  ASSERT_NE(steps, nullptr);
+  ASSERT_EQ(steps->layout().floats, 5u);  // Temp, Velocity (3), Heat
+  ASSERT_EQ(steps->layout().input_vertices, m.vertex_count());
+  for (int s = 1; s < 3; ++s) {
+    const auto values = steps->values(static_cast<uint32_t>(s));
+    const std::vector<double> heat = heat_at_vertices(s);
+    size_t wrong = 0;
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      const float* row = values->data() + 5 * v;
+      wrong += std::abs(row[0] - temp_at(s, m.x[v], m.y[v], m.z[v])) > 1e-5;
+      wrong += std::abs(row[1] - m.x[v] * s) > 1e-5 || std::abs(row[3] - (m.z[v] + s)) > 1e-5;
+      wrong += std::abs(row[4] - heat[v]) > 1e-5;
+    }
+    EXPECT_EQ(wrong, 0u) << "step " << s;
+  }
+}
+
+TEST(HostileCgnsSteps, AStepNamingASolutionTheZoneLacksIsRefusedNamingTheZoneAndStep) {
+  const auto dir = scratch_dir("cgns_steps_missing");
+  std::filesystem::remove_all(dir / "s.store");
+  write_cgns_steps(dir / "m.cgns", {0, 1, 2}, {"Flow0", "Missing", "Flow2"});
+  const CliResult r = run_cli("preprocess " + (dir / "m.cgns").string() + " -o " + (dir / "s.store").string() + " --all-steps --base-tets 100 --segment-tets 256 --progress none", 300);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("m.cgns: CGNS zone 'Box': time step 1 names solution 'Missing', none of its 3 solutions at vertices"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s.store"));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // Exodus II files written by the Exodus II library itself: element blocks of every volume
 // type and a shell block, nodal and element variables (x/y/z components joined into vectors)
-// over two time steps, read at the last; side sets as named boundary face tags; and damaged
+// over two time steps, read at the last; a file of several time steps preprocessed with
+// --all-steps into one store of every step; side sets as named boundary face tags; and damaged
 // files refused with a message, never a crash.
 #include <exodusII.h>
 #include <gtest/gtest.h>
@@ -11,12 +12,17 @@
 #include <map>
 #include <random>
 
+#include <nlohmann/json.hpp>
+
+#include "cli_run.h"
 #include "fixture_writers.h"
 #include "mesh_checks.h"
 #include "test_paths.h"
 #include "tetrascope/core/tet_topology.h"
 #include "tetrascope/lod/mt/mt_build.h"
 #include "tetrascope/storage/mesh_info.h"
+#include "tetrascope/storage/series.h"
+#include "tetrascope/storage/time_steps.h"
 #include "tetrascope/storage/store.h"
 #include "tetrascope/storage/mesh_stream.h"
 
@@ -377,6 +383,163 @@ TEST(HostileExodus, SixNamesThatAreNotOneTensorStayScalars) {
   for (const auto& a : m.attributes) EXPECT_NE(a.info.kind, storage::AttributeKind::kTensor) << a.info.name;
   write_exodus_tensor(path, {"a_XX", "a_YY", "a_ZZ", "b_XY", "b_YZ", "b_ZX"});
   for (const auto& a : storage::load_mesh(path).attributes) EXPECT_NE(a.info.kind, storage::AttributeKind::kTensor) << a.info.name;
+}
+
+// ---- time steps: one file, several steps ------------------------------------------------
+
+// The fields of the steps file: nodal "temp" and "vel_x/y/z" (one vector), element "heat".
+double temp_at(int step, double x, double y, double z) { return (step + 1) * x + 2 * y - z + 0.5 * step; }
+std::array<double, 3> vel_at(int step, double x, double y, double z) { return {x * step, y - step, 3 * z}; }
+double heat_at(int step, size_t tet) { return 10.0 * step + double(tet % 7); }
+
+// A Kuhn box of 6^3 cubes in one TETRA block with the fields above at `times` (steps 0, 1,
+// ... as listed in `steps`: the file's step k holds the fields of step steps[k]). `poison`:
+// the node of step 1 whose temp is NaN (none when negative).
+void write_exodus_steps(const std::filesystem::path& path, const std::vector<double>& times, const std::vector<int>& steps, int poison = -1) {
+  const TetMesh m = kuhn_box(6, 0.3, [](double, double, double) { return 0.0; });
+  int word = 8, io_word = 8;
+  const int exoid = ex_create(path.c_str(), EX_CLOBBER, &word, &io_word);
+  ASSERT_GE(exoid, 0);
+  const int64_t nodes = static_cast<int64_t>(m.vertex_count()), tets = static_cast<int64_t>(m.tet_count());
+  ex_put_init(exoid, "steps", 3, nodes, tets, 1, 0, 0);
+  std::vector<double> x(m.x.begin(), m.x.end()), y(m.y.begin(), m.y.end()), z(m.z.begin(), m.z.end());
+  ex_put_coord(exoid, x.data(), y.data(), z.data());
+  std::vector<int> conn;
+  for (uint32_t v : m.tets) conn.push_back(static_cast<int>(v) + 1);
+  ex_put_block(exoid, EX_ELEM_BLOCK, 1, "TETRA", tets, 4, 0, 0, 0);
+  ex_put_conn(exoid, EX_ELEM_BLOCK, 1, conn.data(), nullptr, nullptr);
+  const char* nodal[] = {"temp", "vel_x", "vel_y", "vel_z"};
+  const char* element[] = {"heat"};
+  ex_put_variable_param(exoid, EX_NODAL, 4);
+  ex_put_variable_names(exoid, EX_NODAL, 4, const_cast<char**>(nodal));
+  ex_put_variable_param(exoid, EX_ELEM_BLOCK, 1);
+  ex_put_variable_names(exoid, EX_ELEM_BLOCK, 1, const_cast<char**>(element));
+  for (size_t k = 0; k < times.size(); ++k) {
+    const int file_step = static_cast<int>(k) + 1, s = steps[k];
+    ex_put_time(exoid, file_step, &times[k]);
+    for (int v = 0; v < 4; ++v) {
+      std::vector<double> values;
+      for (size_t i = 0; i < m.vertex_count(); ++i) values.push_back(v == 0 ? temp_at(s, x[i], y[i], z[i]) : vel_at(s, x[i], y[i], z[i])[size_t(v - 1)]);
+      if (v == 0 && s == 1 && poison >= 0) values[size_t(poison)] = std::nan("");
+      ex_put_var(exoid, file_step, EX_NODAL, v + 1, 1, nodes, values.data());
+    }
+    std::vector<double> heat;
+    for (size_t t = 0; t < m.tet_count(); ++t) heat.push_back(heat_at(s, t));
+    ex_put_var(exoid, file_step, EX_ELEM_BLOCK, 1, 1, tets, heat.data());
+  }
+  ex_close(exoid);
+}
+
+const std::string kSmallBuild = " --base-tets 300 --segment-tets 512 --progress none --threads 1";
+
+TEST(ExodusSteps, WithoutAllStepsTheLastStepIsReadAndInfoAndTheWarningNameAllSteps) {
+  const auto path = scratch_dir("exodus_steps_last") / "m.exo";
+  write_exodus_steps(path, {0, 0.5, 1.25}, {0, 1, 2});
+  auto stream = storage::MeshStream::open(path);
+  EXPECT_EQ(stream->header().step_times, (std::vector<double>{0, 0.5, 1.25}));
+  ASSERT_FALSE(stream->stats().warnings.empty());
+  EXPECT_NE(stream->stats().warnings[0].find("3 time steps: the last (step 3 of 3, t = 1.25) is read (preprocess --all-steps reads them all)"), std::string::npos)
+      << stream->stats().warnings[0];
+  const storage::MeshSummary summary = storage::summarize_mesh(path);
+  EXPECT_EQ(storage::summary_json(summary)["step_times"], nlohmann::json::parse("[0, 0.5, 1.25]"));
+  const std::string text = storage::summary_text(summary);
+  EXPECT_NE(text.find("time steps  3, t = 0 .. 1.25 (one read; preprocess --all-steps makes a series of them all)"), std::string::npos) << text;
+  const TetMesh last = storage::load_stream(*stream);
+  const storage::Attribute* temp = last.find_attribute("temp");
+  ASSERT_NE(temp, nullptr);
+  for (size_t v = 0; v < last.vertex_count(); ++v) EXPECT_NEAR(temp->values[v], temp_at(2, last.x[v], last.y[v], last.z[v]), 1e-5);
+  // a step chosen by number, and one past the last refused
+  storage::ReadLimits limits;
+  limits.time_step = 1;
+  const TetMesh second = storage::load_mesh(path, nullptr, limits);
+  for (size_t v = 0; v < second.vertex_count(); ++v) EXPECT_NEAR(second.find_attribute("temp")->values[v], temp_at(1, second.x[v], second.y[v], second.z[v]), 1e-5);
+  limits.time_step = 3;
+  try {
+    storage::load_mesh(path, nullptr, limits);
+    ADD_FAILURE() << "a step past the last was read";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("m.exo: Exodus II: time step 3 asked for, the file holds 3 (0..2)"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ExodusSteps, AllStepsMakesOneStoreOfEveryStepWithItsTimesAndValues) {
+  const auto dir = scratch_dir("exodus_steps_store");
+  std::filesystem::remove_all(dir / "s.store");
+  const std::vector<double> times{0, 0.5, 1.25};
+  write_exodus_steps(dir / "m.exo", times, {0, 1, 2});
+  const CliResult r = run_cli("preprocess " + (dir / "m.exo").string() + " -o " + (dir / "s.store").string() + " --all-steps" + kSmallBuild, 300);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const CliResult info = run_cli("info " + (dir / "s.store").string() + " --json", 60);
+  ASSERT_EQ(info.status, 0) << info.out;
+  const auto j = nlohmann::json::parse(info.out.substr(info.out.find('{')));
+  const auto& listed = j["time_steps"]["steps"];
+  ASSERT_EQ(listed.size(), 3u) << info.out;
+  const TetMesh m = kuhn_box(6, 0.3, [](double, double, double) { return 0.0; });
+  for (int s = 0; s < 3; ++s) {
+    EXPECT_DOUBLE_EQ(listed[s]["time"].get<double>(), times[size_t(s)]);
+    EXPECT_EQ(listed[s]["name"], "m.exo step " + std::to_string(s));
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t v = 0; v < m.vertex_count(); ++v) lo = std::min(lo, temp_at(s, m.x[v], m.y[v], m.z[v])), hi = std::max(hi, temp_at(s, m.x[v], m.y[v], m.z[v]));
+    EXPECT_NEAR(listed[s]["ranges"][0][0].get<double>(), lo, 1e-5) << "step " << s;
+    EXPECT_NEAR(listed[s]["ranges"][0][1].get<double>(), hi, 1e-5) << "step " << s;
+  }
+  EXPECT_EQ(run_cli("verify " + (dir / "s.store").string(), 120).status, 0);
+  // the stored values of steps 1 and 2 at the input's vertices: the nodal fields as written,
+  // the element field as a file of that step alone is converted at ingest
+  const auto store = storage::Store::open(dir / "s.store");
+  const auto steps = storage::TimeSteps::open(*store);
+  ASSERT_NE(steps, nullptr);
+  ASSERT_EQ(store->manifest().attributes.size(), 3u);
+  EXPECT_EQ(store->manifest().attributes[2].name, "heat");
+  const uint32_t floats = steps->layout().floats;
+  ASSERT_EQ(floats, 5u);
+  ASSERT_EQ(steps->layout().input_vertices, m.vertex_count());
+  for (int s = 1; s < 3; ++s) {
+    write_exodus_steps(dir / "alone.exo", {times[size_t(s)]}, {s});
+    const TetMesh alone = storage::load_mesh(dir / "alone.exo");
+    const storage::Attribute* heat = alone.find_attribute("heat");
+    ASSERT_NE(heat, nullptr);
+    const auto values = steps->values(static_cast<uint32_t>(s));
+    size_t wrong = 0;
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      const float* row = values->data() + v * floats;
+      const auto vel = vel_at(s, m.x[v], m.y[v], m.z[v]);
+      wrong += std::abs(row[0] - temp_at(s, m.x[v], m.y[v], m.z[v])) > 1e-5;
+      for (int c = 0; c < 3; ++c) wrong += std::abs(row[1 + c] - vel[size_t(c)]) > 1e-5;
+      wrong += std::abs(row[4] - heat->values[v]) > 1e-5;
+    }
+    EXPECT_EQ(wrong, 0u) << "step " << s;
+  }
+  // the steps differ: step 2's heat is 20 more than step 0's everywhere
+  EXPECT_NEAR(listed[2]["ranges"][2][0].get<double>() - listed[0]["ranges"][2][0].get<double>(), 20, 1e-4);
+}
+
+TEST(HostileExodusSteps, ANonFiniteValueOfAStepIsRefusedNamingTheFileAndStepAndLeavesNoStore) {
+  const auto dir = scratch_dir("exodus_steps_nan");
+  std::filesystem::remove_all(dir / "n.store");
+  write_exodus_steps(dir / "m.exo", {0, 1, 2}, {0, 1, 2}, 17);
+  const CliResult r = run_cli("preprocess " + (dir / "m.exo").string() + " -o " + (dir / "n.store").string() + " --all-steps" + kSmallBuild, 300);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("m.exo, time step 1): attribute 'temp' at vertex 17 is nan"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("every value of every step of a series must be finite"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "n.store"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "n.store.series"));
+}
+
+TEST(HostileExodusSteps, TimesThatDoNotIncreaseAndAFileOfOneStepAreRefusedBeforeAnythingIsBuilt) {
+  const auto dir = scratch_dir("exodus_steps_times");
+  write_exodus_steps(dir / "back.exo", {0, 2, 1}, {0, 1, 2});
+  try {
+    storage::series_inputs({(dir / "back.exo").string()}, true);
+    ADD_FAILURE() << "times out of order were taken";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("back.exo: time step 2 (t = 1.000000) is not after step 1 (t = 2.000000)"), std::string::npos) << e.what();
+  }
+  write_exodus_steps(dir / "one.exo", {0.5}, {0});
+  const CliResult r = run_cli("preprocess " + (dir / "one.exo").string() + " -o " + (dir / "one.store").string() + " --all-steps" + kSmallBuild, 60);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("one.exo: holds fewer than two time steps: --all-steps needs two or more"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "one.store"));
 }
 
 }  // namespace

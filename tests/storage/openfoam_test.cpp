@@ -240,7 +240,7 @@ TEST(OpenFoamCase, AllStepsOfAFileThatIsNoCaseIsRefusedNamingWhatItReads) {
     storage::series_inputs({(dir / "mesh.vtk").string()}, true);
     FAIL() << "accepted";
   } catch (const storage::MeshError& e) {
-    EXPECT_NE(std::string(e.what()).find("--all-steps reads an OpenFOAM case's time folders"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mesh.vtk: --all-steps reads the time steps of an Exodus II, Gmsh or CGNS file or an OpenFOAM case's time folders; give the steps of vtk files as files"), std::string::npos) << e.what();
   }
 }
 

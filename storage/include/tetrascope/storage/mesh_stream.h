@@ -48,6 +48,9 @@ struct MeshHeader {
   // count; a vertex whose cells all have zero volume takes their plain mean, one in no volume
   // cell 0).
   std::vector<AttributeInfo> cell_attributes;
+  // The times of the time steps a file holds (Exodus II, Gmsh, CGNS), in the file's order;
+  // empty for a file of one step or none. ReadLimits::time_step chooses the one read.
+  std::vector<double> step_times;
   size_t point_attribute_count() const { return attributes.size() - cell_attributes.size(); }
 };
 
@@ -75,6 +78,11 @@ struct ReadLimits {
   // The arrays a file declares compressed may inflate to at most this many times the file's
   // size, plus kInflateAllowanceBytes (`--max-inflate-ratio`).
   double max_inflate_ratio = kDefaultMaxInflateRatio;
+  // Which of a file's time steps is read (0-based, MeshHeader::step_times' order), for a
+  // format that holds several in one file (Exodus II, Gmsh, CGNS): -1 the last, as a mesh is
+  // read alone; a step of a time series (`preprocess --all-steps`) otherwise, whose values are
+  // then checked step by step (a step past the last is refused).
+  int64_t time_step = -1;
   uint64_t max_inflated_bytes(uint64_t file_bytes) const;
 };
 
