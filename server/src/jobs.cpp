@@ -48,7 +48,8 @@ std::string new_id() {
 // Options a client may pass to preprocess, and their flags.
 const std::map<std::string, std::string> kOptionFlags = {{"base_tets", "--base-tets"}, {"segment_tets", "--segment-tets"}, {"level_ratio", "--level-ratio"},
                                                          {"bins", "--bins"},           {"threads", "--threads"},           {"seed", "--seed"},
-                                                         {"memory_mb", "--memory-mb"}, {"variants", "--variants"}, {"model", "--model"}};
+                                                         {"memory_mb", "--memory-mb"}, {"variants", "--variants"}, {"model", "--model"},
+                                                         {"all_steps", "--all-steps"}};
 
 // What a job leaves while it runs: the store (out/), the writer's temporary (out.tmp/) and
 // the copy it replaces (out.old/). None of them outlives the job.
@@ -64,6 +65,7 @@ std::vector<std::string> preprocess_command(const fs::path& binary, const fs::pa
   std::vector<std::string> args = {binary.string(), "preprocess", (data_dir / source).string(), "-o", out.string(), "--progress", "json"};
   for (const auto& [key, value] : options.items()) {
     args.push_back(kOptionFlags.at(key));
+    if (value.is_boolean()) continue;  // a switch (all_steps: kept only when true)
     args.push_back(value.is_string() ? value.get<std::string>() : value.is_number_unsigned() ? std::to_string(value.get<uint64_t>()) : value.dump());
   }
   return args;
@@ -222,7 +224,13 @@ nlohmann::json JobRunner::submit(const nlohmann::json& body) {
   if (body.contains("options")) {
     if (!body["options"].is_object()) throw BadRequest(400, "bad_request", "options: an object");
     for (const auto& [key, value] : body["options"].items()) {
-      if (!kOptionFlags.count(key)) throw BadRequest(400, "bad_request", "options: unknown option '" + key + "' (model, base_tets, segment_tets, level_ratio, bins, threads, seed, memory_mb, variants)");
+      if (!kOptionFlags.count(key))
+        throw BadRequest(400, "bad_request", "options: unknown option '" + key + "' (model, all_steps, base_tets, segment_tets, level_ratio, bins, threads, seed, memory_mb, variants)");
+      if (key == "all_steps") {  // every time step of a file that holds several (Exodus II, CGNS, Gmsh, an OpenFOAM case)
+        if (!value.is_boolean()) throw BadRequest(400, "bad_request", "options.all_steps: true or false");
+        if (value.get<bool>()) options[key] = true;
+        continue;
+      }
       if (key == "model") {  // the multiresolution model: a name, never passed on unchecked
         if (!value.is_string() || (value != "mt" && value != "binary")) throw BadRequest(400, "bad_request", "options.model: 'mt' or 'binary'");
         options[key] = value;

@@ -693,6 +693,43 @@ TEST_F(ServerTest, AJobTurnsAnUploadIntoADatasetThatOpensAndRenders) {
   EXPECT_EQ(http_request(base_ + "/api/v1/jobs/nonexistent", "GET").status, 404);
 }
 
+// A Gmsh file holding three time steps, submitted with options.all_steps, becomes a dataset of
+// three steps (without it, of its last step alone); all_steps takes true or false only.
+TEST_F(ServerTest, AJobWithAllStepsMakesADatasetOfEveryTimeStep) {
+  start();
+  namespace t = tetrascope::testing;
+  const storage::TetMesh box = t::kuhn_box(6, 0.2, [](double, double, double) { return 0.0; });
+  t::CellMesh mesh = t::from_tets(box);
+  mesh.attributes.clear();
+  const fs::path file = scratch_dir("server_steps") / "steps.msh";
+  t::write_gmsh(file, mesh);
+  std::string text = t::read_file(file);
+  for (int s = 0; s < 3; ++s) {
+    std::vector<std::pair<size_t, std::vector<double>>> rows;
+    for (size_t v = 0; v < box.vertex_count(); ++v) rows.push_back({v + 1, {box.x[v] + s}});
+    text += t::gmsh_data_section("NodeData", "temp", s, 0.5 * s, 1, rows);
+  }
+  t::write_file(file, text);
+  const std::string source = upload(file, "steps.msh");
+  auto submit = [&](const std::string& name, const nlohmann::json& all_steps) {
+    return http_request(base_ + "/api/v1/jobs", "POST",
+                        nlohmann::json({{"source", source}, {"name", name}, {"options", {{"all_steps", all_steps}, {"base_tets", 300}, {"segment_tets", 512}}}}).dump());
+  };
+  EXPECT_EQ(submit("bad", 1).status, 400);
+  EXPECT_EQ(submit("bad", "yes").status, 400);
+  for (const auto& [name, all] : {std::pair<std::string, bool>{"every", true}, {"last", false}}) {
+    const HttpResult r = submit(name, all);
+    ASSERT_EQ(r.status, 202) << r.body;
+    const auto job = wait_job(nlohmann::json::parse(r.body)["id"], [](const nlohmann::json& j) { return j["state"] != "queued" && j["state"] != "running"; });
+    ASSERT_EQ(job["state"], "done") << job.dump();
+  }
+  const auto datasets = get_json("/api/v1/datasets")["datasets"];  // a copy: the reply is a temporary
+  std::map<std::string, size_t> steps;
+  for (const auto& d : datasets) steps[d["name"].get<std::string>()] = d["time_steps"].size();
+  EXPECT_EQ(steps["every"], 3u) << datasets.dump();
+  EXPECT_EQ(steps["last"], 0u) << "a dataset of one step lists none";
+}
+
 TEST_F(ServerTest, AJobKilledMidwayIsReportedFailedAndLeavesNoHalfStore) {
   if (shared_data().empty()) GTEST_SKIP() << "../shared/data is not next to the checkout";
   start();

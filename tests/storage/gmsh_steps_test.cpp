@@ -39,28 +39,6 @@ const TetMesh& box() {
   return m;
 }
 
-std::string number(double v) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.9g", v);
-  return text;
-}
-
-// A $NodeData or $ElementData section: time step `number`, time `time`, values by tag 1...
-std::string data_section(const std::string& section, const std::string& name, int step_number, double time, uint32_t components,
-                         const std::vector<std::pair<size_t, std::vector<double>>>& rows) {
-  std::string out;
-  for (const std::string& line : {"$" + section, std::string("1"), "\"" + name + "\"", std::string("1"), number(time), std::string("3"), std::to_string(step_number),
-                                  std::to_string(components), std::to_string(rows.size())}) {
-    out.append(line).append("\n");
-  }
-  for (const auto& [tag, values] : rows) {
-    out.append(std::to_string(tag));
-    for (double v : values) out.append(" ").append(number(v));
-    out.append("\n");
-  }
-  return out.append("$End").append(section).append("\n");
-}
-
 struct StepsFile {
   std::vector<double> times{0, 0.5, 1.25};
   size_t drop_node_at_step = 0;  // a step (1 or 2) whose temp leaves out node tag 4; 0: none
@@ -79,7 +57,7 @@ void write_gmsh_steps(const fs::path& path, const StepsFile& o = {}) {
     std::vector<std::pair<size_t, std::vector<double>>> rows;
     for (size_t v = 0; v < m.vertex_count(); ++v)
       if (!(o.drop_node_at_step == size_t(s) && s > 0 && v + 1 == 4)) rows.push_back({v + 1, {temp_at(s, m.x[v], m.y[v], m.z[v])}});
-    out += data_section("NodeData", "temp", 10 + s, o.times[size_t(s)], 1, rows);
+    out += gmsh_data_section("NodeData", "temp", 10 + s, o.times[size_t(s)], 1, rows);
   }
   for (int s = 0; s < int(o.times.size()); ++s) {
     std::vector<std::pair<size_t, std::vector<double>>> rows;
@@ -87,12 +65,12 @@ void write_gmsh_steps(const fs::path& path, const StepsFile& o = {}) {
       const auto f = flow_at(s, m.x[v], m.y[v], m.z[v]);
       rows.push_back({v + 1, {f[0], o.nan_at_step == size_t(s) && s > 0 && v + 1 == 9 ? std::nan("") : f[1], f[2]}});
     }
-    out += data_section("NodeData", "flow", 10 + s, o.times[size_t(s)], 3, rows);
+    out += gmsh_data_section("NodeData", "flow", 10 + s, o.times[size_t(s)], 3, rows);
   }
   for (int s = 0; s < int(o.times.size()); ++s) {
     std::vector<std::pair<size_t, std::vector<double>>> rows;
     for (size_t t = 0; t < m.tet_count(); ++t) rows.push_back({t + 1, {load_at(s, t)}});
-    out += data_section("ElementData", "load", 10 + s, o.times[size_t(s)], 1, rows);
+    out += gmsh_data_section("ElementData", "load", 10 + s, o.times[size_t(s)], 1, rows);
   }
   write_file(path, out);
 }

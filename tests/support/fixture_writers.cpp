@@ -549,4 +549,19 @@ CellMesh one_tet_and_unused_points(size_t points) {
   return m;
 }
 
+std::string gmsh_data_section(const std::string& section, const std::string& name, int step_number, double time, uint32_t components,
+                              const std::vector<std::pair<size_t, std::vector<double>>>& rows) {
+  std::string out;
+  for (const std::string& line : {"$" + section, std::string("1"), "\"" + name + "\"", std::string("1"), fmt(time), std::string("3"), std::to_string(step_number),
+                                  std::to_string(components), std::to_string(rows.size())}) {
+    out.append(line).append("\n");
+  }
+  for (const auto& [tag, values] : rows) {
+    out.append(std::to_string(tag));
+    for (double v : values) out.append(" ").append(fmt(v));
+    out.append("\n");
+  }
+  return out.append("$End").append(section).append("\n");
+}
+
 }  // namespace tetrascope::testing

@@ -59,6 +59,10 @@ struct GmshOptions {
   std::vector<std::pair<int32_t, std::string>> surface_names{};  // $PhysicalNames of dimension 2
 };
 void write_gmsh(const std::filesystem::path& path, const CellMesh& mesh, const GmshOptions& options = {});
+// A Gmsh $NodeData or $ElementData section (`section`) of field `name` at time step number
+// `step_number` and time `time`: `components` values a row, the rows by node or element tag.
+std::string gmsh_data_section(const std::string& section, const std::string& name, int step_number, double time, uint32_t components,
+                              const std::vector<std::pair<size_t, std::vector<double>>>& rows);
 
 // The cube [0,1]^3 as 2x2x2 hexahedra (27 nodes) with tagged boundary faces, for Gmsh files:
 // x = 0 "inlet" (physical 1, 4 quads), x = 1 "outlet" (2, 4 quads), y = 1 and z = 0 "walls"
