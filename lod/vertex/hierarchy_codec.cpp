@@ -110,6 +110,19 @@ float mean_of_children(const VertexHierarchy& h, const std::vector<float>& data,
   return (data[size_t{a} * width + k] + data[size_t{b} * width + k]) * 0.5f;
 }
 
+// The CSR inverse of per-collapse links (offsets, items over 0..C-1): per collapse j the
+// collapses i whose lists hold j, each list ascending.
+void invert_links(uint32_t C, const std::vector<uint32_t>& offsets, const std::vector<uint32_t>& items, std::vector<uint32_t>& inverse_offsets,
+                  std::vector<uint32_t>& inverse) {
+  inverse_offsets.assign(size_t{C} + 1, 0);
+  for (uint32_t j : items) ++inverse_offsets[j + 1];
+  for (uint32_t i = 0; i < C; ++i) inverse_offsets[i + 1] += inverse_offsets[i];
+  inverse.assign(items.size(), 0);
+  std::vector<uint32_t> fill(inverse_offsets.begin(), inverse_offsets.end() - 1);
+  for (uint32_t i = 0; i < C; ++i)
+    for (uint32_t k = offsets[i]; k < offsets[i + 1]; ++k) inverse[fill[items[k]]++] = i;
+}
+
 uint32_t zigzag(uint32_t actual, uint32_t predicted) {
   const uint32_t rest = actual - predicted;
   return (rest << 1) ^ (0u - (rest >> 31));
@@ -228,13 +241,7 @@ void derive_links(VertexHierarchy& h) {
     if (first != kNoCollapse) ++h.nodes[first].fan;
   }
   // before: the inverse of after, each list ascending as the build writes it
-  h.before_offsets.assign(size_t{C} + 1, 0);
-  for (uint32_t k : h.after) ++h.before_offsets[k + 1];
-  for (uint32_t i = 0; i < C; ++i) h.before_offsets[i + 1] += h.before_offsets[i];
-  h.before.assign(h.after.size(), 0);
-  std::vector<uint32_t> fill(h.before_offsets.begin(), h.before_offsets.end() - 1);
-  for (uint32_t i = 0; i < C; ++i)
-    for (uint32_t k = h.after_offsets[i]; k < h.after_offsets[i + 1]; ++k) h.before[fill[h.after[k]]++] = i;
+  invert_links(C, h.after_offsets, h.after, h.before_offsets, h.before);
 }
 
 }  // namespace tetrascope::lod::vertex_codec
@@ -279,13 +286,7 @@ void links_from_pairs(uint32_t C, const std::vector<uint64_t>& pairs, StarLinks&
     out.before.insert(out.before.end(), first, std::unique(first, last));
     out.before_offsets[i + 1] = static_cast<uint32_t>(out.before.size());
   }
-  out.after_offsets.assign(size_t{C} + 1, 0);
-  for (uint32_t j : out.before) ++out.after_offsets[j + 1];
-  for (uint32_t i = 0; i < C; ++i) out.after_offsets[i + 1] += out.after_offsets[i];
-  out.after.assign(out.before.size(), 0);
-  std::vector<uint32_t> next(out.after_offsets.begin(), out.after_offsets.end() - 1);
-  for (uint32_t i = 0; i < C; ++i)
-    for (uint32_t k = out.before_offsets[i]; k < out.before_offsets[i + 1]; ++k) out.after[next[out.before[k]]++] = i;
+  invert_links(C, out.before_offsets, out.before, out.after_offsets, out.after);
 }
 
 }  // namespace
