@@ -31,6 +31,7 @@
 #include <fstream>
 #include <limits>
 #include <mutex>
+#include <optional>
 
 #include "format_reader.h"
 
@@ -297,6 +298,15 @@ class CgnsReader final : public FormatReader {
   std::string text(double node, const std::string& what) const;
   // The node's data type when it is one plain type ("I4", "R8", "C1", ...), under the lock.
   bool stored_type(double node, char (&type)[CGIO_MAX_DATATYPE_LENGTH + 1]) const;
+  // A node's data type and dimensions (the library lock held by the caller): none when the
+  // library cannot read them; shape() fails naming `what` instead.
+  struct Shape {
+    std::string type;
+    int dimensions = 0;
+    cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
+  };
+  std::optional<Shape> try_shape(double node) const;
+  Shape shape(double node, const std::string& what) const;
   // `count` values from 0-based `first` of an integer or real array, converted.
   void read_values(const Array& a, int64_t first, size_t count, const std::string& what, int64_t* ints, double* reals);
   std::vector<int64_t> small_ints(const Node& node, size_t most, const std::string& what);
@@ -389,6 +399,20 @@ bool CgnsReader::stored_type(double node, char (&type)[CGIO_MAX_DATATYPE_LENGTH 
   return true;
 }
 
+std::optional<CgnsReader::Shape> CgnsReader::try_shape(double node) const {
+  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
+  Shape out;
+  if (!stored_type(node, type) || cgio_get_dimensions(cgio_, node, &out.dimensions, out.extent) != CGIO_ERR_NONE) return std::nullopt;
+  out.type.assign(type, strnlen(type, CGIO_MAX_DATATYPE_LENGTH));
+  return out;
+}
+
+CgnsReader::Shape CgnsReader::shape(double node, const std::string& what) const {
+  std::optional<Shape> out = try_shape(node);
+  if (!out) fail("CGNS: cannot read " + what + cgio_message());
+  return *out;
+}
+
 std::vector<Node> CgnsReader::children(double parent, const std::string& what) const {
   std::lock_guard<std::mutex> hold(library_lock());
   int count = 0;
@@ -409,32 +433,22 @@ std::vector<Node> CgnsReader::children(double parent, const std::string& what) c
 
 Array CgnsReader::array(const Node& node, const std::string& what) const {
   std::lock_guard<std::mutex> hold(library_lock());
-  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-  int dimensions = 0;
-  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (!stored_type(node.id, type) || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
-    fail("CGNS: cannot read " + what + cgio_message());
-  }
-  Array a{node.id, std::string(type, strnlen(type, CGIO_MAX_DATATYPE_LENGTH)), 0};
+  const Shape shaped = shape(node.id, what);
+  Array a{node.id, shaped.type, 0};
   if (a.type != "I4" && a.type != "I8" && a.type != "R4" && a.type != "R8") fail("CGNS: " + what + " holds " + a.type + " values, not numbers");
-  if (dimensions != 1 || extent[0] < 0) fail("CGNS: " + what + " is an array of " + std::to_string(dimensions) + " dimensions, not a list");
-  a.length = extent[0];
+  if (shaped.dimensions != 1 || shaped.extent[0] < 0) fail("CGNS: " + what + " is an array of " + std::to_string(shaped.dimensions) + " dimensions, not a list");
+  a.length = shaped.extent[0];
   return a;
 }
 
 // A short character array (ZoneType_t, GridLocation_t).
 std::string CgnsReader::text(double node, const std::string& what) const {
   std::lock_guard<std::mutex> hold(library_lock());
-  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-  int dimensions = 0;
-  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (!stored_type(node, type) || cgio_get_dimensions(cgio_, node, &dimensions, extent) != CGIO_ERR_NONE) {
-    fail("CGNS: cannot read " + what + cgio_message());
-  }
-  if (std::strcmp(type, "C1") != 0 || dimensions != 1 || extent[0] < 1 || extent[0] > 64) fail("CGNS: " + what + " is not a short text");
+  const Shape shaped = shape(node, what);
+  if (shaped.type != "C1" || shaped.dimensions != 1 || shaped.extent[0] < 1 || shaped.extent[0] > 64) fail("CGNS: " + what + " is not a short text");
   char value[65] = {};
   if (cgio_read_all_data(cgio_, node, value) != CGIO_ERR_NONE) fail("CGNS: cannot read " + what + cgio_message());
-  std::string out(value, strnlen(value, static_cast<size_t>(extent[0])));
+  std::string out(value, strnlen(value, static_cast<size_t>(shaped.extent[0])));
   while (!out.empty() && out.back() == ' ') out.pop_back();
   return out;
 }
@@ -468,16 +482,14 @@ void CgnsReader::read_values(const Array& a, int64_t first, size_t count, const 
 
 std::vector<int64_t> CgnsReader::small_ints(const Node& node, size_t most, const std::string& what) {
   std::lock_guard<std::mutex> hold(library_lock());
-  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-  int dimensions = 0;
-  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (!stored_type(node.id, type) || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
-    fail("CGNS: cannot read " + what + cgio_message());
-  }
+  const Shape shaped = shape(node.id, what);
+  const std::string& type = shaped.type;
+  const int dimensions = shaped.dimensions;
+  const cgsize_t* extent = shaped.extent;
   uint64_t values = dimensions > 0 ? 1 : 0;
   for (int d = 0; d < std::min(dimensions, CGIO_MAX_DIMENSIONS); ++d) values = extent[d] < 0 ? UINT64_MAX : values * static_cast<uint64_t>(std::min<cgsize_t>(extent[d], 1 << 20));
-  const bool wide = std::strcmp(type, "I8") == 0;
-  if ((!wide && std::strcmp(type, "I4") != 0) || values == 0 || values > most) fail("CGNS: " + what + " is not a list of at most " + std::to_string(most) + " integers");
+  const bool wide = type == "I8";
+  if ((!wide && type != "I4") || values == 0 || values > most) fail("CGNS: " + what + " is not a list of at most " + std::to_string(most) + " integers");
   std::vector<int64_t> out(values);
   std::vector<int32_t> narrow(wide ? 0 : values);
   if (cgio_read_all_data(cgio_, node.id, wide ? static_cast<void*>(out.data()) : static_cast<void*>(narrow.data())) != CGIO_ERR_NONE) {
@@ -515,11 +527,8 @@ MeshHeader CgnsReader::index(ReadStats& stats) {
     if (n.label == "CGNSLibraryVersion_t") {
       std::lock_guard<std::mutex> hold(library_lock());
       float v = 0;
-      char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-      int dimensions = 0;
-      cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-      if (stored_type(n.id, type) && std::strcmp(type, "R4") == 0 && cgio_get_dimensions(cgio_, n.id, &dimensions, extent) == CGIO_ERR_NONE &&
-          dimensions == 1 && extent[0] == 1 && cgio_read_all_data(cgio_, n.id, &v) == CGIO_ERR_NONE && v > 0 && v < 100) {
+      const std::optional<Shape> shaped = try_shape(n.id);
+      if (shaped && shaped->type == "R4" && shaped->dimensions == 1 && shaped->extent[0] == 1 && cgio_read_all_data(cgio_, n.id, &v) == CGIO_ERR_NONE && v > 0 && v < 100) {
         char shown[16];
         std::snprintf(shown, sizeof shown, "%.2g", static_cast<double>(v));
         version = shown;
@@ -686,11 +695,9 @@ std::vector<std::string> CgnsReader::step_solutions(const std::vector<Node>& ite
   for (const Node& n : iterative) {
     if (n.name != pointers) continue;
     std::lock_guard<std::mutex> hold(library_lock());
-    char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-    int dimensions = 0;
-    cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-    if (!stored_type(n.id, type) || cgio_get_dimensions(cgio_, n.id, &dimensions, extent) != CGIO_ERR_NONE) return {};
-    if (std::strcmp(type, "C1") != 0 || dimensions != 2 || extent[0] != 32 || extent[1] < 1 || extent[1] > kMaxTimeSteps) return {};
+    const std::optional<Shape> shaped = try_shape(n.id);
+    if (!shaped || shaped->type != "C1" || shaped->dimensions != 2 || shaped->extent[0] != 32 || shaped->extent[1] < 1 || shaped->extent[1] > kMaxTimeSteps) return {};
+    const cgsize_t* extent = shaped->extent;
     std::vector<char> names(static_cast<size_t>(32 * extent[1]));
     if (cgio_read_all_data(cgio_, n.id, names.data()) != CGIO_ERR_NONE) return {};
     std::vector<std::string> out;
@@ -821,14 +828,12 @@ void CgnsReader::read_solutions(Zone& zone, const std::vector<Node>& nodes, Read
 // any shape), bounded by what the file can hold.
 std::vector<int64_t> CgnsReader::index_values(const Node& node, const std::string& what) const {
   std::lock_guard<std::mutex> hold(library_lock());
-  char type[CGIO_MAX_DATATYPE_LENGTH + 1] = {};
-  int dimensions = 0;
-  cgsize_t extent[CGIO_MAX_DIMENSIONS] = {};
-  if (!stored_type(node.id, type) || cgio_get_dimensions(cgio_, node.id, &dimensions, extent) != CGIO_ERR_NONE) {
-    fail("CGNS: cannot read " + what + cgio_message());
-  }
-  const bool wide = std::strcmp(type, "I8") == 0;
-  if (!wide && std::strcmp(type, "I4") != 0) fail("CGNS: " + what + " holds " + type + " values, not integers");
+  const Shape shaped = shape(node.id, what);
+  const std::string& type = shaped.type;
+  const int dimensions = shaped.dimensions;
+  const cgsize_t* extent = shaped.extent;
+  const bool wide = type == "I8";
+  if (!wide && type != "I4") fail("CGNS: " + what + " holds " + type + " values, not integers");
   const uint64_t most = inflate_limit(limits_, file_bytes_) / 4;
   uint64_t values = dimensions > 0 ? 1 : 0;
   for (int d = 0; d < std::min(dimensions, CGIO_MAX_DIMENSIONS); ++d) {
