@@ -108,6 +108,7 @@ struct RenderOptions {
   std::optional<std::array<double, 2>> select_pixel;  // pixels, made fractions once the size is known
   int quality = kDefaultQuality;
   uint32_t orbit = 0;
+  uint32_t threads = 0;  // the CPU ray caster's (0: every core)
   bool reference = false, json = false;
 };
 
@@ -254,6 +255,7 @@ RenderOptions render_options(const Args& args) {
   }
   o.camera_text = args.get("--camera");
   o.orbit = args.number("--orbit", 0);
+  o.threads = args.number("--threads", 0);
   o.reference = args.has("--reference");
   o.json = args.has("--json");
   return o;
@@ -509,9 +511,9 @@ int run_render(const Arguments& all) {
             {"--output", "--mode", "--attribute", "--component", "--tf", "--iso", "--camera", "--size", "--budget", "--quality", "--orbit", "--unit-distance", "--iso-opacity", "--iso-color",
              "--field", "--seeds", "--max-steps", "--select-box", "--select-lines", "--select-pixel", "--ghost-opacity", "--line-width", "--flow", "--depth-correction", "--point-size",
              "--point-target", "--compare", "--volume", "--lod", "--backend", "--hide-regions", "--tensor", "--tube-cells", "--surface-cells", "--tensor-min-cl",
-             "--tensor-min-cp", "--tensor-color", "--tensor-point-size", "--step", "--time"});
+             "--tensor-min-cp", "--tensor-color", "--tensor-point-size", "--step", "--time", "--threads"});
   if (args.positionals().size() != 1 || !args.has("--output")) {
-    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--wireframe] [--box] [--hide-regions IDS|NAMES|box] [--step N | --time T] [--orbit N] [--reference] [--json]\n"
+    std::fprintf(stderr, "usage: tetrascope render MESH|STORE -o OUT.png|jpg [--mode dvr|iso|surface|lines|points|slice and combinations such as dvr+lines] [--attribute A] [--component magnitude|x|y|z] [--tf TF.json] [--iso v1,v2] [--camera C] [--size WxH] [--budget TETS] [--lod vertices|segments] [--quality Q] [--volume exact|projected] [--backend gl|cpu|auto] [--threads N] [--wireframe] [--box] [--hide-regions IDS|NAMES|box] [--step N | --time T] [--orbit N] [--reference] [--json]\n"
                  "       planes: [--clip nx,ny,nz,d ...] [--clip-box x0,y0,z0,x1,y1,z1] [--crinkle] [--slice nx,ny,nz,d ...] [--slice-edges] [--slice-flat]\n"
                  "       lines: [--field V] [--seeds SPEC] [--max-steps S] [--select-box x0,y0,z0,x1,y1,z1] [--select-lines 1,2] [--select-pixel x,y] [--ghost-opacity A] [--line-width PX] [--flow arrows|dashes|none] [--no-halos] [--depth-correction C]\n"
                  "       points: [--iso v1,v2,...] [--point-size PX] [--point-target N]; [--compare OTHER.png] reports the PSNR against another image\n"
@@ -555,7 +557,7 @@ int run_render(const Arguments& all) {
   static r::Renderer* renderer = nullptr;  // reachable from here: not a leak
   // the backend: the GL renderer, the CPU ray caster, or (auto) the caster where the only
   // EGL device is software and the caster draws everything asked for
-  const std::string backend = args.get("--backend", "gl");
+  const std::string backend = args.get("--backend", "auto");
   if (!r::known_backend(backend)) throw std::invalid_argument("--backend: gl, cpu or auto");
   const std::string cpu_lacks = r::RayCaster::unsupported(settings);
   if (backend == "cpu" && !cpu_lacks.empty()) throw std::invalid_argument("--backend cpu: the CPU ray caster does not draw " + cpu_lacks);
@@ -573,7 +575,7 @@ int run_render(const Arguments& all) {
   for (uint32_t f = 0; f < std::max(1u, o.orbit); ++f) {
     if (o.orbit) frame.camera = orbit_camera(f, o.orbit, pipeline->bounds(), settings.camera.aspect);
     r::ViewTimings t;
-    image = cpu ? pipeline->cast(frame, &t) : pipeline->draw(frame, *renderer, held_scene, &t);
+    image = cpu ? pipeline->cast(frame, &t, o.threads) : pipeline->draw(frame, *renderer, held_scene, &t);
     const auto encode_start = Clock::now();
     const auto bytes = jpeg ? r::encode_jpeg(image, o.quality) : r::encode_png(image);
     t.draw.encode_ms = ms_since(encode_start);
@@ -585,7 +587,7 @@ int run_render(const Arguments& all) {
   }
   r::write_image(o.output, image, o.quality);
   const double reference_db = o.reference ? write_reference(o, pipeline->scene(), frame, image) : -1;
-  const std::string description = cpu ? "tetrascope CPU ray caster (" + std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " threads)" : renderer->description();
+  const std::string description = cpu ? "tetrascope CPU ray caster (" + std::to_string(o.threads ? o.threads : std::max(1u, std::thread::hardware_concurrency())) + " threads)" : renderer->description();
   nlohmann::json j = render_report(o, settings, pipeline->scene(), description, frames, reference_db);
   j["backend"] = cpu ? "cpu" : "gl";
   add_pipeline_report(j, *pipeline, settings, frames.back(), o.view.segment_cut);

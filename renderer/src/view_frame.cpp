@@ -355,7 +355,7 @@ Image ViewPipeline::draw(const RenderSettings& settings, Renderer& renderer, uin
   return image;
 }
 
-Image ViewPipeline::cast(const RenderSettings& settings, ViewTimings* timings) {
+Image ViewPipeline::cast(const RenderSettings& settings, ViewTimings* timings, unsigned threads) {
   ViewTimings local;
   ViewTimings& t = timings ? *timings : local;
   if (const std::string what = RayCaster::unsupported(settings); !what.empty()) throw std::invalid_argument("the CPU ray caster does not draw " + what);
@@ -367,7 +367,7 @@ Image ViewPipeline::cast(const RenderSettings& settings, ViewTimings* timings) {
   }
   t.upload_ms = ms_since(start);
   start = Clock::now();
-  Image image = caster_->render(settings, &t.draw);
+  Image image = caster_->render(settings, &t.draw, threads);
   t.draw_ms = ms_since(start);
   return image;
 }

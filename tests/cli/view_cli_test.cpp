@@ -37,6 +37,12 @@ TEST(RenderCli, TheCpuBackendRendersTheVolumeAndRefusesWhatItDoesNotDraw) {
   EXPECT_NE(j["renderer"].get<std::string>().find("ray caster"), std::string::npos) << j["renderer"];
   EXPECT_GT(j["reference_psnr_db"].get<double>(), 50);
   EXPECT_GT(j["tets_drawn"].get<uint64_t>(), 0u);
+  // one thread draws the image every core draws (each pixel's ray is its own)
+  const std::string one = (dir / "one-thread.png").string();
+  Result single = run("render " + sample_mesh().string() + " -o " + one + " --size 96x64 --attribute Temp --backend cpu --threads 1 --json");
+  ASSERT_EQ(single.status, 0) << single.out;
+  EXPECT_NE(last_json_line(single.out)["renderer"].get<std::string>().find("(1 threads)"), std::string::npos) << single.out;
+  EXPECT_EQ(tetrascope::testing::read_file(one), tetrascope::testing::read_file(out));
   Result surface = run("render " + sample_mesh().string() + " -o " + out + " --size 32x32 --mode surface --backend cpu");
   EXPECT_EQ(surface.status, 2) << surface.out;
   EXPECT_NE(surface.out.find("surfaces"), std::string::npos) << surface.out;
@@ -51,6 +57,25 @@ TEST(RenderCli, TheCpuBackendRendersTheVolumeAndRefusesWhatItDoesNotDraw) {
   Result surface_auto = run("render " + sample_mesh().string() + " -o " + out + " --size 32x32 --mode surface --backend auto --json");
   ASSERT_EQ(surface_auto.status, 0) << surface_auto.out;
   EXPECT_EQ(last_json_line(surface_auto.out)["backend"], "gl");
+}
+
+// Without --backend (auto): the caster where the GL device is software (Mesa here), the GL
+// renderer on a GPU; frames the caster does not draw go to the GL renderer either way.
+TEST(RenderCli, WithoutABackendTheCasterDrawsWhereTheGlDeviceIsSoftware) {
+  const auto dir = scratch_dir("render-cli-default-backend");
+  const std::string out = (dir / "default.png").string();
+  Result gl = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --attribute Temp --backend gl --json");
+  ASSERT_EQ(gl.status, 0) << gl.out;
+  const std::string device = last_json_line(gl.out)["renderer"].get<std::string>();
+  const bool software = device.find("llvmpipe") != std::string::npos || device.find("softpipe") != std::string::npos || device.find("swrast") != std::string::npos;
+  Result chosen = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --attribute Temp --reference --json");
+  ASSERT_EQ(chosen.status, 0) << chosen.out;
+  const auto j = last_json_line(chosen.out);
+  EXPECT_EQ(j["backend"], software ? "cpu" : "gl") << device;
+  EXPECT_GT(j["reference_psnr_db"].get<double>(), 45);
+  Result surface = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --mode surface --json");
+  ASSERT_EQ(surface.status, 0) << surface.out;
+  EXPECT_EQ(last_json_line(surface.out)["backend"], "gl");
 }
 
 TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
@@ -233,7 +258,7 @@ TEST(RenderCli, RendersTheCutOfAStoreFromTheDefaultView) {
   const auto dir = scratch_dir("render-cli-store");
   const std::string store = (dir / "sample.store").string();
   ASSERT_EQ(run("preprocess " + sample_mesh().string() + " -o " + store + " --segment-tets 2000 --base-tets 3000 --progress none").status, 0);
-  Result r = run("render " + store + " -o " + (dir / "store.png").string() + " --size 64x48 --budget 9000 --attribute Temp --mode dvr+iso --iso 500 --json");
+  Result r = run("render " + store + " -o " + (dir / "store.png").string() + " --size 64x48 --budget 9000 --attribute Temp --mode dvr+iso --iso 500 --backend gl --json");  // the GL renderer's isosurface triangles
   ASSERT_EQ(r.status, 0) << r.out;
   const auto j = last_json_line(r.out);
   EXPECT_LE(j["tets"].get<uint64_t>(), 9000u);

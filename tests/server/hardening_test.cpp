@@ -554,6 +554,7 @@ TEST_F(HardeningTest, AnIdleServerGivesBackItsRenderWorkersMemory) {
   ServerOptions o = options();
   o.worker_idle_release = 2s;
   o.refine_growth = 1000;  // the first refinement step is the still, with the still budget: the same cut each time
+  o.backend = "gl";  // the GL renderer's framebuffers and scene, which a worker holds between frames
   start(o);
   ASSERT_EQ(http_request(base_ + "/api/v1/datasets/disk", "GET").status, 200);  // opened: its segments mapped
   std::this_thread::sleep_for(300ms);

@@ -92,7 +92,7 @@ class ViewPipeline {
   // Draws `settings` with the CPU ray caster (ray_caster.h) of scene(), made anew when the
   // scene changed (its cost in upload_ms). Throws std::invalid_argument for what the caster
   // does not draw (RayCaster::unsupported).
-  Image cast(const RenderSettings& settings, ViewTimings* timings = nullptr);
+  Image cast(const RenderSettings& settings, ViewTimings* timings = nullptr, unsigned threads = 0);
   // update, then draw.
   ViewFrame render(const ViewRequest& request, Renderer& renderer, uint64_t& held_generation);
 
