@@ -64,7 +64,7 @@ def main():
             row = {"mesh": Path(mesh).name, "view": v, "inside": view["inside"], "kind": view["kind"], "camera": view["camera"], "tf": view["tf"]}
             for label, binary in binaries.items():
                 out = json.loads(run([binary, "render", mesh, "-o", work / f"{stem}.gl.{label}.png", "--camera", view["camera"], "--size", "256x192", "--tf", tf,
-                                      "--reference", "--json"]).strip().splitlines()[-1])
+                                      "--backend", "gl", "--reference", "--json"]).strip().splitlines()[-1])
                 row[f"{label}_db"] = out["reference_psnr_db"]
             print(json.dumps({k: row[k] for k in row if k not in ("camera", "tf")}), flush=True)
             rows.append(row)

@@ -7,7 +7,7 @@
 # the triangles each DVR method emits for each orbit frame, at their mean pixel area, drawn
 # with a constant-colour shader into the same float target with the same blending), in one
 # run. Writes OUT (default bench/results/render.json).
-# DVR runs three times: --volume projected (rows "dvr"), --volume exact, the default ("dvr_exact"),
+# DVR runs three times: --volume projected (rows "dvr"), --volume exact (rows "dvr_exact"; both --backend gl),
 # and the CPU ray caster, --backend cpu ("dvr_cpu"). Each row also
 # has the process CPU time per frame (every thread, llvmpipe's included), which a shared
 # machine disturbs less than wall time.
@@ -46,8 +46,8 @@ for n in $meshes; do
   info=$("$build"/apps/tetrascope info --json "$mesh" | python3 -c 'import json,sys; at=json.load(sys.stdin)["attributes"]; a=([x for x in at if x["name"]=="analytic_f"] or at)[0]; print(a["name"], a["min"], a["max"])')
   read -r attribute lo hi <<< "$info"
   printf '{"attribute": "%s", "colormap": "viridis", "opacity": [[%s, 0], [%s, 0.4]]}\n' "$attribute" "$lo" "$hi" > bench/out/render-tf.json
-  dvr=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume projected --json | tail -1)
-  exact=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-exact-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume exact --json | tail -1)
+  dvr=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume projected --backend gl --json | tail -1)
+  exact=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-exact-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --volume exact --backend gl --json | tail -1)
   cpu=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-cpu-$n.jpg --tf bench/out/render-tf.json --size 1024x768 --orbit "$frames" --quality 80 --backend cpu --json | tail -1)
   iso=$("$build"/apps/tetrascope render "$mesh" -o bench/out/render-iso-$n.jpg --mode iso --attribute "$attribute" --size 1024x768 --orbit "$frames" --quality 80 --json | tail -1)
   pv_frames=$frames

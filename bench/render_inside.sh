@@ -34,7 +34,7 @@ for mesh, attribute, camera in cases:
     json.dump({"attribute": attribute, "colormap": "viridis", "opacity": [[a["min"], 0.05], [a["max"], 0.6]]}, open(tf, "w"))
     start = time.time()
     r = subprocess.run([binary, "render", path, "-o", f"bench/out/inside-{mesh}.png", "--tf", tf, "--camera", camera, "--size", size,
-                        "--volume", "exact", "--reference", "--json"], check=True, capture_output=True, text=True)
+                        "--volume", "exact", "--backend", "gl", "--reference", "--json"], check=True, capture_output=True, text=True)
     j = json.loads(r.stdout.strip().splitlines()[-1])
     seconds = round(time.time() - start, 1)
     r = subprocess.run([binary, "render", path, "-o", f"bench/out/inside-projected-{mesh}.png", "--tf", tf, "--camera", camera, "--size", size,

@@ -14,7 +14,7 @@ for mesh in ../shared/data/*.vtk; do
   # the first attribute, opacity from 0 at its minimum to 0.3 at its maximum
   build/release/apps/tetrascope info --json "$mesh" | python3 -c 'import json,sys; a=json.load(sys.stdin)["attributes"][0]; lo,hi=(a["min"],a["max"]) if a["components"]==1 else (0,a["max"]); print(json.dumps({"attribute":a["name"],"colormap":"viridis","opacity":[[lo,0],[hi,0.3]]}))' > "bench/out/psnr-$name.json"
   start=$(date +%s)
-  j=$(build/release/apps/tetrascope render "$mesh" -o "bench/out/psnr-$name.png" --tf "bench/out/psnr-$name.json" --size 512x512 --volume exact --reference --json | tail -1)
+  j=$(build/release/apps/tetrascope render "$mesh" -o "bench/out/psnr-$name.png" --tf "bench/out/psnr-$name.json" --size 512x512 --volume exact --backend gl --reference --json | tail -1)
   seconds=$(( $(date +%s) - start ))
   p=$(build/release/apps/tetrascope render "$mesh" -o "bench/out/psnr-projected-$name.png" --tf "bench/out/psnr-$name.json" --size 512x512 --volume projected --compare "bench/out/psnr-$name.reference.png" --json | tail -1)
   rows+=("$(python3 -c "import json,sys; j=json.loads(sys.argv[1]); p=json.loads(sys.argv[2]); print(json.dumps({'mesh': '$name', 'tets': j['tets'], 'attribute': j['legend']['attribute'], 'psnr_db': j['reference_psnr_db'], 'gl_ms': j['median_ms'], 'psnr_db_projected': p['compare_psnr_db'], 'gl_ms_projected': p['median_ms'], 'seconds_with_reference': $seconds}))" "$j" "$p")")

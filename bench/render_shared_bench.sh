@@ -22,7 +22,7 @@ for mesh, attribute in cases:
         medians = []
         for run in range(runs):
             r = subprocess.run([binary, "render", f"{data}/{mesh}.vtk", "-o", f"bench/out/shared-{mesh}-{mode}.jpg", "--mode", mode,
-                                "--attribute", attribute, "--size", "1024x768", "--orbit", str(frames), "--quality", "80", "--json"],
+                                "--attribute", attribute, "--size", "1024x768", "--orbit", str(frames), "--quality", "80", "--backend", "gl", "--json"],
                                check=True, capture_output=True, text=True)
             j = json.loads(r.stdout.strip().splitlines()[-1])
             medians.append({k: j[k] for k in ("median_ms", "median_sort_ms", "median_draw_ms", "median_readback_ms", "median_encode_ms")})
