@@ -1,9 +1,10 @@
 #!/bin/sh
 # The vertex hierarchy's cost and speed, mesh by mesh: `tetrascope preprocess` with the
 # defaults (vertices.bin built) REPEAT times, each beside the same build with --vertices off:
-# the median total time and the time of its vertices stage against the rest, the whole
-# processes' CPU seconds (user + system) with and without it, the store's bytes with and
-# without vertices.bin, peak RSS; then bench/vertex_bench on the store (bytes an update,
+# the median wall time and whole-process CPU seconds (user + system) with and without it (the
+# hierarchy is built beside the levels, so its own build time is not what it adds), the
+# store's bytes with and without vertices.bin, peak RSS with and without it; then
+# bench/vertex_bench on the store (bytes an update,
 # splits and collapses a second on one core, front updates on an orbit).
 #   bench/vertex_bench.sh [MESH ...]   (REPEAT=3 by default; default meshes: the shared
 #   datasets onera_m6_potential, nasa_oxygen_post, fea_bracket, nasa_bluntfin)
@@ -27,10 +28,10 @@ for mesh in "$@"; do
     # with the hierarchy, then the same build without it (--vertices off), alternating: CPU
     # seconds (user + system) of the whole process beside the wall time
     /usr/bin/time -f '%M %U %S' -o "$out/$name.rss" "$bin" preprocess "$mesh" -o "$out/$name.store" --force --progress none --json > "$out/$name.$i.json"
-    /usr/bin/time -f '%e %U %S' -o "$out/$name.off.time" "$bin" preprocess "$mesh" -o "$out/$name.off.store" --vertices off --force --progress none --json > /dev/null
+    /usr/bin/time -f '%e %U %S %M' -o "$out/$name.off.time" "$bin" preprocess "$mesh" -o "$out/$name.off.store" --vertices off --force --progress none --json > /dev/null
     read -r rss user sys < "$out/$name.rss"
-    read -r off_wall off_user off_sys < "$out/$name.off.time"
-    echo "{\"run\": $i, \"rss_kb\": $rss, \"cpu_seconds\": $(awk "BEGIN{print $user + $sys}"), \"without\": {\"wall_seconds\": $off_wall, \"cpu_seconds\": $(awk "BEGIN{print $off_user + $off_sys}")}, \"report\": $(cat "$out/$name.$i.json")}" > "$out/$name.$i.run.json"
+    read -r off_wall off_user off_sys off_rss < "$out/$name.off.time"
+    echo "{\"run\": $i, \"rss_kb\": $rss, \"cpu_seconds\": $(awk "BEGIN{print $user + $sys}"), \"without\": {\"wall_seconds\": $off_wall, \"rss_kb\": $off_rss, \"cpu_seconds\": $(awk "BEGIN{print $off_user + $off_sys}")}, \"report\": $(cat "$out/$name.$i.json")}" > "$out/$name.$i.run.json"
     i=$((i + 1))
   done
   "$bench" "$out/$name.store" > "$out/$name.bench.json"
@@ -45,18 +46,19 @@ bench = json.load(open(f"{out}/{name}.bench.json"))
 store = report["store_bytes"]
 vbytes = report["vertices"].get("bytes", 0)
 print(json.dumps({"mesh": name, "input_tets": report["input_tets"], "runs": repeat, "load": load,
-                  "preprocess_seconds": total, "vertices_seconds": vertices, "time_over_without": total / (total - vertices) - 1,
+                  "preprocess_seconds": total, "vertices_seconds": vertices,
                   "store_bytes": store, "vertices_bytes": vbytes, "size_over_without": store / (store - vbytes) - 1,
                   "cpu_seconds": statistics.median(r["cpu_seconds"] for r in runs), "cpu_seconds_without": statistics.median(r["without"]["cpu_seconds"] for r in runs),
                   "cpu_over_without": statistics.median(r["cpu_seconds"] / r["without"]["cpu_seconds"] for r in runs) - 1,
                   "wall_over_without": statistics.median(r["report"]["seconds"] / r["without"]["wall_seconds"] for r in runs) - 1,
-                  "peak_rss_kb": statistics.median(r["rss_kb"] for r in runs), "hierarchy": bench}))
+                  "peak_rss_kb": statistics.median(r["rss_kb"] for r in runs), "peak_rss_kb_without": statistics.median(r["without"].get("rss_kb", 0) for r in runs), "hierarchy": bench}))
 EOF
 done
 python3 - "$rows" "$root/bench/results/vertex_bench.json" "$(git -C "$root" rev-parse --short HEAD)" <<'EOF'
 import datetime, json, os, sys
 rows = [json.loads(l) for l in open(sys.argv[1])]
-record = {"date": datetime.date.today().isoformat(), "commit": sys.argv[3], "method": "preprocess defaults, medians of the runs; vertex_bench one core, medians of 5 passes", "rows": rows}
+record = {"date": datetime.date.today().isoformat(), "commit": sys.argv[3], "cores": os.cpu_count(),
+          "method": "preprocess defaults, medians of the runs (wall and CPU over --vertices off, alternating runs; vertices_seconds: the hierarchy's own build, beside the levels); vertex_bench one core, medians of 5 passes", "rows": rows}
 # each run a record: {"records": [...]}, the oldest first (a file of one bare record is kept as the first)
 old = json.load(open(sys.argv[2])) if os.path.exists(sys.argv[2]) else {"records": []}
 records = old["records"] if "records" in old else [old]

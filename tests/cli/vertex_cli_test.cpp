@@ -19,6 +19,11 @@ namespace {
 namespace fs = std::filesystem;
 CliResult run(const std::string& args) { return run_cli(args, 300); }
 
+std::string read_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 // The last line of a --json run's output as JSON (render prints one line; cut and
 // preprocess print a pretty object: the whole text from its first brace).
 nlohmann::json json_of(const std::string& out, bool pretty) {
@@ -49,6 +54,19 @@ TEST(VertexCli, PreprocessWritesAHierarchyThatVerifies) {
   ASSERT_EQ(off.status, 0) << off.out;
   EXPECT_FALSE(fs::exists(scratch_dir("vertex-off") / "s" / "vertices.bin"));
   EXPECT_TRUE(json_of(off.out, true)["vertices"].contains("skipped")) << off.out;
+}
+
+// The hierarchy is built beside the levels by default, after them where --memory-mb is
+// tight (the sample's build, about 11 MB, is more than half of 16 MB): the same store.
+TEST(VertexCli, BuiltBesideTheLevelsOrAfterThemTheStoreIsTheSame) {
+  const fs::path after = scratch_dir("vertex-after") / "s";
+  const CliResult r = run("preprocess " + sample_mesh().string() + " -o " + after.string() + " --memory-mb 16 --progress none --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  ASSERT_TRUE(fs::exists(after / "vertices.bin")) << r.out;
+  for (const char* file : {"vertices.bin", "segments.bin", "dag.bin"}) {
+    ASSERT_TRUE(fs::exists(store() / file)) << file;
+    EXPECT_EQ(read_bytes(store() / file), read_bytes(after / file)) << file;
+  }
 }
 
 TEST(VertexCli, RenderRefinesByVertexSplitsUnlessAskedForSegments) {
