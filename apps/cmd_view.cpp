@@ -557,7 +557,7 @@ int run_render(const Arguments& all) {
   static r::Renderer* renderer = nullptr;  // reachable from here: not a leak
   // the backend: the GL renderer, the CPU ray caster, or (auto) the caster where the only
   // EGL device is software and the caster draws everything asked for
-  const std::string backend = args.get("--backend", "auto");
+  const std::string backend = args.get("--backend", "gl");
   if (!r::known_backend(backend)) throw std::invalid_argument("--backend: gl, cpu or auto");
   const std::string cpu_lacks = r::RayCaster::unsupported(settings);
   if (backend == "cpu" && !cpu_lacks.empty()) throw std::invalid_argument("--backend cpu: the CPU ray caster does not draw " + cpu_lacks);

@@ -59,25 +59,6 @@ TEST(RenderCli, TheCpuBackendRendersTheVolumeAndRefusesWhatItDoesNotDraw) {
   EXPECT_EQ(last_json_line(surface_auto.out)["backend"], "gl");
 }
 
-// Without --backend (auto): the caster where the GL device is software (Mesa here), the GL
-// renderer on a GPU; frames the caster does not draw go to the GL renderer either way.
-TEST(RenderCli, WithoutABackendTheCasterDrawsWhereTheGlDeviceIsSoftware) {
-  const auto dir = scratch_dir("render-cli-default-backend");
-  const std::string out = (dir / "default.png").string();
-  Result gl = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --attribute Temp --backend gl --json");
-  ASSERT_EQ(gl.status, 0) << gl.out;
-  const std::string device = last_json_line(gl.out)["renderer"].get<std::string>();
-  const bool software = device.find("llvmpipe") != std::string::npos || device.find("softpipe") != std::string::npos || device.find("swrast") != std::string::npos;
-  Result chosen = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --attribute Temp --reference --json");
-  ASSERT_EQ(chosen.status, 0) << chosen.out;
-  const auto j = last_json_line(chosen.out);
-  EXPECT_EQ(j["backend"], software ? "cpu" : "gl") << device;
-  EXPECT_GT(j["reference_psnr_db"].get<double>(), 45);
-  Result surface = run("render " + sample_mesh().string() + " -o " + out + " --size 48x32 --mode surface --json");
-  ASSERT_EQ(surface.status, 0) << surface.out;
-  EXPECT_EQ(last_json_line(surface.out)["backend"], "gl");
-}
-
 TEST(RenderCli, RendersImagesReportsTimingsAndRefusesBadOptions) {
   const auto dir = scratch_dir("render-cli");
   const std::string out = (dir / "frame.png").string();

@@ -56,7 +56,7 @@ struct ServerOptions {
   double frame_ms = 60;
   // Who draws volumes: "gl" (the GL renderer), "cpu" (the CPU ray caster, renderer/ray_caster.h;
   // the GL renderer draws what it does not) or "auto" (cpu where the GL renderer is software).
-  std::string backend = "auto";
+  std::string backend = "gl";
   // Refinement after input stops: step k aims at frame_ms * refine_growth^(k+1) ms (at least
   // twice the tets of the step before), up to still_budget (or the error bound); each step a
   // frame flagged refining, the last flagged still. Input stops a step between chunks.
