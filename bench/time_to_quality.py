@@ -6,15 +6,21 @@ For each view (a camera and a transfer function), the full mesh is drawn by the 
 integrator at 256x192 (`render --reference`; isosurfaces by the GL renderer), and so is the
 store's cut at each budget of a ladder (percent of the input's tets); the first budget whose
 PSNR against the full mesh reaches the target is the cut that counts. Its frame time and the
-full mesh's are the GL renderer's at 1024x768 (`render --json` median_ms of --repeat runs, one
-frame each, the same view). Views are named (--view, with one --tf for all) or drawn from a
-seed (--seed, --views: cameras inside and outside and transfer functions placed on the
-attribute's histogram, as bench/fidelity_random.py draws them; a new seed for each record).
-Writes one record (the views, every rung, both times and their ratio) into
-bench/results/time_to_quality.json, keyed by mesh and tag.
+full mesh's are taken at 1024x768 with each backend of --backends (`render --backend B --json`
+median_ms of --repeat runs, one frame each, the same view): `gl`, the GL renderer (the
+default), and `cpu`, the CPU ray caster (which does not draw isosurfaces without the volume:
+no time there); the PSNR does not depend on the backend. Views are named (--view, with one
+--tf for all) or drawn from a seed (--seed, --views: cameras inside and outside and transfer
+functions placed on the attribute's histogram, as bench/fidelity_random.py draws them; a new
+seed for each record). Give named views a --tf: without one a mesh file is drawn at opacity 1
+everywhere and a store with a ramp over the attribute's range, and the PSNR compares the two.
+Writes one record (the views, every rung, both times and their ratio per backend under
+"times", and for the first backend also as full_ms_1024x768, reached.ms_1024x768 and ratio, the
+fields of the records before --backends) into bench/results/time_to_quality.json, keyed by mesh
+and tag.
 
   bench/time_to_quality.py MESH STORE (--view NAME=CAMERA ... [--tf TF.json] | --seed S --views K)
-                           [--target 35] [--ladder 0.5,1,2,5,10,20,40] [--repeat 3] [--tag T]
+                           [--target 35] [--ladder 0.5,1,2,5,10,20,40] [--backends gl,cpu] [--repeat 3] [--tag T]
 """
 import argparse
 import datetime
@@ -30,6 +36,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import psnr as psnr_module  # noqa: E402
 
 RESULTS = ROOT / "bench" / "results" / "time_to_quality.json"
+BACKENDS = {"gl": "the GL renderer", "cpu": "the CPU ray caster"}
 
 
 def run(args):
@@ -59,12 +66,33 @@ def image_of(base, view):
     return psnr_module.read_png(f"{base}.png") if view["kind"] == "iso" else psnr_module.read_pfm(f"{base}.reference.pfm")
 
 
+def frame_ms(a, source, image, view, backend, extra=()):
+    """render's median_ms at 1024x768 with one backend, the median of --repeat runs; None where it does not draw the view."""
+    try:
+        return statistics.median(
+            render(a.tetrascope, source, image, view, "1024x768", [*extra, "--backend", backend])["median_ms"] for _ in range(a.repeat))
+    except subprocess.CalledProcessError as e:
+        if "does not draw" in (e.stderr or ""):
+            return None
+        raise
+
+
+def frame_times(a, view, base, reached):
+    """The full mesh's and the reached cut's frame times and their ratio, per backend."""
+    times = {}
+    for backend in a.backends:
+        full = frame_ms(a, a.mesh, f"{base}.full_time.{backend}.png", view, backend)
+        cut = frame_ms(a, a.store, f"{base}.cut_time.{backend}.png", view, backend, ["--budget", reached["budget"]]) if reached else None
+        times[backend] = {"full_ms": full, "cut_ms": cut, "ratio": cut / full if cut is not None and full else None}
+        print(json.dumps({"view": view["name"], "backend": backend, **times[backend]}), flush=True)
+    return times
+
+
 def measure(a, view, input_tets, work):
     base = work / f"{Path(a.mesh).stem}.{view['name']}"
     render(a.tetrascope, a.mesh, f"{base}.full.png", view, "256x192")
     full = image_of(f"{base}.full", view)
     shown = float((abs(full / (255.0 if view["kind"] == "iso" else 1.0) - [0.1, 0.1, 0.12]).max(axis=-1) > 1.5 / 255).mean())
-    full_ms = statistics.median(render(a.tetrascope, a.mesh, f"{base}.full_time.png", view, "1024x768")["median_ms"] for _ in range(a.repeat))
     rungs, reached = [], None
     for pct in [float(x) for x in a.ladder.split(",")]:
         budget = max(1, int(input_tets * pct / 100))
@@ -74,12 +102,14 @@ def measure(a, view, input_tets, work):
         rungs.append(rung)
         print(json.dumps({"view": view["name"], **rung}), flush=True)
         if db >= a.target:
-            rung["ms_1024x768"] = statistics.median(
-                render(a.tetrascope, a.store, f"{base}.cut_time.png", view, "1024x768", ["--budget", budget])["median_ms"] for _ in range(a.repeat))
             reached = rung
             break
+    times = frame_times(a, view, base, reached)
+    first = times[a.backends[0]]
+    if reached:
+        reached["ms_1024x768"] = first["cut_ms"]
     out = {"view": view["name"], "camera": view["camera"], "inside": view.get("inside"), "kind": view["kind"], "tf": view["tf"], "coverage": shown,
-           "full_ms_1024x768": full_ms, "rungs": rungs, "reached": reached, "ratio": reached["ms_1024x768"] / full_ms if reached else None}
+           "full_ms_1024x768": first["full_ms"], "rungs": rungs, "reached": reached, "ratio": first["ratio"], "times": times}
     print(json.dumps(out), flush=True)
     return out
 
@@ -106,11 +136,12 @@ def main():
     p.add_argument("mesh")
     p.add_argument("store")
     p.add_argument("--view", action="append", default=[], help="NAME=CAMERA (render's --camera text)")
-    p.add_argument("--tf", default="")
+    p.add_argument("--tf", default="", help="the named views' transfer function (without one the mesh and the store default to different opacities)")
     p.add_argument("--seed", type=int, help="draw --views views from this seed instead of --view")
     p.add_argument("--views", type=int, default=6)
     p.add_argument("--target", type=float, default=35.0)
     p.add_argument("--ladder", default="0.5,1,2,5,10,20,40")
+    p.add_argument("--backends", default="gl", help="the backends to time, in order: gl, cpu (the first fills the old fields)")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--tag", default="")
     p.add_argument("--work", default=str(ROOT / "bench" / "out" / "time_to_quality"))
@@ -121,6 +152,9 @@ def main():
     a.commit = a.commit or run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"]).strip()
     if (a.seed is None) == (not a.view):
         p.error("give either --view or --seed")
+    a.backends = [b for b in a.backends.split(",") if b]
+    if not a.backends or any(b not in BACKENDS for b in a.backends):
+        p.error("--backends: a list of gl and cpu")
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
     input_tets = json.loads(run([a.tetrascope, "info", "--json", a.mesh]))["tetrahedra"]
@@ -131,11 +165,13 @@ def main():
         views = [{"name": n, "camera": c, "kind": "tf", "tf": tf} for n, c in (spec.split("=", 1) for spec in a.view)]
     for view in views:
         view["args"] = view_args(view, work, f"{Path(a.mesh).stem}.{view['name']}")
+    load_start = os.getloadavg()
     measured = [measure(a, view, input_tets, work) for view in views]
     record = {"mesh": Path(a.mesh).name, "input_tets": input_tets, "store": a.store, "tag": a.tag, "seed": a.seed, "target_db": a.target, "repeat": a.repeat,
-              "date": datetime.date.today().isoformat(), "load": os.getloadavg(),
+              "backends": a.backends, "date": datetime.date.today().isoformat(), "load_start": load_start, "load": os.getloadavg(),
               "commit": a.commit,
-              "method": "PSNR by the exact CPU integrator at 256x192 against the full mesh (isosurfaces: GL, 8 bits); times: GL renderer, 1024x768, median of repeat runs of one frame",
+              "method": "PSNR by the exact CPU integrator at 256x192 against the full mesh (isosurfaces: GL, 8 bits); times: "
+                        + " and ".join(f"{BACKENDS[b]} (--backend {b})" for b in a.backends) + ", 1024x768, median of repeat runs of one frame",
               "views": measured}
     out = Path(a.output)
     old = json.loads(out.read_text()) if out.exists() else {"records": []}
