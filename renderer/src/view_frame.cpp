@@ -331,6 +331,13 @@ RenderSettings ViewPipeline::update(const ViewRequest& request, ViewTimings* tim
   if (!scene_ || attribute_ != s.tf.attribute || component_ != s.tf.component || iso_color_attribute_ != request.iso_color_attribute) rebuild_scene(*mesh_, s.tf, request.iso_color_attribute);
   t.assemble_ms = ms_since(start);
   s.tf.attribute = scene_->attribute;
+  if (!s.tf.range && !scene_->attribute.empty()) {
+    // a whole mesh's range as a store's manifest gives it: the drawn values', a vector's
+    // magnitude from 0, so that a transfer function without one ramps its opacity over it
+    const auto a = std::find_if(mesh_->attributes.begin(), mesh_->attributes.end(), [&](const storage::Attribute& x) { return x.info.name == scene_->attribute; });
+    const double lo = a != mesh_->attributes.end() && a->info.components > 1 && s.tf.component == view::kMagnitude ? 0 : scene_->value_min;
+    s.tf.range = std::array<double, 2>{lo, scene_->value_max > lo ? scene_->value_max : lo + 1};
+  }
   if (s.iso && s.isovalues.empty()) s.isovalues = {0.5 * (scene_->value_min + scene_->value_max)};
   update_clip(request.clip, t);
   classify_regions(request, t);

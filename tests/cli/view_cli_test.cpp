@@ -235,6 +235,21 @@ TEST(RenderCli, ImageSidesAreLimited) {
   EXPECT_EQ(junk.status, 2);
 }
 
+// Without --tf a whole mesh and its store at full resolution draw alike: the opacity ramps over
+// the attribute's range in both (a mesh was drawn opaque before, the store with the ramp).
+TEST(RenderCli, AMeshAndItsStoreWithoutATransferFunctionLookAlike) {
+  const auto dir = scratch_dir("render-cli-default-tf");
+  const std::string store = (dir / "sample.store").string(), mesh_png = (dir / "mesh.png").string();
+  ASSERT_EQ(run("preprocess " + sample_mesh().string() + " -o " + store + " --segment-tets 2000 --base-tets 3000 --progress none").status, 0);
+  Result mesh = run("render " + sample_mesh().string() + " -o " + mesh_png + " --size 96x72 --attribute Temp --json");
+  ASSERT_EQ(mesh.status, 0) << mesh.out;
+  Result whole = run("render " + store + " -o " + (dir / "store.png").string() + " --size 96x72 --attribute Temp --budget 1000000 --compare " + mesh_png + " --json");
+  ASSERT_EQ(whole.status, 0) << whole.out;
+  const auto j = last_json_line(whole.out);
+  ASSERT_EQ(j["tets"], last_json_line(mesh.out)["tets"]) << "the store's full resolution is the mesh";
+  EXPECT_GT(j["compare_psnr_db"].get<double>(), 45) << whole.out;
+}
+
 TEST(RenderCli, RendersTheCutOfAStoreFromTheDefaultView) {
   const auto dir = scratch_dir("render-cli-store");
   const std::string store = (dir / "sample.store").string();
