@@ -12,8 +12,8 @@ default), and `cpu`, the CPU ray caster (which does not draw isosurfaces without
 no time there); the PSNR does not depend on the backend. Views are named (--view, with one
 --tf for all) or drawn from a seed (--seed, --views: cameras inside and outside and transfer
 functions placed on the attribute's histogram, as bench/fidelity_random.py draws them; a new
-seed for each record). Give named views a --tf: without one a mesh file is drawn at opacity 1
-everywhere and a store with a ramp over the attribute's range, and the PSNR compares the two.
+seed for each record). Named views without --tf take the default ramp over the attribute's
+range (the mesh and its store alike since 2026-11-28; records before that need a --tf).
 Writes one record (the views, every rung, both times and their ratio per backend under
 "times", and for the first backend also as full_ms_1024x768, reached.ms_1024x768 and ratio, the
 fields of the records before --backends) into bench/results/time_to_quality.json, keyed by mesh
@@ -136,7 +136,7 @@ def main():
     p.add_argument("mesh")
     p.add_argument("store")
     p.add_argument("--view", action="append", default=[], help="NAME=CAMERA (render's --camera text)")
-    p.add_argument("--tf", default="", help="the named views' transfer function (without one the mesh and the store default to different opacities)")
+    p.add_argument("--tf", default="", help="the named views' transfer function (default: the opacity ramp over the attribute's range)")
     p.add_argument("--seed", type=int, help="draw --views views from this seed instead of --view")
     p.add_argument("--views", type=int, default=6)
     p.add_argument("--target", type=float, default=35.0)
