@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <stdexcept>
 #include <thread>
 
@@ -1040,6 +1041,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
   if (settings.width < 1 || settings.height < 1 || settings.width > kMaxImageSide || settings.height > kMaxImageSide)
     throw std::invalid_argument("image sides must be 1.." + std::to_string(kMaxImageSide));
   const auto start = std::chrono::steady_clock::now();
+  const std::clock_t cpu_start = std::clock();  // the process's CPU time, every thread
   const uint32_t W = settings.width, H = settings.height;
   const Frame frame = camera_frame(settings.camera, W, H);
   Shading sh;
@@ -1110,6 +1112,7 @@ Image RayCaster::render(const RenderSettings& settings, FrameTimings* timings, u
     timings->interrupted = stopped.load();
     timings->draw_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     timings->total_ms = timings->draw_ms;
+    timings->cpu_ms = 1e3 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     timings->tets_drawn = visited.load();  // tet visits by rays
   }
   return image;

@@ -37,6 +37,7 @@ TEST(RenderCli, TheCpuBackendRendersTheVolumeAndRefusesWhatItDoesNotDraw) {
   EXPECT_NE(j["renderer"].get<std::string>().find("ray caster"), std::string::npos) << j["renderer"];
   EXPECT_GT(j["reference_psnr_db"].get<double>(), 50);
   EXPECT_GT(j["tets_drawn"].get<uint64_t>(), 0u);
+  EXPECT_GT(j["median_cpu_ms"].get<double>(), 0) << "the caster reports the CPU time of its frames";
   // one thread draws the image every core draws (each pixel's ray is its own)
   const std::string one = (dir / "one-thread.png").string();
   Result single = run("render " + sample_mesh().string() + " -o " + one + " --size 96x64 --attribute Temp --backend cpu --threads 1 --json");
