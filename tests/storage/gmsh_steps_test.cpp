@@ -43,21 +43,22 @@ struct StepsFile {
   std::vector<double> times{0, 0.5, 1.25};
   size_t drop_node_at_step = 0;  // a step (1 or 2) whose temp leaves out node tag 4; 0: none
   size_t nan_at_step = 0;        // a step whose flow is NaN at node tag 9; 0: none
+  bool binary41 = false;         // MSH 4.1 binary, else 2.2 ASCII
 };
 
-// The box as MSH 2.2 ASCII with, at each step s (time step number 10 + s), nodal "temp" and
-// "flow" (3) and element "load"; the sections of a field in a row, as Gmsh writes a view.
+// The box as MSH 2.2 ASCII (or 4.1 binary) with, at each step s (time step number 10 + s), nodal
+// "temp" and "flow" (3) and element "load"; the sections of a field in a row, as Gmsh writes a view.
 void write_gmsh_steps(const fs::path& path, const StepsFile& o = {}) {
   const TetMesh& m = box();
   CellMesh mesh = from_tets(m);
   mesh.attributes.clear();  // the fields are the steps' alone
-  write_gmsh(path, mesh);
+  write_gmsh(path, mesh, {.version4 = o.binary41, .binary = o.binary41});
   std::string out = read_file(path);
   for (int s = 0; s < int(o.times.size()); ++s) {
     std::vector<std::pair<size_t, std::vector<double>>> rows;
     for (size_t v = 0; v < m.vertex_count(); ++v)
       if (!(o.drop_node_at_step == size_t(s) && s > 0 && v + 1 == 4)) rows.push_back({v + 1, {temp_at(s, m.x[v], m.y[v], m.z[v])}});
-    out += gmsh_data_section("NodeData", "temp", 10 + s, o.times[size_t(s)], 1, rows);
+    out += gmsh_data_section("NodeData", "temp", 10 + s, o.times[size_t(s)], 1, rows, o.binary41);
   }
   for (int s = 0; s < int(o.times.size()); ++s) {
     std::vector<std::pair<size_t, std::vector<double>>> rows;
@@ -65,12 +66,12 @@ void write_gmsh_steps(const fs::path& path, const StepsFile& o = {}) {
       const auto f = flow_at(s, m.x[v], m.y[v], m.z[v]);
       rows.push_back({v + 1, {f[0], o.nan_at_step == size_t(s) && s > 0 && v + 1 == 9 ? std::nan("") : f[1], f[2]}});
     }
-    out += gmsh_data_section("NodeData", "flow", 10 + s, o.times[size_t(s)], 3, rows);
+    out += gmsh_data_section("NodeData", "flow", 10 + s, o.times[size_t(s)], 3, rows, o.binary41);
   }
   for (int s = 0; s < int(o.times.size()); ++s) {
     std::vector<std::pair<size_t, std::vector<double>>> rows;
     for (size_t t = 0; t < m.tet_count(); ++t) rows.push_back({t + 1, {load_at(s, t)}});
-    out += gmsh_data_section("ElementData", "load", 10 + s, o.times[size_t(s)], 1, rows);
+    out += gmsh_data_section("ElementData", "load", 10 + s, o.times[size_t(s)], 1, rows, o.binary41);
   }
   write_file(path, out);
 }
@@ -103,6 +104,28 @@ TEST(GmshSteps, EachFieldsLastStepIsReadAloneAndAnyStepByNumber) {
     EXPECT_EQ(wrong, 0u) << "step " << step;
   }
   expect_step_refused(path, 3, "m.msh: time step 3 asked for, the file holds 3");
+}
+
+// The same steps in an MSH 4.1 binary file: every step read by number, and --all-steps lists them.
+TEST(GmshSteps, AMsh41BinaryFileHoldsItsStepsToo) {
+  const fs::path dir = scratch_dir("gmsh_steps_binary");
+  StepsFile o;
+  o.binary41 = true;
+  write_gmsh_steps(dir / "m.msh", o);
+  EXPECT_EQ(storage::MeshStream::open(dir / "m.msh")->header().step_times, (std::vector<double>{0, 0.5, 1.25}));
+  for (int s : {0, 1, 2}) {
+    storage::ReadLimits limits;
+    limits.time_step = s;
+    const TetMesh m = storage::load_mesh(dir / "m.msh", nullptr, limits);
+    const storage::Attribute* temp = m.find_attribute("temp");
+    const storage::Attribute* load = m.find_attribute("load");
+    ASSERT_TRUE(temp && load && m.find_attribute("flow"));
+    size_t wrong = 0;
+    for (size_t v = 0; v < m.vertex_count(); ++v) wrong += std::abs(temp->values[v] - temp_at(s, m.x[v], m.y[v], m.z[v])) > 1e-5;
+    EXPECT_EQ(wrong, 0u) << "step " << s;
+  }
+  expect_step_refused(dir / "m.msh", 3, "m.msh: time step 3 asked for, the file holds 3");
+  EXPECT_EQ(all_steps_listed(dir / "m.msh", dir / "s.store", kSmallBuild).size(), 3u);
 }
 
 TEST(GmshSteps, AllStepsMakesOneStoreOfEveryStepWithItsTimesAndValues) {

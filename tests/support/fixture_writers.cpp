@@ -550,17 +550,24 @@ CellMesh one_tet_and_unused_points(size_t points) {
 }
 
 std::string gmsh_data_section(const std::string& section, const std::string& name, int step_number, double time, uint32_t components,
-                              const std::vector<std::pair<size_t, std::vector<double>>>& rows) {
+                              const std::vector<std::pair<size_t, std::vector<double>>>& rows, bool binary) {
   std::string out;
   for (const std::string& line : {"$" + section, std::string("1"), "\"" + name + "\"", std::string("1"), fmt(time), std::string("3"), std::to_string(step_number),
                                   std::to_string(components), std::to_string(rows.size())}) {
     out.append(line).append("\n");
   }
   for (const auto& [tag, values] : rows) {
+    if (binary) {
+      const int32_t t = static_cast<int32_t>(tag);
+      out.append(reinterpret_cast<const char*>(&t), sizeof t);
+      for (double v : values) out.append(reinterpret_cast<const char*>(&v), sizeof v);
+      continue;
+    }
     out.append(std::to_string(tag));
     for (double v : values) out.append(" ").append(fmt(v));
     out.append("\n");
   }
+  if (binary) out.append("\n");
   return out.append("$End").append(section).append("\n");
 }
 

@@ -60,9 +60,10 @@ struct GmshOptions {
 };
 void write_gmsh(const std::filesystem::path& path, const CellMesh& mesh, const GmshOptions& options = {});
 // A Gmsh $NodeData or $ElementData section (`section`) of field `name` at time step number
-// `step_number` and time `time`: `components` values a row, the rows by node or element tag.
+// `step_number` and time `time`: `components` values a row, the rows by node or element tag;
+// `binary`: the rows as a binary file holds them (a 32-bit tag, then doubles), the header in text.
 std::string gmsh_data_section(const std::string& section, const std::string& name, int step_number, double time, uint32_t components,
-                              const std::vector<std::pair<size_t, std::vector<double>>>& rows);
+                              const std::vector<std::pair<size_t, std::vector<double>>>& rows, bool binary = false);
 
 // The cube [0,1]^3 as 2x2x2 hexahedra (27 nodes) with tagged boundary faces, for Gmsh files:
 // x = 0 "inlet" (physical 1, 4 quads), x = 1 "outlet" (2, 4 quads), y = 1 and z = 0 "walls"
