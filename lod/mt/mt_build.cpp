@@ -61,9 +61,9 @@ void check_options(const PreprocessOptions& options, const std::filesystem::path
   if (!options.replace && std::filesystem::exists(store_path)) throw std::runtime_error(store_path.string() + " exists (use --force to replace it)");
 }
 
-// The binary vertex hierarchy of the whole mesh (§5.2.1), when it is wanted and fits.
 constexpr uint64_t kVertexBuildBytesPerTet = 256;  // the simplifier's and the replay's arrays: ONERA's peak grew by about 200
 
+// The binary vertex hierarchy of the whole mesh (§5.2.1), when it is wanted and fits.
 std::optional<VertexHierarchy> vertex_hierarchy(const std::filesystem::path& mesh_path, const PreprocessOptions& options, PreprocessReport& report) {
   if (options.vertex_hierarchy_max_tets == 0) {
     report.vertex_hierarchy_skipped = "turned off";
