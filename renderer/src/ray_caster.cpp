@@ -767,6 +767,23 @@ void RayCaster::start(Ray& ray, uint32_t eye_cell) const {
   ray.entry = face == kNone ? 4 : face % 4;
 }
 
+// Steps of no length (a ray through an edge or a vertex takes the face it runs most into, at
+// the point where it is) can circle the cells around it: after kStillSteps of them the ray
+// goes on from the cell that holds a point just ahead, else from where it enters again.
+constexpr uint32_t kStillSteps = 64;
+
+void RayCaster::move_on(Ray& ray) const {
+  const double t = ray.t_in + 1e-6 * mesh_.diagonal / ray.dl;
+  if (const uint32_t ahead = walk_to(ray.cell, ray.previous, ray.origin(), ray.direction(), t); ahead != kNone) {
+    ray.previous = ray.cell;
+    ray.cell = ahead;
+    ray.entry = 4;
+    ray.t_in = t;
+  } else {
+    advance(ray, -1, ray.t_in);
+  }
+}
+
 // From the ray's cell through face `exit` at t_out to the next cell: across the face, else
 // (a boundary face) the cell that holds a point just ahead, else where the ray enters again.
 // exit -1 (a flat cell): the boundary past this point.
@@ -891,6 +908,7 @@ void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], u
     has_pending = false;
     return acc[3] < kOpaque;
   };
+  uint32_t still = 0;  // steps in a row that did not advance
   while (ray.cell != kNone && ray.t_in < stop && guard-- > 0) {
     const Cell& cell = cells_[ray.cell];
     double q[3], dt;
@@ -898,6 +916,13 @@ void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], u
     if (exit < 0) {  // a flat cell: look for the boundary past this point
       ++visits;
       advance(ray, -1, ray.t_in);
+      continue;
+    }
+    if (dt > 0) {
+      still = 0;
+    } else if (++still > kStillSteps) {
+      still = 0;
+      move_on(ray);
       continue;
     }
     const double t_out = ray.t_in + dt, t_end = std::min(t_out, stop);
@@ -924,11 +949,19 @@ std::vector<RayCaster::Step> RayCaster::walk(const Vec3& origin, const Vec3& dir
   Ray ray(origin, direction);
   start(ray, locate(origin));
   uint64_t guard = 4 * cells_.size() + 16;
+  uint32_t still = 0;
   while (ray.cell != kNone && guard-- > 0) {
     double q[3], dt;
     const int exit = leave(ray, cells_[ray.cell], q, &dt);
     if (exit < 0) {
       advance(ray, -1, ray.t_in);
+      continue;
+    }
+    if (dt > 0) {
+      still = 0;
+    } else if (++still > kStillSteps) {
+      still = 0;
+      move_on(ray);
       continue;
     }
     const double t_out = ray.t_in + dt;

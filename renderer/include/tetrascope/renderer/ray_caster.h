@@ -72,6 +72,8 @@ class RayCaster {
   void compact_tables() const;
   void start(Ray& ray, uint32_t eye_tet) const;
   void advance(Ray& ray, int exit, double t_out) const;
+  // a ray whose steps stopped advancing (circling an edge or a vertex it runs through): on a little
+  void move_on(Ray& ray) const;
   struct EntryBins;
   void trace(const Shading& shading, Ray& ray, double stop, double acc[4], uint64_t& visits) const;
   uint32_t enter(const Ray& ray, double after, double* t_hit, uint32_t left) const;
