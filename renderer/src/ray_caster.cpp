@@ -772,6 +772,18 @@ void RayCaster::start(Ray& ray, uint32_t eye_cell) const {
 // goes on from the cell that holds a point just ahead, else from where it enters again.
 constexpr uint32_t kStillSteps = 64;
 
+// Counts a step of length dt into `still` (steps in a row that did not advance): true, and
+// the count reset, once they pass kStillSteps.
+inline bool circling(double dt, uint32_t& still) {
+  if (dt > 0) {
+    still = 0;
+    return false;
+  }
+  if (++still <= kStillSteps) return false;
+  still = 0;
+  return true;
+}
+
 void RayCaster::move_on(Ray& ray) const {
   const double t = ray.t_in + 1e-6 * mesh_.diagonal / ray.dl;
   if (const uint32_t ahead = walk_to(ray.cell, ray.previous, ray.origin(), ray.direction(), t); ahead != kNone) {
@@ -918,10 +930,7 @@ void RayCaster::trace(const Shading& sh, Ray& ray, double stop, double acc[4], u
       advance(ray, -1, ray.t_in);
       continue;
     }
-    if (dt > 0) {
-      still = 0;
-    } else if (++still > kStillSteps) {
-      still = 0;
+    if (circling(dt, still)) {
       move_on(ray);
       continue;
     }
@@ -957,10 +966,7 @@ std::vector<RayCaster::Step> RayCaster::walk(const Vec3& origin, const Vec3& dir
       advance(ray, -1, ray.t_in);
       continue;
     }
-    if (dt > 0) {
-      still = 0;
-    } else if (++still > kStillSteps) {
-      still = 0;
+    if (circling(dt, still)) {
       move_on(ray);
       continue;
     }
